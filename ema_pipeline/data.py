@@ -1,0 +1,320 @@
+"""Small typed containers that the pipeline stages pass to each other.
+
+Only plain numpy arrays and scalars live here; file layouts are the business of
+:mod:`ema_pipeline.io`. Every container validates itself on construction so that
+bad data is rejected at the border of the library, with a message that names the
+problem (and the source file, when there is one), instead of failing later deep
+inside numpy.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+
+Quantity = Literal["accelerance", "mobility", "receptance"]
+
+#: SI units of each FRF quantity (response per newton of force).
+QUANTITY_UNITS: dict[str, str] = {
+    "accelerance": "m/s^2/N",
+    "mobility": "m/s/N",
+    "receptance": "m/N",
+}
+#: Power of (j*omega) that turns receptance into the quantity.
+_QUANTITY_ORDER: dict[str, int] = {"receptance": 0, "mobility": 1, "accelerance": 2}
+
+
+class EMAError(Exception):
+    """Base class of the errors ema-pipeline raises on bad input or settings."""
+
+
+class DataError(EMAError, ValueError):
+    """Input data that cannot be used (wrong shape, NaN, unknown units, ...).
+
+    The message names the source (file) when known.
+    """
+
+
+@dataclass(frozen=True)
+class DOF:
+    """A measurement degree of freedom: node number and direction.
+
+    ``direction`` follows UFF: 1..3 = +X,+Y,+Z; -1..-3 = -X,-Y,-Z; 0 = scalar.
+    """
+
+    node: int
+    direction: int = 3
+
+    def label(self) -> str:
+        axis = "SXYZ"[abs(self.direction)] if abs(self.direction) <= 3 else "?"
+        sign = "-" if self.direction < 0 else "+"
+        return f"{self.node}{sign}{axis}"
+
+
+@dataclass(frozen=True)
+class AcquisitionInfo:
+    """How the FRFs were measured (or simulated).
+
+    ``exp_window_tau_s`` is the time constant of the exponential window
+    exp(-t/tau) applied to the records; it adds ``1/tau`` (1/s) to the decay
+    rate sigma_r = zeta_r * omega_r of every mode, which identification undoes.
+    ``None`` means no exponential window.
+    """
+
+    sample_rate_hz: float | None = None
+    n_samples: int | None = None
+    n_averages: int | None = None
+    force_window: str = "none"
+    response_window: str = "none"
+    exp_window_tau_s: float | None = None
+    estimator: str = "H1"
+
+    @property
+    def duration_s(self) -> float | None:
+        if self.sample_rate_hz is None or self.n_samples is None:
+            return None
+        return self.n_samples / self.sample_rate_hz
+
+    @property
+    def window_decay_rate(self) -> float:
+        """Decay rate (1/s) the exponential window adds to every mode."""
+        return 0.0 if not self.exp_window_tau_s else 1.0 / self.exp_window_tau_s
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a data set came from: file path and its sha256 (hex)."""
+
+    path: str = ""
+    sha256: str = ""
+
+
+@dataclass
+class FRFSet:
+    """Frequency response functions of one test configuration.
+
+    Attributes
+    ----------
+    freq_hz : (n_freq,) float
+        Frequency axis in Hz, strictly increasing.
+    H : (n_out, n_in, n_freq) complex
+        FRF matrix, ``H[o, i, k]`` = response o / force at reference i.
+    coherence : (n_out, n_in, n_freq) float or None
+        Ordinary coherence (0..1) per FRF.
+    response_dofs, reference_dofs : tuple of DOF
+        Labels of the n_out responses and n_in references.
+    quantity : "accelerance" (default), "mobility" or "receptance".
+    acquisition : AcquisitionInfo
+    configuration : str
+        Test configuration name (``genuine``, ``larger_tank``, ...).
+    source : Provenance
+    """
+
+    freq_hz: np.ndarray
+    H: np.ndarray
+    response_dofs: tuple[DOF, ...] = ()
+    reference_dofs: tuple[DOF, ...] = ()
+    coherence: np.ndarray | None = None
+    quantity: Quantity = "accelerance"
+    acquisition: AcquisitionInfo = field(default_factory=AcquisitionInfo)
+    configuration: str = ""
+    source: Provenance = field(default_factory=Provenance)
+
+    def __post_init__(self) -> None:
+        where = f"{self.source.path}: " if self.source.path else ""
+        self.freq_hz = np.asarray(self.freq_hz, dtype=float)
+        H = np.asarray(self.H)
+        if H.ndim == 1:
+            H = H[None, None, :]
+        elif H.ndim == 2:
+            H = H[:, None, :]
+        if H.ndim != 3:
+            raise DataError(f"{where}H must have shape (n_out, n_in, n_freq), got {H.shape}")
+        self.H = H.astype(complex, copy=False)
+        if self.freq_hz.ndim != 1 or self.freq_hz.size != self.H.shape[-1]:
+            raise DataError(
+                f"{where}frequency axis has {self.freq_hz.size} lines but H has "
+                f"{self.H.shape[-1]}"
+            )
+        if self.freq_hz.size < 2:
+            raise DataError(f"{where}an FRF needs at least 2 frequency lines")
+        if not np.all(np.isfinite(self.freq_hz)) or np.any(np.diff(self.freq_hz) <= 0):
+            raise DataError(f"{where}frequency axis must be finite and strictly increasing")
+        bad = ~np.isfinite(self.H)
+        if bad.any():
+            o, i, k = np.argwhere(bad)[0]
+            raise DataError(
+                f"{where}FRF contains {int(bad.sum())} NaN/inf values "
+                f"(first: response {o}, reference {i}, {self.freq_hz[k]:.4g} Hz)"
+            )
+        if self.quantity not in QUANTITY_UNITS:
+            raise DataError(
+                f"{where}unknown FRF quantity {self.quantity!r}; "
+                f"expected one of {sorted(QUANTITY_UNITS)}"
+            )
+        n_out, n_in, _ = self.H.shape
+        if not self.response_dofs:
+            self.response_dofs = tuple(DOF(k + 1) for k in range(n_out))
+        if not self.reference_dofs:
+            self.reference_dofs = tuple(DOF(0) for _ in range(n_in))
+        self.response_dofs = tuple(self.response_dofs)
+        self.reference_dofs = tuple(self.reference_dofs)
+        if len(self.response_dofs) != n_out or len(self.reference_dofs) != n_in:
+            raise DataError(
+                f"{where}{len(self.response_dofs)} response / {len(self.reference_dofs)} "
+                f"reference labels for an H of shape {self.H.shape}"
+            )
+        if self.coherence is not None:
+            coh = np.asarray(self.coherence, dtype=float)
+            if coh.shape != self.H.shape:
+                raise DataError(f"{where}coherence shape {coh.shape} != H shape {self.H.shape}")
+            if not np.all(np.isfinite(coh)):
+                raise DataError(f"{where}coherence contains NaN/inf values")
+            self.coherence = coh
+
+    # -- convenience -------------------------------------------------------
+    @property
+    def units(self) -> str:
+        return QUANTITY_UNITS[self.quantity]
+
+    @property
+    def n_out(self) -> int:
+        return self.H.shape[0]
+
+    @property
+    def n_in(self) -> int:
+        return self.H.shape[1]
+
+    @property
+    def df_hz(self) -> float:
+        return float(self.freq_hz[1] - self.freq_hz[0])
+
+    def as_quantity(self, quantity: Quantity) -> FRFSet:
+        """Return the FRFs converted to another quantity.
+
+        Accelerance = j*omega * mobility = (j*omega)^2 * receptance. Lines at
+        0 Hz, where the conversion divides by zero, are set to 0.
+        """
+        if quantity not in QUANTITY_UNITS:
+            raise DataError(f"unknown FRF quantity {quantity!r}")
+        power = _QUANTITY_ORDER[quantity] - _QUANTITY_ORDER[self.quantity]
+        if power == 0:
+            return replace(self)
+        jw = 2j * np.pi * self.freq_hz
+        with np.errstate(divide="ignore", invalid="ignore"):
+            factor = jw**power
+        factor = np.where(np.isfinite(factor), factor, 0.0)
+        return replace(self, H=self.H * factor, quantity=quantity)
+
+    def band(self, lo_hz: float, hi_hz: float) -> FRFSet:
+        """The lines with lo_hz <= f <= hi_hz (a copy)."""
+        if not lo_hz < hi_hz:
+            raise DataError(f"band [{lo_hz}, {hi_hz}] Hz is empty")
+        if lo_hz < self.freq_hz[0] - 1e-9 or hi_hz > self.freq_hz[-1] + 1e-9:
+            raise DataError(
+                f"band [{lo_hz}, {hi_hz}] Hz lies outside the frequency axis "
+                f"[{self.freq_hz[0]:.4g}, {self.freq_hz[-1]:.4g}] Hz"
+            )
+        sel = (self.freq_hz >= lo_hz) & (self.freq_hz <= hi_hz)
+        coh = None if self.coherence is None else self.coherence[..., sel]
+        return replace(self, freq_hz=self.freq_hz[sel], H=self.H[..., sel], coherence=coh)
+
+
+@dataclass(frozen=True)
+class ModalParameters:
+    """Modal parameters of one configuration, one entry per mode (ascending f).
+
+    ``fn_hz`` undamped natural frequency, ``fd_hz = fn_hz*sqrt(1-zeta^2)`` damped
+    natural frequency (eq. 4), ``zeta`` damping ratio (a ratio, not percent).
+    ``*_std`` are standard deviations (same units) or NaN when unknown.
+    ``shapes`` (n_dof, n_modes) complex mode shapes at ``dofs``, optional.
+    """
+
+    fn_hz: np.ndarray
+    zeta: np.ndarray
+    fn_std_hz: np.ndarray | None = None
+    zeta_std: np.ndarray | None = None
+    shapes: np.ndarray | None = None
+    dofs: tuple[DOF, ...] = ()
+    configuration: str = ""
+
+    def __post_init__(self) -> None:
+        fn = np.atleast_1d(np.asarray(self.fn_hz, dtype=float))
+        zeta = np.atleast_1d(np.asarray(self.zeta, dtype=float))
+        if fn.shape != zeta.shape or fn.ndim != 1:
+            raise DataError(f"fn_hz {fn.shape} and zeta {zeta.shape} must be equal 1-D arrays")
+        object.__setattr__(self, "fn_hz", fn)
+        object.__setattr__(self, "zeta", zeta)
+        for name in ("fn_std_hz", "zeta_std"):
+            val = getattr(self, name)
+            val = np.full(fn.shape, np.nan) if val is None else np.asarray(val, dtype=float)
+            object.__setattr__(self, name, val)
+
+    @classmethod
+    def from_damped(
+        cls, fd_hz: np.ndarray, zeta: np.ndarray, **kwargs: object
+    ) -> ModalParameters:
+        """Build from damped natural frequencies, fn = fd / sqrt(1 - zeta^2) (eq. 4)."""
+        fd = np.asarray(fd_hz, dtype=float)
+        z = np.asarray(zeta, dtype=float)
+        return cls(fn_hz=fd / np.sqrt(1.0 - z**2), zeta=z, **kwargs)  # type: ignore[arg-type]
+
+    @property
+    def fd_hz(self) -> np.ndarray:
+        """Damped natural frequencies, eq. (4)."""
+        return self.fn_hz * np.sqrt(1.0 - self.zeta**2)
+
+    @property
+    def n_modes(self) -> int:
+        return int(self.fn_hz.size)
+
+
+@dataclass(frozen=True)
+class Beam:
+    """A uniform clamped-free (cantilever) beam, clamped at x = 0.
+
+    ``thickness_m`` (h) is the dimension in the bending direction, ``width_m``
+    (b) the other one: I = b h^3 / 12. ``point_masses`` are (x_m, mass_kg)
+    pairs, e.g. the 3.2 g accelerometers. ``n_elements`` is the FE mesh;
+    ``n_measurement_elements`` divides the beam into the measurement mesh
+    (node 1 at the clamp, node n+1 at the tip).
+    """
+
+    length_m: float = 0.65
+    width_m: float = 0.05
+    thickness_m: float = 0.01
+    youngs_modulus_pa: float = 210e9
+    density_kg_m3: float = 7800.0
+    n_elements: int = 100
+    n_measurement_elements: int = 10
+    point_masses: tuple[tuple[float, float], ...] = ()
+
+    def __post_init__(self) -> None:
+        for name in ("length_m", "width_m", "thickness_m", "youngs_modulus_pa", "density_kg_m3"):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value > 0):
+                raise DataError(f"beam {name} must be a positive number, got {value!r}")
+        if self.n_elements < 1 or self.n_measurement_elements < 1:
+            raise DataError("beam element counts must be positive")
+        if self.n_elements % self.n_measurement_elements:
+            raise DataError(
+                f"n_elements ({self.n_elements}) must be a multiple of "
+                f"n_measurement_elements ({self.n_measurement_elements})"
+            )
+
+    @property
+    def area_m2(self) -> float:
+        return self.width_m * self.thickness_m
+
+    @property
+    def second_moment_m4(self) -> float:
+        return self.width_m * self.thickness_m**3 / 12.0
+
+    def node_x_m(self, node: int) -> float:
+        """Position of measurement node ``node`` (1-based, node 1 at the clamp)."""
+        n = self.n_measurement_elements
+        if not 1 <= node <= n + 1:
+            raise DataError(f"measurement node {node} does not exist (1..{n + 1})")
+        return (node - 1) * self.length_m / n
