@@ -32,8 +32,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
+from ema_pipeline import paper
 from ema_pipeline.data import (
     DOF,
     AcquisitionInfo,
@@ -42,6 +42,7 @@ from ema_pipeline.data import (
     FRFSet,
     ModalParameters,
     Quantity,
+    TimeRecords,
 )
 
 # beta_n * L of a clamped-free Euler-Bernoulli beam: roots of cos(x)cosh(x) = -1.
@@ -58,9 +59,7 @@ def cantilever_beta_l(n_modes: int) -> np.ndarray:
     return roots
 
 
-def cantilever_modes(
-    beam: Beam, x_m: np.ndarray, n_modes: int
-) -> tuple[np.ndarray, np.ndarray]:
+def cantilever_modes(beam: Beam, x_m: np.ndarray, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
     """Analytic natural frequencies and mass-normalised mode shapes of a cantilever.
 
     Parameters
@@ -175,63 +174,10 @@ def synthesize_frf_set(
     )
 
 
-@dataclass(frozen=True)
-class TestSetup:
-    """The paper's impact test: beam, sensor and hammer nodes, acquisition settings.
-
-    Accelerometers at measurement nodes 3 and 6 (as in the paper); the hammer at
-    node 8 (x = 0.455 m), where none of the first four modes has a node and
-    which stays above the water line when the last element is immersed.
-    """
-
-    beam: Beam = Beam()
-    response_nodes: tuple[int, ...] = (3, 6)
-    hammer_node: int = 8
-    sample_rate_hz: float = 2000.0
-    n_samples: int = 16384
-    n_averages: int = 4
-    pulse_s: float = 0.5e-3
-    pretrigger_s: float = 0.05
-    force_window_s: float = 0.1
-    exp_window_tau_s: float = 8.192 / 5
-    oversample: int = 8
-    n_modes_total: int = 8
-
-    @property
-    def duration_s(self) -> float:
-        return self.n_samples / self.sample_rate_hz
-
-    @property
-    def freq_hz(self) -> np.ndarray:
-        return np.fft.rfftfreq(self.n_samples, 1.0 / self.sample_rate_hz)
-
-
-def _check_time_records(force: np.ndarray, response: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    force = np.asarray(force, dtype=float)
-    response = np.asarray(response, dtype=float)
-    if force.ndim == 1:
-        force = force[None, :]
-    if response.ndim == 2:
-        response = response[:, None, :]
-    if force.ndim != 2 or response.ndim != 3:
-        raise DataError(
-            "time records must be force (n_averages, n_samples) and "
-            f"response (n_averages, n_out, n_samples); got {force.shape} and {response.shape}"
-        )
-    if response.shape[0] != force.shape[0] or response.shape[-1] != force.shape[-1]:
-        raise DataError(
-            f"force records {force.shape} and response records {response.shape} "
-            "differ in number of averages or samples"
-        )
-    if not (np.all(np.isfinite(force)) and np.all(np.isfinite(response))):
-        raise DataError("time records contain NaN/inf values")
-    if not np.any(force):
-        raise DataError("force records are all zero: no impact recorded")
-    return force, response
-
-
-def force_window(n_samples: int, sample_rate_hz: float, width_s: float, taper_s: float = 0.01):
-    """Rectangular force window of ``width_s`` seconds with a half-cosine taper."""
+def force_window(
+    n_samples: int, sample_rate_hz: float, width_s: float, taper_s: float = 0.01
+) -> np.ndarray:
+    """Rectangular force window of ``width_s`` seconds closed by a half-cosine taper."""
     t = np.arange(n_samples) / sample_rate_hz
     w = np.ones(n_samples)
     taper = (t > width_s) & (t < width_s + taper_s)
@@ -240,56 +186,55 @@ def force_window(n_samples: int, sample_rate_hz: float, width_s: float, taper_s:
     return w
 
 
-def exponential_window(n_samples: int, sample_rate_hz: float, tau_s: float, t0_s: float = 0.0):
-    """Exponential window exp(-(t - t0)/tau); it adds 1/tau to every decay rate."""
+def exponential_window(
+    n_samples: int, sample_rate_hz: float, tau_s: float, t0_s: float = 0.0
+) -> np.ndarray:
+    """Exponential window exp(-(t - t0)/tau); it adds 1/tau (1/s) to every decay rate."""
     t = np.arange(n_samples) / sample_rate_hz
     return np.exp(-(t - t0_s) / tau_s)
 
 
 def estimate_frf(
-    force: np.ndarray,
-    response: np.ndarray,
-    sample_rate_hz: float,
+    records: TimeRecords,
     *,
     force_window_s: float | None = None,
     exp_window_tau_s: float | None = None,
-    trigger_s: float = 0.0,
     estimator: str = "H1",
-    response_dofs: tuple[DOF, ...] = (),
-    reference_dofs: tuple[DOF, ...] = (),
-    configuration: str = "",
 ) -> FRFSet:
     """FRFs from repeated impacts by linear averaging of auto and cross spectra.
 
     H1 = sum X F* / sum |F|^2 (noise on the response), H2 = sum |X|^2 / sum F X*
     (noise on the force); coherence = |sum X F*|^2 / (sum |F|^2 sum |X|^2).
 
+    The exponential window exp(-(t - trigger)/tau) is applied to force and
+    response alike, so that for a noise-free test the windowed FRF equals the
+    structure's FRF with every pole moved left by 1/tau and unchanged residues
+    (exp(-t/tau) distributes over a convolution). The force window (rectangular
+    over ``force_window_s`` seconds plus a 10 ms cosine taper) multiplies the
+    force record on top of that.
+
     Parameters
     ----------
-    force : (n_averages, n_samples) hammer force in N, one row per impact.
-    response : (n_averages, n_out, n_samples) accelerations in m/s^2.
-    sample_rate_hz : sampling rate in Hz.
-    force_window_s : width of the force window (rectangular + 10 ms cosine taper),
-        ``None`` for none.
-    exp_window_tau_s : time constant tau (s) of the exponential window applied to
-        force and response alike; it adds 1/tau to every mode's decay rate.
-    trigger_s : time of the impact in the record; the exponential starts there.
+    records : force (N) and response (m/s^2) records, one row per impact.
+    force_window_s : width of the force window in s, ``None`` for none.
+    exp_window_tau_s : time constant tau (s) of the exponential window, ``None``
+        for none. It adds 1/tau to every mode's decay rate; the value goes into
+        ``FRFSet.acquisition`` so that identification can undo it.
     estimator : "H1" or "H2".
     """
-    force, response = _check_time_records(force, response)
     if estimator not in ("H1", "H2"):
         raise DataError(f"unknown FRF estimator {estimator!r}; use 'H1' or 'H2'")
-    n_samples = force.shape[-1]
+    fs, n_samples = records.sample_rate_hz, records.n_samples
     w_exp = np.ones(n_samples)
-    if exp_window_tau_s:
-        if exp_window_tau_s <= 0:
+    if exp_window_tau_s is not None:
+        if not exp_window_tau_s > 0:
             raise DataError(f"exponential window time constant must be > 0, got {exp_window_tau_s}")
-        w_exp = exponential_window(n_samples, sample_rate_hz, exp_window_tau_s, trigger_s)
+        w_exp = exponential_window(n_samples, fs, exp_window_tau_s, records.trigger_s)
     w_force = w_exp.copy()
     if force_window_s:
-        w_force *= force_window(n_samples, sample_rate_hz, force_window_s)
-    F = np.fft.rfft(force * w_force, axis=-1)  # (n_avg, n_freq)
-    X = np.fft.rfft(response * w_exp, axis=-1)  # (n_avg, n_out, n_freq)
+        w_force *= force_window(n_samples, fs, force_window_s)
+    F = np.fft.rfft(records.force * w_force, axis=-1)  # (n_avg, n_freq)
+    X = np.fft.rfft(records.response * w_exp, axis=-1)  # (n_avg, n_out, n_freq)
     Sff = np.sum(np.abs(F) ** 2, axis=0)
     Sxf = np.sum(X * F[:, None, :].conj(), axis=0)
     Sxx = np.sum(np.abs(X) ** 2, axis=0)
@@ -300,21 +245,228 @@ def estimate_frf(
         H = Sxx / np.where(np.abs(Sxf) > tiny, Sxf.conj(), tiny)
     coherence = np.abs(Sxf) ** 2 / np.maximum(Sff * Sxx, tiny)
     info = AcquisitionInfo(
-        sample_rate_hz=float(sample_rate_hz),
+        sample_rate_hz=float(fs),
         n_samples=int(n_samples),
-        n_averages=int(force.shape[0]),
-        force_window=f"rectangular {force_window_s} s + exponential" if force_window_s else "none",
+        n_averages=int(records.n_averages),
+        force_window=f"rect {force_window_s:g} s" if force_window_s else "none",
         response_window="exponential" if exp_window_tau_s else "none",
         exp_window_tau_s=exp_window_tau_s,
         estimator=estimator,
     )
     return FRFSet(
-        freq_hz=np.fft.rfftfreq(n_samples, 1.0 / sample_rate_hz),
+        freq_hz=np.fft.rfftfreq(n_samples, 1.0 / fs),
         H=H[:, None, :],
         coherence=np.clip(coherence, 0.0, 1.0)[:, None, :],
         quantity="accelerance",
         acquisition=info,
-        response_dofs=response_dofs,
-        reference_dofs=reference_dofs,
+        response_dofs=records.response_dofs,
+        reference_dofs=(records.reference_dof,),
+        configuration=records.configuration,
+        source=records.source,
+    )
+
+
+# --------------------------------------------------------------------------
+# Simulated impact test of the paper's cantilever
+# --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class TestSetup:
+    """The paper's impact test: beam, sensors, hammer and acquisition settings.
+
+    Accelerometers at measurement nodes 3 and 6 (as in the paper); the hammer at
+    node 8 (x = 0.455 m), where none of the first four modes has a nodal line
+    and which stays above the water when the last element is immersed.
+    16384 samples at 2000 Hz (8.192 s, df = 0.1221 Hz, 8193 lines 0-1000 Hz),
+    4 linear averages, a 0.5 ms half-sine hammer pulse (spectrum flat to within
+    a few dB up to 1 kHz, first zero at 3 kHz), 50 ms pretrigger, force window
+    0.1 s, exponential window with tau = record length / 5 (the first mode's
+    apparent damping roughly doubles; identification corrects it).
+    The anti-aliasing filter is linear phase with a flat passband to
+    ``aa_pass_fraction`` of Nyquist and a raised-cosine roll-off to zero at
+    Nyquist, so nothing aliases.
+    """
+
+    __test__ = False  # not a pytest test class despite the name
+
+    beam: Beam = Beam()
+    response_nodes: tuple[int, ...] = (3, 6)
+    hammer_node: int = 8
+    direction: int = 3
+    sample_rate_hz: float = 2000.0
+    n_samples: int = 16384
+    n_averages: int = 4
+    pulse_s: float = 0.5e-3
+    force_amplitude_n: float = 100.0
+    pretrigger_s: float = 0.05
+    force_window_s: float = 0.1
+    exp_window_tau_s: float = 16384 / 2000.0 / 5
+    aa_pass_fraction: float = 0.9
+    n_modes_total: int = 8
+    high_mode_zeta: float = 0.004
+
+    @property
+    def duration_s(self) -> float:
+        return self.n_samples / self.sample_rate_hz
+
+    @property
+    def freq_hz(self) -> np.ndarray:
+        return np.fft.rfftfreq(self.n_samples, 1.0 / self.sample_rate_hz)
+
+    def shapes(self, n_modes: int) -> tuple[np.ndarray, np.ndarray]:
+        """Mass-normalised shapes at the responses (n_out, m) and the hammer (1, m)."""
+        x_out = [self.beam.node_x_m(n) for n in self.response_nodes]
+        _, phi_out = cantilever_modes(self.beam, np.array(x_out), n_modes)
+        _, phi_in = cantilever_modes(
+            self.beam, np.array([self.beam.node_x_m(self.hammer_node)]), n_modes
+        )
+        return phi_out, phi_in
+
+
+def configuration_modes(
+    configuration: str = "genuine",
+    *,
+    fd_hz: np.ndarray | None = None,
+    zeta: np.ndarray | None = None,
+    n_modes_total: int = 8,
+    high_mode_zeta: float = 0.004,
+) -> ModalParameters:
+    """Modal parameters to simulate: Table 1 (or the given ones) plus modes above 1 kHz.
+
+    The measured modes come from ``fd_hz``/``zeta`` or, by default, from Table 1
+    of the paper for ``configuration``; natural frequencies follow eq. (4).
+    Higher modes, up to ``n_modes_total``, continue the last measured one with
+    the Euler-Bernoulli ratios (beta_k / beta_n)^2 and damping ``high_mode_zeta``.
+    """
+    if fd_hz is None or zeta is None:
+        if configuration not in paper.TABLE1_FD_HZ:
+            raise DataError(
+                f"no default modal parameters for configuration {configuration!r}; "
+                f"known: {', '.join(paper.CONFIGURATIONS)} (or give fd_hz and zeta)"
+            )
+        fd_hz = paper.TABLE1_FD_HZ[configuration] if fd_hz is None else fd_hz
+        zeta = paper.TABLE1_ZETA[configuration] if zeta is None else zeta
+    measured = ModalParameters.from_damped(fd_hz, zeta)
+    n_meas = measured.n_modes
+    if n_modes_total <= n_meas:
+        return ModalParameters(measured.fn_hz, measured.zeta, configuration=configuration)
+    bl = cantilever_beta_l(n_modes_total)
+    high = measured.fn_hz[-1] * (bl[n_meas:] / bl[n_meas - 1]) ** 2
+    return ModalParameters(
+        fn_hz=np.concatenate([measured.fn_hz, high]),
+        zeta=np.concatenate([measured.zeta, np.full(high.size, high_mode_zeta)]),
         configuration=configuration,
+    )
+
+
+def half_sine_spectrum(freq_hz: np.ndarray, duration_s: float, amplitude_n: float) -> np.ndarray:
+    """Fourier transform (N/Hz) of a half-sine pulse a*sin(pi t/T), 0 <= t <= T.
+
+    F(w) = a * W * (1 + exp(-j w T)) / (W^2 - w^2), W = pi/T; at w = W the limit
+    is -j a T / 2.
+    """
+    w = 2 * np.pi * np.asarray(freq_hz, dtype=float)
+    big_w = np.pi / duration_s
+    den = big_w**2 - w**2
+    at_pole = np.isclose(den, 0.0, atol=1e-9 * big_w**2)
+    safe = np.where(at_pole, 1.0, den)
+    F = amplitude_n * big_w * (1 + np.exp(-1j * w * duration_s)) / safe
+    return np.where(at_pole, -0.5j * amplitude_n * duration_s, F)
+
+
+def anti_aliasing_filter(freq_hz: np.ndarray, sample_rate_hz: float, pass_fraction: float):
+    """Zero-phase (delay-compensated linear-phase) low-pass of the front end.
+
+    1 up to ``pass_fraction`` * Nyquist, raised-cosine roll-off to 0 at Nyquist.
+    """
+    nyq = sample_rate_hz / 2
+    f = np.abs(np.asarray(freq_hz, dtype=float))
+    f_pass = pass_fraction * nyq
+    g = np.where(f <= f_pass, 1.0, 0.0)
+    roll = (f > f_pass) & (f < nyq)
+    g[roll] = 0.5 * (1 + np.cos(np.pi * (f[roll] - f_pass) / (nyq - f_pass)))
+    return g
+
+
+def simulate_time_records(
+    modes: ModalParameters,
+    setup: TestSetup = TestSetup(),
+    *,
+    snr_db: float | None = 40.0,
+    seed: int | None = 0,
+    configuration: str = "",
+    period_factor: int = 8,
+) -> TimeRecords:
+    """Time records of a simulated impact test (force and accelerations).
+
+    For every impact the analogue signals are exact: the response is the
+    convolution of each mode's impulse response with a half-sine hammer pulse
+    (amplitude varying +-20 % between impacts), computed as the inverse
+    transform of (pole-residue FRF per mode) x (analytic pulse spectrum) x (the
+    front end's anti-aliasing filter) over a period ``period_factor`` times the
+    record. Over that period the slowest mode decays by
+    exp(-sigma_1 * 65 s) < 1e-15, so the wrap-around is below float precision and
+    no numerical integration is involved. Force and responses pass through the
+    same filter (as in a real front end), which therefore cancels in H1.
+
+    Measurement noise is white Gaussian, added per channel after sampling, with
+    standard deviation RMS(channel over the record) * 10^(-snr_db/20);
+    ``snr_db=None`` gives noise-free records. Deterministic for a given seed.
+    """
+    rng = np.random.default_rng(seed)
+    fs, n = setup.sample_rate_hz, setup.n_samples
+    n_long = n * period_factor
+    freq_long = np.fft.rfftfreq(n_long, 1.0 / fs)
+    phi_out, phi_in = setup.shapes(modes.n_modes)
+    H = modal_frf(freq_long, modes, phi_out, phi_in)[:, 0, :]  # (n_out, n_freq)
+    G = anti_aliasing_filter(freq_long, fs, setup.aa_pass_fraction)
+    delay = np.exp(-2j * np.pi * freq_long * setup.pretrigger_s)
+    n_avg, n_out = setup.n_averages, phi_out.shape[0]
+    force = np.empty((n_avg, n))
+    response = np.empty((n_avg, n_out, n))
+    amplitudes = setup.force_amplitude_n * rng.uniform(0.8, 1.2, n_avg)
+    for k in range(n_avg):  # 4 impacts: the FFTs inside are the vectorised part
+        F = half_sine_spectrum(freq_long, setup.pulse_s, amplitudes[k]) * G * delay
+        force[k] = fs * np.fft.irfft(F, n=n_long)[:n]
+        response[k] = fs * np.fft.irfft(H * F, n=n_long, axis=-1)[:, :n]
+    if snr_db is not None:
+        scale = 10.0 ** (-snr_db / 20.0)
+        f_rms = np.sqrt(np.mean(force**2, axis=-1, keepdims=True))
+        r_rms = np.sqrt(np.mean(response**2, axis=-1, keepdims=True))
+        force = force + scale * f_rms * rng.standard_normal(force.shape)
+        response = response + scale * r_rms * rng.standard_normal(response.shape)
+    return TimeRecords(
+        force=force,
+        response=response,
+        sample_rate_hz=fs,
+        trigger_s=setup.pretrigger_s,
+        response_dofs=tuple(DOF(node, setup.direction) for node in setup.response_nodes),
+        reference_dof=DOF(setup.hammer_node, setup.direction),
+        configuration=configuration or modes.configuration,
+    )
+
+
+def simulate_impact_test(
+    modes: ModalParameters | str = "genuine",
+    setup: TestSetup = TestSetup(),
+    *,
+    snr_db: float | None = 40.0,
+    seed: int | None = 0,
+) -> FRFSet:
+    """A whole simulated impact test: time records, windows, H1 with coherence.
+
+    ``modes`` is a ModalParameters or a configuration name of Table 1
+    (``genuine``, ``larger_tank``, ``smaller_tank``), completed with modes above
+    1 kHz by :func:`configuration_modes`. See :func:`simulate_time_records`.
+    """
+    if isinstance(modes, str):
+        modes = configuration_modes(
+            modes, n_modes_total=setup.n_modes_total, high_mode_zeta=setup.high_mode_zeta
+        )
+    records = simulate_time_records(modes, setup, snr_db=snr_db, seed=seed)
+    return estimate_frf(
+        records,
+        force_window_s=setup.force_window_s,
+        exp_window_tau_s=setup.exp_window_tau_s,
     )

@@ -135,8 +135,7 @@ class FRFSet:
         self.H = H.astype(complex, copy=False)
         if self.freq_hz.ndim != 1 or self.freq_hz.size != self.H.shape[-1]:
             raise DataError(
-                f"{where}frequency axis has {self.freq_hz.size} lines but H has "
-                f"{self.H.shape[-1]}"
+                f"{where}frequency axis has {self.freq_hz.size} lines but H has {self.H.shape[-1]}"
             )
         if self.freq_hz.size < 2:
             raise DataError(f"{where}an FRF needs at least 2 frequency lines")
@@ -208,6 +207,21 @@ class FRFSet:
         factor = np.where(np.isfinite(factor), factor, 0.0)
         return replace(self, H=self.H * factor, quantity=quantity)
 
+    def reciprocal(self) -> FRFSet:
+        """The same FRFs with responses and references swapped (Maxwell reciprocity).
+
+        A roving-hammer test (many references, one response) becomes one
+        reference and many responses, which keeps a poly-reference model small.
+        """
+        coh = None if self.coherence is None else self.coherence.transpose(1, 0, 2)
+        return replace(
+            self,
+            H=self.H.transpose(1, 0, 2),
+            coherence=coh,
+            response_dofs=self.reference_dofs,
+            reference_dofs=self.response_dofs,
+        )
+
     def band(self, lo_hz: float, hi_hz: float) -> FRFSet:
         """The lines with lo_hz <= f <= hi_hz (a copy)."""
         if not lo_hz < hi_hz:
@@ -220,6 +234,65 @@ class FRFSet:
         sel = (self.freq_hz >= lo_hz) & (self.freq_hz <= hi_hz)
         coh = None if self.coherence is None else self.coherence[..., sel]
         return replace(self, freq_hz=self.freq_hz[sel], H=self.H[..., sel], coherence=coh)
+
+
+@dataclass
+class TimeRecords:
+    """Raw impact-test time records: one force channel and n_out responses.
+
+    ``force`` (n_averages, n_samples) in N; ``response`` (n_averages, n_out,
+    n_samples) in m/s^2; one row per impact. ``trigger_s`` is the impact time
+    within each record (the exponential window starts there).
+    """
+
+    force: np.ndarray
+    response: np.ndarray
+    sample_rate_hz: float
+    trigger_s: float = 0.0
+    response_dofs: tuple[DOF, ...] = ()
+    reference_dof: DOF = DOF(0)
+    configuration: str = ""
+    source: Provenance = field(default_factory=Provenance)
+
+    def __post_init__(self) -> None:
+        where = f"{self.source.path}: " if self.source.path else ""
+        force = np.asarray(self.force, dtype=float)
+        response = np.asarray(self.response, dtype=float)
+        if force.ndim == 1:
+            force = force[None, :]
+        if response.ndim == 2:
+            response = response[:, None, :]
+        if force.ndim != 2 or response.ndim != 3:
+            raise DataError(
+                f"{where}time records must be force (n_averages, n_samples) and response "
+                f"(n_averages, n_out, n_samples); got {force.shape} and {response.shape}"
+            )
+        if response.shape[0] != force.shape[0] or response.shape[-1] != force.shape[-1]:
+            raise DataError(
+                f"{where}force records {force.shape} and response records {response.shape} "
+                "differ in number of averages or samples"
+            )
+        if not (np.all(np.isfinite(force)) and np.all(np.isfinite(response))):
+            raise DataError(f"{where}time records contain NaN/inf values")
+        if not np.any(force):
+            raise DataError(f"{where}force records are all zero: no impact recorded")
+        if not (np.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0):
+            raise DataError(f"{where}sample rate must be positive, got {self.sample_rate_hz}")
+        self.force, self.response = force, response
+        if not self.response_dofs:
+            self.response_dofs = tuple(DOF(k + 1) for k in range(response.shape[1]))
+        if len(self.response_dofs) != response.shape[1]:
+            raise DataError(
+                f"{where}{len(self.response_dofs)} labels for {response.shape[1]} responses"
+            )
+
+    @property
+    def n_averages(self) -> int:
+        return self.force.shape[0]
+
+    @property
+    def n_samples(self) -> int:
+        return self.force.shape[1]
 
 
 @dataclass(frozen=True)
@@ -253,9 +326,7 @@ class ModalParameters:
             object.__setattr__(self, name, val)
 
     @classmethod
-    def from_damped(
-        cls, fd_hz: np.ndarray, zeta: np.ndarray, **kwargs: object
-    ) -> ModalParameters:
+    def from_damped(cls, fd_hz: np.ndarray, zeta: np.ndarray, **kwargs: object) -> ModalParameters:
         """Build from damped natural frequencies, fn = fd / sqrt(1 - zeta^2) (eq. 4)."""
         fd = np.asarray(fd_hz, dtype=float)
         z = np.asarray(zeta, dtype=float)
@@ -318,3 +389,63 @@ class Beam:
         if not 1 <= node <= n + 1:
             raise DataError(f"measurement node {node} does not exist (1..{n + 1})")
         return (node - 1) * self.length_m / n
+
+
+@dataclass(frozen=True)
+class ConfigurationSpec:
+    """One test configuration of an experiment and the file holding its FRFs.
+
+    ``exp_window_tau_s`` overrides the exponential-window time constant stored
+    in the file (foreign UFF files do not carry it); ``None`` keeps the file's.
+    """
+
+    name: str
+    file: str
+    description: str = ""
+    exp_window_tau_s: float | None = None
+
+
+@dataclass(frozen=True)
+class IdentificationSettings:
+    """Settings of the identification stage for a whole experiment."""
+
+    band_hz: tuple[float, float] | None = None
+    max_order: int | None = None
+    method: str = "plscf"
+    expect_hz: tuple[float, ...] = ()
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """Everything ``ema-pipeline run`` needs, as described by ``experiment.toml``.
+
+    ``configurations[0]`` is the genuine (reference) state unless ``genuine``
+    names another one. ``immersed_elements`` are 1-based elements of the
+    measurement mesh (element k joins nodes k and k+1; element 10 is the tip).
+    ``n_modes`` is the number of modes the FE stage uses.
+    """
+
+    name: str
+    beam: Beam
+    configurations: tuple[ConfigurationSpec, ...]
+    base_dir: str = "."
+    genuine: str = ""
+    response_nodes: tuple[int, ...] = (3, 6)
+    hammer_node: int = 8
+    direction: int = 3
+    identification: IdentificationSettings = IdentificationSettings()
+    immersed_elements: tuple[int, ...] = (10,)
+    n_modes: int = 4
+    update_repeats: int = 5
+    seed: int = 0
+
+    @property
+    def genuine_name(self) -> str:
+        return self.genuine or self.configurations[0].name
+
+    def configuration(self, name: str) -> ConfigurationSpec:
+        for spec in self.configurations:
+            if spec.name == name:
+                return spec
+        known = ", ".join(c.name for c in self.configurations)
+        raise DataError(f"unknown configuration {name!r}; the experiment has: {known}")
