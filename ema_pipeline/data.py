@@ -30,6 +30,10 @@ class EMAError(Exception):
     """Base class of the errors ema-pipeline raises on bad input or settings."""
 
 
+class ConfigError(EMAError, ValueError):
+    """A usage or configuration problem (unknown name, unreadable experiment file)."""
+
+
 class DataError(EMAError, ValueError):
     """Input data that cannot be used (wrong shape, NaN, unknown units, ...).
 

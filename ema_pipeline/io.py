@@ -114,6 +114,10 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     tmp_path = Path(tmp)
     try:
         yield tmp_path
+        if tmp_path.exists():  # mkstemp makes 0600 files; give the usual umask mode
+            umask = os.umask(0)
+            os.umask(umask)
+            tmp_path.chmod(0o666 & ~umask)
         os.replace(tmp_path, target)
     except BaseException:
         tmp_path.unlink(missing_ok=True)
@@ -587,12 +591,15 @@ def _write_uff(records: list[dict[str, Any]], path: str | os.PathLike[str]) -> P
     return Path(path)
 
 
-def write_frf_uff(frf: FRFSet, path: str | os.PathLike[str], *, binary: bool = False) -> Path:
+def write_frf_uff(
+    frf: FRFSet, path: str | os.PathLike[str], *, binary: bool = False, coherence: bool = False
+) -> Path:
     """Write an FRFSet as UFF dataset 58 records (ASCII or binary), atomically.
 
-    One function-type-4 record per response/reference pair, plus function-type-6
-    coherence records when the set has coherence. ID line 4 carries the exact
-    sample rate, record length, averages and window time constant.
+    One function-type-4 record per response/reference pair and, with
+    ``coherence=True`` (and coherence in the set), a function-type-6 coherence
+    record after each. ID line 4 carries the exact sample rate, record length,
+    averages and window time constant; ID line 5 the configuration name.
     """
     numerator = {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}[frf.quantity]
     id4, id5 = _id_lines(frf.acquisition, frf.configuration)
@@ -625,7 +632,7 @@ def write_frf_uff(frf: FRFSet, path: str | os.PathLike[str], *, binary: bool = F
                     ids=ids,
                 )
             )
-            if frf.coherence is not None:
+            if coherence and frf.coherence is not None:
                 records.append(
                     _uff_record(
                         binary=binary,
@@ -797,13 +804,18 @@ def read_frf(path: str | os.PathLike[str]) -> FRFSet:
     return read_frf_h5(path)
 
 
-def write_frf(frf: FRFSet, path: str | os.PathLike[str], fmt: str | None = None) -> Path:
-    """Write an FRF file; ``fmt`` is "uff", "uff-binary" or "h5" (default: by suffix)."""
+def write_frf(
+    frf: FRFSet, path: str | os.PathLike[str], fmt: str | None = None, *, coherence: bool = False
+) -> Path:
+    """Write an FRF file; ``fmt`` is "uff", "uff-binary" or "h5" (default: by suffix).
+
+    HDF5 always keeps the coherence; UFF only with ``coherence=True``.
+    """
     fmt = fmt or frf_format_for_writing(path)
     if fmt == "h5":
         return write_frf_h5(frf, path)
     if fmt in ("uff", "uff-binary"):
-        return write_frf_uff(frf, path, binary=fmt == "uff-binary")
+        return write_frf_uff(frf, path, binary=fmt == "uff-binary", coherence=coherence)
     raise DataError(f"unknown FRF format {fmt!r}; use uff, uff-binary or h5")
 
 
