@@ -317,12 +317,17 @@ def _check_uff_complete(path: Path, n_sets: int) -> None:
         )
     raw = path.read_bytes()
     if b"\x00" not in raw[:4096] and not re.search(rb"(?m)^\s*-1\s*\r?\n\s*58b", raw):
-        n_delims = len(re.findall(rb"(?m)^\s*-1\s*$", raw))
-        if n_delims != 2 * n_sets:
+        delims = [m.start() for m in re.finditer(rb"(?m)^\s*-1\s*$", raw)]
+        if len(delims) != 2 * n_sets:
             raise DataError(
-                f"{path}: truncated or corrupt Universal File: {n_delims} delimiter lines "
+                f"{path}: truncated or corrupt Universal File: {len(delims)} delimiter lines "
                 f"for {n_sets} complete datasets"
             )
+        # pyuff reads the text 'nan'/'inf' of an ASCII file as 0: catch it here.
+        bad = re.search(rb"(?i)[-+]?\b(nan|inf(inity)?)\b", raw)
+        if bad:
+            record = sum(1 for d in delims if d < bad.start()) // 2 + 1
+            raise DataError(f"{path}: record {record} contains NaN/inf values")
 
 
 def _read_uff_sets(path: Path) -> list[dict[str, Any]]:
