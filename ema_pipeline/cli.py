@@ -70,6 +70,91 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _identify_options(args: argparse.Namespace):
+    from ema_pipeline.pipeline.single import IdentifyOptions
+
+    if args.band is not None and not args.band[0] < args.band[1]:
+        raise ConfigError(f"--band needs LO_HZ < HI_HZ, got {args.band[0]} {args.band[1]}")
+    if args.max_order is not None and args.max_order < 2:
+        raise ConfigError(f"--max-order must be at least 2, got {args.max_order}")
+    return IdentifyOptions(
+        band_hz=None if args.band is None else (args.band[0], args.band[1]),
+        max_order=args.max_order,
+        method=args.method,
+        expect_hz=tuple(args.expect or ()),
+    )
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from ema_pipeline.pipeline.single import identify_file
+
+    options = _identify_options(args)
+    failed = 0
+    for path in args.files:
+        outcome = identify_file(path, args.out, options)
+        if outcome.status == "failed":
+            failed += 1
+            print(f"ema-pipeline identify: error: {outcome.reason}", file=sys.stderr)
+            continue
+        if not args.quiet:
+            freqs = ", ".join(f"{f:.3f}" for f in outcome.fn_hz)
+            print(
+                f"{path}: {outcome.n_modes} modes [{freqs}] Hz -> {outcome.modes_csv} "
+                f"({outcome.seconds:.1f} s)"
+            )
+    return EXIT_INPUT if failed else EXIT_OK
+
+
+def _cmd_batch(args: argparse.Namespace) -> int:
+    from ema_pipeline.pipeline.batch import run_batch
+
+    options = _identify_options(args)
+    if args.workers is not None and args.workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {args.workers}")
+    report = run_batch(
+        args.folder,
+        args.out,
+        options=options,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        force=args.force,
+        progress=not args.quiet,
+    )
+    print(report.summary_line(), file=sys.stderr if report.n_failed else sys.stdout)
+    return EXIT_INPUT if report.n_failed else EXIT_OK
+
+
+def _add_identify_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--band",
+        nargs=2,
+        type=float,
+        metavar=("LO_HZ", "HI_HZ"),
+        default=None,
+        help="frequency band in Hz (default: the whole axis above the first lines)",
+    )
+    p.add_argument(
+        "--max-order",
+        type=int,
+        default=None,
+        help="highest polynomial order of the stabilization diagram",
+    )
+    p.add_argument(
+        "--method",
+        choices=("plscf", "sdypy-lscf"),
+        default="plscf",
+        help="plscf (ours, default) or sdypy-lscf (sdypy-EMA's LSCF)",
+    )
+    p.add_argument(
+        "--expect",
+        type=_floats,
+        default=None,
+        metavar="F1,F2,...",
+        help="approximate natural frequencies in Hz: pick the nearest stable modes",
+    )
+    p.add_argument("--quiet", action="store_true", help="print only errors")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="ema-pipeline",
@@ -129,6 +214,46 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=_cmd_simulate)
+
+    p = sub.add_parser(
+        "identify",
+        help="identify modal parameters of FRF files (pLSCF + LSFD)",
+        description="Identify natural frequencies, damping ratios and mode shapes of each "
+        "FRF file (UFF-58 or HDF5) with poly-reference LSCF, automatic pole selection and "
+        "LSFD. Writes DIR/<stem>_modes.csv (mode,fn_hz,fd_hz,zeta_pct,fn_std_hz,"
+        "zeta_std_pct) and DIR/<stem>_result.h5 (full result with stabilization data).",
+    )
+    p.add_argument("files", nargs="+", type=Path, metavar="FILE", help="FRF files")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
+    _add_identify_options(p)
+    p.set_defaults(func=_cmd_identify)
+
+    p = sub.add_parser(
+        "batch",
+        help="identify every FRF file under a folder (parallel, resumable)",
+        description="Run acquisition checks and identification on every UFF-58 and HDF5 "
+        "file under FOLDER (recursively), in parallel; skip files whose content already "
+        "has a complete result; record bad files in OUT/failures.csv and go on; write "
+        "OUT/summary.csv. Exit status 1 if any file failed.",
+    )
+    p.add_argument("folder", type=Path, metavar="DIR", help="folder with FRF files")
+    p.add_argument("--out", required=True, type=Path, metavar="OUT", help="output folder")
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        help="local worker processes (default: number of cores)",
+    )
+    p.add_argument(
+        "--scheduler",
+        default=None,
+        metavar="ADDRESS",
+        help="run on an existing dask.distributed cluster, e.g. tcp://host:8786 "
+        "(needs the [distributed] extra)",
+    )
+    p.add_argument("--force", action="store_true", help="recompute files with complete results")
+    _add_identify_options(p)
+    p.set_defaults(func=_cmd_batch)
     return parser
 
 

@@ -33,7 +33,7 @@ import re
 import tempfile
 import tomllib
 from collections.abc import Iterator, Mapping
-from dataclasses import fields
+from dataclasses import fields, is_dataclass
 from pathlib import Path
 from typing import Any
 
@@ -295,6 +295,130 @@ def _with_provenance(frf: FRFSet, path: Path) -> FRFSet:
     from dataclasses import replace
 
     return replace(frf, source=Provenance(path=str(path), sha256=sha256_file(path)))
+
+
+# --------------------------------------------------------------------------
+# Results files: any tree of dataclasses, dicts, arrays, tables and FRF sets
+# --------------------------------------------------------------------------
+
+
+def _store(group: h5py.Group, name: str, value: Any) -> None:
+    """Store ``value`` under ``name``: arrays as datasets, scalars and strings as
+    attributes, dataclasses and dicts as sub-groups, DataFrames column by column."""
+    if value is None:
+        return
+    if isinstance(value, FRFSet):
+        write_frf_group(group.create_group(name), value)
+    elif isinstance(value, pd.DataFrame):
+        sub = group.create_group(name)
+        sub.attrs["kind"] = "table"
+        sub.attrs["columns"] = np.array([str(c) for c in value.columns], dtype=object)
+        for col in value.columns:
+            data = value[col].to_numpy()
+            if data.dtype == object or pd.api.types.is_string_dtype(value[col]):
+                data = np.array([str(v) for v in data], dtype=h5py.string_dtype())
+            sub.create_dataset(str(col), data=data)
+    elif is_dataclass(value) and not isinstance(value, type):
+        sub = group.create_group(name)
+        sub.attrs["kind"] = type(value).__name__
+        for f in fields(value):
+            _store(sub, f.name, getattr(value, f.name))
+    elif isinstance(value, Mapping):
+        sub = group.create_group(name)
+        for key, item in value.items():
+            _store(sub, str(key), item)
+    elif isinstance(value, str | bool | int | float | np.generic):
+        group.attrs[name] = value
+    elif isinstance(value, tuple | list) and value and all(isinstance(v, DOF) for v in value):
+        group.create_dataset(name, data=_dofs_array(tuple(value)))
+    elif isinstance(value, tuple | list) and value and all(isinstance(v, str) for v in value):
+        group.attrs[name] = np.array(value, dtype=object)
+    elif (
+        isinstance(value, tuple | list)
+        and value
+        and not all(isinstance(v, int | float | complex | np.generic) for v in value)
+    ):
+        sub = group.create_group(name)
+        for k, item in enumerate(value):
+            _store(sub, str(k), item)
+    else:
+        data = np.asarray(value)
+        if data.dtype == object:
+            raise DataError(f"cannot store {name!r} of type {type(value).__name__} in HDF5")
+        compress = {"compression": "gzip", "shuffle": True} if data.size > 4096 else {}
+        group.create_dataset(name, data=data, **compress)
+
+
+def write_results_h5(
+    sections: Mapping[str, Any],
+    path: str | os.PathLike[str],
+    *,
+    schema: str = SCHEMA_RESULTS,
+    attrs: Mapping[str, Any] | None = None,
+) -> Path:
+    """Write a results file atomically: one top-level group per section.
+
+    The root carries ``schema``, ``schema_version``, ``software``, the given
+    ``attrs`` and ``complete = True`` (set last, so a reader can trust a file
+    that has it; the file appears under its name only once closed).
+    """
+    with atomic_path(path) as tmp, h5py.File(tmp, "w") as h5:
+        _put_attrs(
+            h5, {"schema": schema, "schema_version": SCHEMA_VERSION, "software": _software()}
+        )
+        _put_attrs(h5, attrs or {})
+        for name, value in sections.items():
+            _store(h5, name, value)
+        h5.attrs["complete"] = True
+    return Path(path)
+
+
+def _load(obj: h5py.HLObject) -> Any:
+    if isinstance(obj, h5py.Dataset):
+        data = obj[()]
+        if obj.dtype.kind == "O" or h5py.check_string_dtype(obj.dtype):
+            data = obj.asstr()[()]
+        return data
+    out: dict[str, Any] = {k: _attr(obj, k) for k in obj.attrs}
+    for key, item in obj.items():
+        out[key] = _load(item)
+    return out
+
+
+def read_results_h5(path: str | os.PathLike[str], *, schema: str = SCHEMA_RESULTS) -> dict:
+    """Read a results file back as nested dicts of arrays and attributes."""
+    path = Path(path)
+    with _open_h5(path) as h5:
+        found = _attr(h5, "schema")
+        if found != schema:
+            raise DataError(f"{path}: schema {found!r}, expected {schema!r}")
+        if not _attr(h5, "complete", False):
+            raise DataError(f"{path}: incomplete results file (interrupted write)")
+        return _load(h5)
+
+
+def read_frf_from_results(path: str | os.PathLike[str], section: str) -> FRFSet:
+    """The FRFSet stored in ``section`` of a results file."""
+    path = Path(path)
+    with _open_h5(path) as h5:
+        if section not in h5:
+            raise DataError(f"{path}: no section {section!r}")
+        return read_frf_group(h5[section], str(path))
+
+
+def results_complete(path: str | os.PathLike[str]) -> bool:
+    """True when ``path`` is a results file whose write finished."""
+    try:
+        with h5py.File(path, "r") as h5:
+            return bool(_attr(h5, "complete", False))
+    except (OSError, KeyError):
+        return False
+
+
+def table_from_results(tree: Mapping[str, Any]) -> pd.DataFrame:
+    """A DataFrame stored by :func:`write_results_h5`, from the loaded tree."""
+    columns = list(tree.get("columns", []))
+    return pd.DataFrame({c: tree[c] for c in columns})
 
 
 # --------------------------------------------------------------------------

@@ -1,0 +1,144 @@
+"""One FRF file through acquisition checks and identification, with its outputs.
+
+Used by ``ema-pipeline identify`` and by the batch runner. Outputs per input
+file ``<stem>``: ``<stem>_modes.csv`` (one row per mode: ``mode, fn_hz, fd_hz,
+zeta_pct`` and their standard deviations) and ``<stem>_result.h5`` (the FRFs,
+the full identification result with stabilization data, and the modal table;
+its root attributes ``input_sha256`` and ``complete`` make it a resumable
+record). Both are written atomically; the HDF5 file last, so a complete HDF5
+result implies the CSV is there too.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from ema_pipeline import io
+from ema_pipeline.data import DataError, FRFSet
+
+
+@dataclass(frozen=True)
+class IdentifyOptions:
+    """Settings passed to :func:`ema_pipeline.identification.identify`."""
+
+    band_hz: tuple[float, float] | None = None
+    max_order: int | None = None
+    method: str = "plscf"
+    expect_hz: tuple[float, ...] = ()
+    exp_window_tau_s: float | None = None  # override the file's (foreign UFF files lack it)
+
+
+@dataclass
+class FileOutcome:
+    """What happened to one input file."""
+
+    path: Path
+    sha256: str = ""
+    configuration: str = ""
+    status: str = "ok"  # ok | skipped | failed
+    reason: str = ""
+    n_modes: int = 0
+    fn_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    zeta: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    fit_frac: float = float("nan")
+    fit_error: float = float("nan")
+    seconds: float = 0.0
+    modes_csv: Path | None = None
+    result_h5: Path | None = None
+
+
+def output_paths(path: Path, out_dir: Path) -> tuple[Path, Path]:
+    """``(<out>/<stem>_modes.csv, <out>/<stem>_result.h5)`` for an input file."""
+    stem = Path(path).stem
+    return out_dir / f"{stem}_modes.csv", out_dir / f"{stem}_result.h5"
+
+
+def load_frf(path: Path, options: IdentifyOptions) -> FRFSet:
+    """Read an FRF file, apply the window override, and make roving-hammer sets
+    (one response, several references) single-reference by reciprocity."""
+    frf = io.read_frf(path)
+    if options.exp_window_tau_s is not None:
+        frf = replace(
+            frf, acquisition=replace(frf.acquisition, exp_window_tau_s=options.exp_window_tau_s)
+        )
+    if frf.n_out == 1 and frf.n_in > 1:
+        frf = frf.reciprocal()
+    return frf
+
+
+def completed_sha256(result_h5: Path) -> str | None:
+    """The input hash recorded in a complete result file, else None."""
+    if not io.results_complete(result_h5):
+        return None
+    with h5py.File(result_h5, "r") as h5:
+        value = h5.attrs.get("input_sha256")
+    return value.decode() if isinstance(value, bytes) else (None if value is None else str(value))
+
+
+def identify_file(
+    path: str | Path,
+    out_dir: str | Path,
+    options: IdentifyOptions = IdentifyOptions(),
+    *,
+    force: bool = True,
+    sha256: str | None = None,
+) -> FileOutcome:
+    """Identify the modes of one FRF file and write its outputs.
+
+    With ``force=False`` a file whose content hash already has a complete result
+    in ``out_dir`` is skipped. Problems with the file (unreadable, NaN, no modes)
+    are returned as ``status="failed"`` with the reason, never raised.
+    """
+    from ema_pipeline.identification import identify, modes_table
+
+    path, out_dir = Path(path), Path(out_dir)
+    start = time.perf_counter()
+    outcome = FileOutcome(path=path)
+    modes_csv, result_h5 = output_paths(path, out_dir)
+    try:
+        outcome.sha256 = sha256 or io.sha256_file(path)
+        if not force and completed_sha256(result_h5) == outcome.sha256:
+            outcome.status = "skipped"
+            outcome.reason = "complete result with the same content hash exists"
+            outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
+            return outcome
+        frf = load_frf(path, options)
+        outcome.configuration = frf.configuration
+        result = identify(
+            frf,
+            band_hz=options.band_hz,
+            max_order=options.max_order,
+            method=options.method,  # type: ignore[arg-type]
+            expect=list(options.expect_hz) or None,
+        )
+        if result.modes.n_modes == 0:
+            raise DataError(f"{path}: no physical modes found in the band")
+        table = modes_table(result)
+        io.write_csv(table, modes_csv)
+        io.write_results_h5(
+            {
+                "frf": frf,
+                "identification": result,
+                "modes": table,
+                "input": {"path": str(path), "sha256": outcome.sha256},
+            },
+            result_h5,
+            attrs={"input_sha256": outcome.sha256},
+        )
+        outcome.n_modes = result.modes.n_modes
+        outcome.fn_hz, outcome.zeta = result.modes.fn_hz, result.modes.zeta
+        outcome.fit_frac = float(np.mean(result.frac))
+        outcome.fit_error = float(np.mean(result.error))
+        outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
+    except DataError as exc:
+        outcome.status, outcome.reason = "failed", str(exc)
+    except (OSError, ValueError, np.linalg.LinAlgError) as exc:
+        outcome.status, outcome.reason = "failed", f"{path}: {type(exc).__name__}: {exc}"
+    finally:
+        outcome.seconds = time.perf_counter() - start
+    return outcome
