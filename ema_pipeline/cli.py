@@ -124,6 +124,66 @@ def _cmd_batch(args: argparse.Namespace) -> int:
     return EXIT_INPUT if report.n_failed else EXIT_OK
 
 
+def _cmd_run(args: argparse.Namespace) -> int:
+    import json
+
+    from ema_pipeline.pipeline import study
+
+    experiment_path = args.experiment or args.raw / "experiment.toml"
+    experiment = study.load_experiment(experiment_path)
+
+    def say(message: str) -> None:
+        if not args.quiet and not args.json:
+            print(message, file=sys.stderr, flush=True)
+
+    result = study.run_study(experiment, progress=say, progress_bars=not (args.quiet or args.json))
+    study.write_study(result, args.results, say)
+    if args.json:
+        payload = study.summary(result)
+        payload["results"] = str(args.results)
+        print(json.dumps(payload, indent=2))
+    elif not args.quiet:
+        print(study.summary_text(result, args.results))
+    elif result.problems:
+        for problem in result.problems:
+            print(f"ema-pipeline run: {problem}", file=sys.stderr)
+    return EXIT_OK if result.ok else EXIT_INPUT
+
+
+def _cmd_fe(args: argparse.Namespace) -> int:
+    from ema_pipeline import fe, io
+    from ema_pipeline.data import Experiment
+    from ema_pipeline.pipeline import study
+
+    if args.experiment is not None:
+        experiment = study.load_experiment(args.experiment)
+    else:
+        default = Path(__file__).resolve().parents[1] / "raw_frf" / "experiment.toml"
+        experiment = study.load_experiment(default) if default.is_file() else None
+    table = io.read_csv(args.table1, required=("configuration", "mode", "fd_hz", "zeta_pct"))
+    measured = fe.measured_from_table1(table, source=str(args.table1))
+    if experiment is None:
+        from ema_pipeline.data import Beam
+
+        experiment = Experiment(name="fe", beam=Beam(), configurations=())
+    genuine = experiment.genuine if experiment.configurations else "genuine"
+    stage = fe.run_fe_stage(
+        experiment.beam,
+        measured,
+        genuine=genuine,
+        immersed_elements=experiment.immersed_elements,
+        n_modes=experiment.n_modes,
+        n_repeats=experiment.update_repeats,
+        seed=experiment.seed,
+        progress=not args.quiet,
+    )
+    for name, frame in fe.fe_tables(stage).items():
+        path = io.write_csv(frame, args.out / f"{name}.csv")
+        if not args.quiet:
+            print(f"wrote {path}")
+    return EXIT_OK
+
+
 def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--band",
@@ -254,6 +314,52 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="recompute files with complete results")
     _add_identify_options(p)
     p.set_defaults(func=_cmd_batch)
+
+    p = sub.add_parser(
+        "run",
+        help="the whole study: identification, added mass, FE update, Tables 1-6, report",
+        description="Run the study described by RAW/experiment.toml: identify every "
+        "configuration (Table 1), modal added mass (Table 2), FE model, update and local "
+        "added mass (Tables 3-6); write RESULTS/tables/*.csv, RESULTS/ema_results.h5, "
+        "RESULTS/report.md, RESULTS/report.html and RESULTS/figures/*.png. Exit status 1 "
+        "when some input failed (what could be computed is still written), 2 for an "
+        "unreadable experiment file.",
+    )
+    p.add_argument(
+        "--raw",
+        type=Path,
+        default=Path("raw_frf"),
+        help="folder with experiment.toml and the FRF files (default raw_frf)",
+    )
+    p.add_argument(
+        "--results",
+        type=Path,
+        default=Path("results"),
+        help="output folder, replaced as a whole when the run ends (default results)",
+    )
+    p.add_argument(
+        "--experiment",
+        type=Path,
+        default=None,
+        help="experiment file (default RAW/experiment.toml)",
+    )
+    p.add_argument("--quiet", action="store_true", help="print only problems")
+    p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    p.set_defaults(func=_cmd_run)
+
+    p = sub.add_parser(
+        "fe",
+        help="Tables 2-6 from a measured modal table (Table 1 form)",
+        description="Take measured modal parameters in the Table 1 form (CSV with columns "
+        "configuration,mode,fd_hz,zeta_pct; configuration 'genuine' plus modified ones) and "
+        "write Tables 2-6 as CSV into DIR. The beam comes from the default experiment "
+        "(raw_frf/experiment.toml) unless --experiment is given.",
+    )
+    p.add_argument("table1", type=Path, metavar="TABLE1.csv", help="measured modal table")
+    p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
+    p.add_argument("--experiment", type=Path, default=None, help="experiment file (TOML)")
+    p.add_argument("--quiet", action="store_true", help="print nothing on success")
+    p.set_defaults(func=_cmd_fe)
     return parser
 
 

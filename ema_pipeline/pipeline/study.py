@@ -1,0 +1,335 @@
+"""The whole study of an experiment: ``ema-pipeline run``.
+
+Driven entirely by the experiment file (``raw_frf/experiment.toml``): read each
+configuration's FRFs, identify its modes (Table 1), compute the modal added mass
+(Table 2), run the FE stage (Tables 3-6) and write tables, the HDF5 store, the
+Markdown/HTML report and its figures.
+
+Failures are collected, not raised: a missing FRF file, an unknown
+configuration or too few identified modes becomes a *problem* that is printed
+and written into the report, and everything that can still be computed is.
+The results folder is written into a temporary sibling folder and swapped in
+at the end, so an interrupted run never leaves a half-written results folder;
+the numbers are reproducible (fixed seeds, no time stamps in the outputs).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import tempfile
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ema_pipeline import io, paper
+from ema_pipeline.data import (
+    ConfigError,
+    DataError,
+    EMAError,
+    Experiment,
+    FRFSet,
+    ModalParameters,
+)
+from ema_pipeline.pipeline.single import IdentifyOptions, load_frf
+
+Progress = Callable[[str], None]
+
+
+@dataclass
+class StudyResult:
+    """Everything ``run`` computed, plus the problems met on the way."""
+
+    experiment: Experiment
+    frfs: dict[str, FRFSet] = field(default_factory=dict)
+    identification: dict[str, Any] = field(default_factory=dict)
+    measured: dict[str, ModalParameters] = field(default_factory=dict)
+    tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+    fe: Any = None
+    problems: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def ok(self) -> bool:
+        return not self.problems
+
+
+def load_experiment(path: str | os.PathLike[str]) -> Experiment:
+    """Read the experiment file; an unreadable one is a configuration error (exit 2)."""
+    try:
+        return io.read_experiment(path)
+    except DataError as exc:
+        raise ConfigError(str(exc)) from exc
+
+
+def table1(measured: dict[str, ModalParameters]) -> pd.DataFrame:
+    """Table 1 in long form: configuration, mode, fd_hz, zeta_pct (+ fn and std)."""
+    rows = []
+    for name, m in measured.items():
+        for k in range(m.n_modes):
+            rows.append(
+                {
+                    "configuration": name,
+                    "mode": k + 1,
+                    "fd_hz": m.fd_hz[k],
+                    "zeta_pct": 100 * m.zeta[k],
+                    "fn_hz": m.fn_hz[k],
+                    "fn_std_hz": m.fn_std_hz[k],
+                    "zeta_std_pct": 100 * m.zeta_std[k],
+                }
+            )
+    columns = ["configuration", "mode", "fd_hz", "zeta_pct", "fn_hz", "fn_std_hz", "zeta_std_pct"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def _identify_all(exp: Experiment, result: StudyResult, say: Progress) -> None:
+    from ema_pipeline.identification import identify
+
+    settings = exp.identification
+    for k, spec in enumerate(exp.configurations, start=1):
+        path = io.experiment_file_path(exp, spec)
+        start = time.perf_counter()
+        say(f"[identify {k}/{len(exp.configurations)}] {spec.name}: {path}")
+        try:
+            frf = load_frf(path, IdentifyOptions(exp_window_tau_s=spec.exp_window_tau_s))
+            frf = replace(frf, configuration=spec.name)
+            ident = identify(
+                frf,
+                band_hz=settings.band_hz,
+                max_order=settings.max_order,
+                method=settings.method,  # type: ignore[arg-type]
+                expect=list(settings.expect_hz) or None,
+            )
+        except DataError as exc:
+            result.problems.append(f"configuration {spec.name!r}: {exc}")
+            say(f"    failed: {exc}")
+            continue
+        result.frfs[spec.name] = frf
+        result.identification[spec.name] = ident
+        modes = ident.modes
+        n_use = min(exp.n_modes, modes.n_modes)
+        if modes.n_modes < exp.n_modes:
+            result.problems.append(
+                f"configuration {spec.name!r}: only {modes.n_modes} modes identified, the FE "
+                f"stage needs {exp.n_modes}; {spec.name} is left out of Tables 2 and 6"
+            )
+        elif modes.n_modes > exp.n_modes:
+            result.notes.append(
+                f"{spec.name}: {modes.n_modes} modes identified, the lowest {exp.n_modes} are used"
+            )
+        result.measured[spec.name] = ModalParameters(
+            fn_hz=modes.fn_hz[:n_use],
+            zeta=modes.zeta[:n_use],
+            fn_std_hz=modes.fn_std_hz[:n_use],
+            zeta_std=modes.zeta_std[:n_use],
+            shapes=None if modes.shapes is None else modes.shapes[:, :n_use],
+            dofs=modes.dofs,
+            configuration=spec.name,
+        )
+        seconds = time.perf_counter() - start
+        result.seconds[f"identify_{spec.name}"] = seconds
+        freqs = ", ".join(f"{f:.2f}" for f in modes.fn_hz)
+        say(f"    {modes.n_modes} modes [{freqs}] Hz in {seconds:.1f} s")
+
+
+def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars: bool) -> None:
+    from ema_pipeline import fe
+
+    genuine = exp.genuine_name
+    complete = {n: m for n, m in result.measured.items() if m.n_modes >= exp.n_modes}
+    start = time.perf_counter()
+    say("[fe] initial model, update (differential evolution), SEREP, local added mass")
+    if genuine not in complete:
+        result.problems.append(
+            f"the genuine configuration {genuine!r} has no complete modal table: the model "
+            "update and the local added mass cannot be computed"
+        )
+    try:
+        stage = fe.run_fe_stage(
+            exp.beam,
+            complete,
+            genuine=genuine,
+            immersed_elements=exp.immersed_elements,
+            n_modes=exp.n_modes,
+            n_repeats=exp.update_repeats,
+            seed=exp.seed,
+            progress=progress_bars,
+        )
+    except EMAError as exc:
+        result.problems.append(f"FE stage: {exc}")
+        say(f"    failed: {exc}")
+        return
+    result.fe = stage
+    result.tables.update(fe.fe_tables(stage))
+    result.notes.extend(getattr(stage, "notes", []))
+    result.seconds["fe"] = time.perf_counter() - start
+    say(f"    done in {result.seconds['fe']:.1f} s")
+
+
+def run_study(
+    experiment: Experiment, *, progress: Progress | None = None, progress_bars: bool = False
+) -> StudyResult:
+    """Run identification, added mass and the FE stage for an experiment."""
+    say = progress or (lambda _msg: None)
+    result = StudyResult(experiment=experiment)
+    names = [c.name for c in experiment.configurations]
+    if experiment.genuine_name not in names:
+        raise ConfigError(f"genuine configuration {experiment.genuine_name!r} not in {names}")
+    start = time.perf_counter()
+    _identify_all(experiment, result, say)
+    result.tables["table1_modal_parameters"] = table1(result.measured)
+    _fe_stage(experiment, result, say, progress_bars)
+    result.seconds["total"] = time.perf_counter() - start
+    return result
+
+
+def _is_paper_experiment(exp: Experiment) -> bool:
+    beam = exp.beam
+    same_beam = np.allclose(
+        [beam.length_m, beam.width_m, beam.thickness_m, beam.youngs_modulus_pa, beam.density_kg_m3],
+        [
+            paper.TABLE4_INITIAL[k]
+            for k in ("length_m", "width_m", "thickness_m", "youngs_modulus_pa", "density_kg_m3")
+        ],
+    )
+    return same_beam and set(c.name for c in exp.configurations) <= set(paper.CONFIGURATIONS)
+
+
+def report_input(result: StudyResult):
+    """The :class:`~ema_pipeline.report.ReportInput` of a study."""
+    from ema_pipeline.report import ReportInput
+
+    exp = result.experiment
+    fe_x = fe_shapes = None
+    if result.fe is not None and getattr(result.fe, "updated_shapes", None) is not None:
+        fe_x, fe_shapes = result.fe.updated_node_x_m, result.fe.updated_shapes
+    sensors = np.array([exp.beam.node_x_m(n) for n in exp.response_nodes])
+    return ReportInput(
+        title=exp.name,
+        tables=result.tables,
+        frfs=result.frfs,
+        identification=result.identification,
+        genuine=exp.genuine_name,
+        fe_node_x_m=fe_x,
+        fe_shapes=fe_shapes,
+        sensor_x_m=sensors,
+        notes=result.notes,
+        problems=result.problems,
+        compare_with_paper=_is_paper_experiment(exp),
+    )
+
+
+def summary(result: StudyResult) -> dict[str, Any]:
+    """A JSON-able summary: modes, added mass, update, local added mass, problems."""
+    out: dict[str, Any] = {
+        "experiment": result.experiment.name,
+        "ok": result.ok,
+        "problems": result.problems,
+        "modes": {
+            name: {
+                "fn_hz": m.fn_hz.tolist(),
+                "fd_hz": m.fd_hz.tolist(),
+                "zeta_pct": (100 * m.zeta).tolist(),
+            }
+            for name, m in result.measured.items()
+        },
+        "seconds": {k: round(v, 3) for k, v in result.seconds.items()},
+    }
+    for name in ("table2_modal_added_mass", "table6_local_added_mass", "table5_fe_updated"):
+        if name in result.tables:
+            out[name] = json.loads(result.tables[name].to_json(orient="records"))
+    return out
+
+
+def _swap_in(tmp_dir: Path, results_dir: Path) -> None:
+    """Replace ``results_dir`` by the finished ``tmp_dir`` (two renames)."""
+    old = None
+    if results_dir.exists():
+        old = results_dir.with_name(f".{results_dir.name}.old-{os.getpid()}")
+        os.replace(results_dir, old)
+    os.replace(tmp_dir, results_dir)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def write_study(
+    result: StudyResult, results_dir: str | os.PathLike[str], say: Progress | None = None
+) -> list[Path]:
+    """Write tables, HDF5 store, figures and reports; returns the files written.
+
+    Everything goes to a temporary folder beside ``results_dir`` first, which
+    replaces ``results_dir`` only when complete.
+    """
+    from ema_pipeline import report
+
+    say = say or (lambda _msg: None)
+    results_dir = Path(results_dir).resolve()
+    results_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp_dir = Path(tempfile.mkdtemp(prefix=f".{results_dir.name}.partial-", dir=results_dir.parent))
+    try:
+        for name, table in result.tables.items():
+            io.write_csv(table, tmp_dir / "tables" / f"{name}.csv")
+        say("[report] figures")
+        rin = report_input(result)
+        figures = report.make_figures(rin)
+        for name, png in figures.items():
+            io.write_bytes(png, tmp_dir / "figures" / f"{name}.png")
+        io.write_text(report.render_markdown(rin, list(figures)), tmp_dir / "report.md")
+        io.write_text(report.render_html(rin, figures), tmp_dir / "report.html")
+        io.write_text(json.dumps(summary(result), indent=2) + "\n", tmp_dir / "summary.json")
+        say("[store] ema_results.h5")
+        io.write_results_h5(
+            {
+                "experiment": result.experiment,
+                "frf": result.frfs,
+                "identification": result.identification,
+                "tables": result.tables,
+                "fe": result.fe,
+                "problems": {f"{k}": p for k, p in enumerate(result.problems)},
+            },
+            tmp_dir / "ema_results.h5",
+        )
+        tmp_dir.chmod(0o755)
+        _swap_in(tmp_dir, results_dir)
+    except BaseException:
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+        raise
+    return sorted(p for p in results_dir.rglob("*") if p.is_file())
+
+
+def summary_text(result: StudyResult, results_dir: Path) -> str:
+    """The one-screen summary printed at the end of ``run``."""
+    lines = [f"ema-pipeline run: {result.experiment.name}", ""]
+    t1 = result.tables.get("table1_modal_parameters")
+    if t1 is not None and len(t1):
+        lines.append("modes (fd Hz / zeta %):")
+        for name, grp in t1.groupby("configuration", sort=False):
+            cells = "  ".join(f"{r.fd_hz:8.2f}/{r.zeta_pct:.3f}" for r in grp.itertuples())
+            lines.append(f"  {name:<14} {cells}")
+    t2 = result.tables.get("table2_modal_added_mass")
+    if t2 is not None and len(t2):
+        lines.append("modal added mass m_ar/m_r (eq. 10):")
+        for name, grp in t2.groupby("configuration", sort=False):
+            cells = "  ".join(f"{v:.4f}" for v in grp["added_mass_ratio"])
+            lines.append(f"  {name:<14} {cells}")
+    t6 = result.tables.get("table6_local_added_mass")
+    if t6 is not None and len(t6):
+        lines.append("local added mass (eq. 20):")
+        for r in t6.itertuples():
+            lines.append(
+                f"  {r.configuration:<14} {r.method:<10} delta_k = {r.delta_k:+.4f}  "
+                f"delta_m = {r.delta_m:+.4f}"
+            )
+    for note in result.notes:
+        lines.append(f"note: {note}")
+    for problem in result.problems:
+        lines.append(f"PROBLEM: {problem}")
+    lines.append(f"results in {results_dir} ({result.seconds.get('total', 0):.1f} s)")
+    return "\n".join(lines)
