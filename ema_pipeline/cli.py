@@ -151,33 +151,30 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_fe(args: argparse.Namespace) -> int:
-    from ema_pipeline import fe, io
-    from ema_pipeline.data import Experiment
+    from ema_pipeline import added_mass, io
+    from ema_pipeline.data import Beam
     from ema_pipeline.pipeline import study
 
-    if args.experiment is not None:
-        experiment = study.load_experiment(args.experiment)
-    else:
-        default = Path(__file__).resolve().parents[1] / "raw_frf" / "experiment.toml"
-        experiment = study.load_experiment(default) if default.is_file() else None
+    experiment_path = args.experiment
+    if experiment_path is None:
+        default = Path("raw_frf") / "experiment.toml"
+        experiment_path = default if default.is_file() else None
+    experiment = None if experiment_path is None else study.load_experiment(experiment_path)
     table = io.read_csv(args.table1, required=("configuration", "mode", "fd_hz", "zeta_pct"))
-    measured = fe.measured_from_table1(table, source=str(args.table1))
-    if experiment is None:
-        from ema_pipeline.data import Beam
-
-        experiment = Experiment(name="fe", beam=Beam(), configurations=())
-    genuine = experiment.genuine if experiment.configurations else "genuine"
-    stage = fe.run_fe_stage(
-        experiment.beam,
+    genuine = experiment.genuine_name if experiment else "genuine"
+    measured = added_mass.modal_parameters_from_table(
+        table, genuine=genuine, source=str(args.table1)
+    )
+    stage = added_mass.run_fe_stage(
+        experiment.beam if experiment else Beam(),
         measured,
         genuine=genuine,
-        immersed_elements=experiment.immersed_elements,
-        n_modes=experiment.n_modes,
-        n_repeats=experiment.update_repeats,
-        seed=experiment.seed,
+        immersed_elements=experiment.immersed_elements if experiment else (10,),
+        n_repeats=experiment.update_repeats if experiment else 5,
+        seed=experiment.seed if experiment else 0,
         progress=not args.quiet,
     )
-    for name, frame in fe.fe_tables(stage).items():
+    for name, frame in added_mass.fe_stage_tables(stage).items():
         path = io.write_csv(frame, args.out / f"{name}.csv")
         if not args.quiet:
             print(f"wrote {path}")

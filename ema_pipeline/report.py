@@ -43,8 +43,8 @@ class ReportInput:
 
     ``tables`` are the six result tables in DESIGN.md form (any may be missing);
     ``frfs`` and ``identification`` are keyed by configuration name;
-    ``fe_node_x_m``/``fe_shapes`` (n_points, n_modes) the updated FE mode shapes
-    along the beam, ``sensor_x_m`` the accelerometer positions;
+    ``fe_node_x``/``fe_shapes`` (n_points, n_modes) the updated FE mode shapes
+    along the beam and ``sensor_x`` the accelerometer positions, both as x/L;
     ``compare_with_paper`` adds the paper's values and deviations to the tables.
     """
 
@@ -53,9 +53,9 @@ class ReportInput:
     frfs: dict[str, FRFSet] = field(default_factory=dict)
     identification: dict[str, Any] = field(default_factory=dict)
     genuine: str = "genuine"
-    fe_node_x_m: np.ndarray | None = None
+    fe_node_x: np.ndarray | None = None
     fe_shapes: np.ndarray | None = None
-    sensor_x_m: np.ndarray | None = None
+    sensor_x: np.ndarray | None = None
     notes: list[str] = field(default_factory=list)
     problems: list[str] = field(default_factory=list)
     compare_with_paper: bool = True
@@ -137,7 +137,7 @@ def figure_frf_overlay(
     frfs: Mapping[str, FRFSet], zoom_hz: tuple[float, float] | None = None, title: str = ""
 ) -> bytes:
     """|H| of the first response of every configuration, overlaid (paper Fig. 4/5)."""
-    fig = Figure(figsize=(8.0, 4.2))
+    fig = Figure(figsize=(8.0, 4.2), layout="constrained")
     ax = fig.add_subplot()
     for k, (name, frf) in enumerate(frfs.items()):
         f = frf.freq_hz
@@ -162,7 +162,7 @@ def figure_stabilization(result: Any, frf: FRFSet, title: str) -> bytes:
     """Stabilization diagram over the FRF sum, selected modes marked."""
     from ema_pipeline.identification.stabilization import plot_stabilization
 
-    fig = Figure(figsize=(8.0, 4.6))
+    fig = Figure(figsize=(8.0, 4.6), layout="constrained")
     ax = fig.add_subplot()
     lo, hi = result.settings.band_hz
     band = frf.band(lo, hi)
@@ -183,7 +183,7 @@ def figure_fit_quality(result: Any, frf: FRFSet, title: str) -> bytes:
 
     lo, hi = result.settings.band_hz
     H = frf.band(lo, hi).H
-    fig = Figure(figsize=(8.0, 3.0 * H.shape[0]))
+    fig = Figure(figsize=(8.0, 3.2 * H.shape[0]), layout="constrained")
     for o in range(H.shape[0]):
         ax = fig.add_subplot(H.shape[0], 1, o + 1)
         plot_fit_quality(ax, result, H, o, 0)
@@ -192,48 +192,52 @@ def figure_fit_quality(result: Any, frf: FRFSet, title: str) -> bytes:
 
 
 def figure_mode_shapes(
-    fe_x_m: np.ndarray,
+    fe_x: np.ndarray,
     fe_shapes: np.ndarray,
-    sensor_x_m: np.ndarray,
+    sensor_x: np.ndarray,
     measured: Mapping[str, np.ndarray],
 ) -> bytes:
     """Measured mode shapes at the sensors against the updated FE shapes.
 
-    ``measured[config]`` is (n_sensors, n_modes) real-normalised; each measured
-    shape is scaled onto the FE shape at the sensors by least squares, so only
-    the shape (ratio between sensors and sign) is compared.
+    Positions are relative, x/L (0 = clamp, 1 = tip), so that the updated beam
+    length and the measurement mesh line up. ``measured[config]`` is
+    (n_sensors, n_modes) real-normalised; each measured shape is scaled onto the
+    FE shape at the sensors by least squares, so only the shape (ratio between
+    sensors and sign) is compared.
     """
     n_modes = fe_shapes.shape[1]
-    fig = Figure(figsize=(8.0, 2.2 * n_modes))
+    fig = Figure(figsize=(8.0, 2.2 * n_modes), layout="constrained")
     for r in range(n_modes):
         ax = fig.add_subplot(n_modes, 1, r + 1)
         shape = fe_shapes[:, r] / np.max(np.abs(fe_shapes[:, r]))
-        ax.plot(fe_x_m, shape, color="0.3", lw=1.2, label="FE (updated)")
-        at_sensors = np.interp(sensor_x_m, fe_x_m, shape)
+        ax.plot(fe_x, shape, color="0.3", lw=1.2, label="FE (updated)")
+        at_sensors = np.interp(sensor_x, fe_x, shape)
         for k, (name, phi) in enumerate(measured.items()):
             if phi.shape[1] <= r:
                 continue
             m = np.real(phi[:, r])
             scale = float(m @ at_sensors / max(m @ m, 1e-300))
             ax.plot(
-                sensor_x_m,
+                sensor_x,
                 scale * m,
-                "o",
+                "osD^v<>"[k % 7],
+                ms=9 - 2 * min(k, 3),
                 color=_COLORS[k % len(_COLORS)],
                 label=name.replace("_", " "),
+                linestyle="none",
             )
         ax.axhline(0, color="0.8", lw=0.8)
         ax.set_ylabel(f"mode {r + 1}")
         if r == 0:
             ax.legend(fontsize=8, ncols=4)
-    ax.set_xlabel("x / m (0 = clamp)")
+    ax.set_xlabel("x / L (0 = clamp, 1 = tip)")
     fig.suptitle("Mode shapes: measured at the sensors vs updated FE")
     return _png(fig)
 
 
 def figure_added_mass(table2: pd.DataFrame) -> bytes:
     """Modal added-mass ratio per mode with +-1 sigma error bars and the paper's values."""
-    fig = Figure(figsize=(7.0, 4.0))
+    fig = Figure(figsize=(7.0, 4.0), layout="constrained")
     ax = fig.add_subplot()
     configs = list(dict.fromkeys(table2["configuration"]))
     width = 0.8 / max(len(configs), 1)
@@ -290,10 +294,10 @@ def make_figures(report: ReportInput) -> dict[str, bytes]:
         figures[f"fit_{name}"] = figure_fit_quality(
             result, frf, f"LSFD fit - {name.replace('_', ' ')}"
         )
-    if report.fe_shapes is not None and report.sensor_x_m is not None and report.identification:
+    if report.fe_shapes is not None and report.sensor_x is not None and report.identification:
         measured = {n: r.shapes_real for n, r in report.identification.items()}
         figures["mode_shapes"] = figure_mode_shapes(
-            report.fe_node_x_m, report.fe_shapes, report.sensor_x_m, measured
+            report.fe_node_x, report.fe_shapes, report.sensor_x, measured
         )
     if "table2_modal_added_mass" in report.tables and len(report.tables["table2_modal_added_mass"]):
         figures["modal_added_mass"] = figure_added_mass(report.tables["table2_modal_added_mass"])
