@@ -1,0 +1,269 @@
+"""Poly-reference least-squares complex-frequency (pLSCF, "PolyMAX") pole estimation.
+
+Model (right matrix fraction, z-domain, real matrix coefficients)::
+
+    H_o(w) = B_o(z) A(z)^-1,   A(z) = sum_{j=0}^{n} alpha_j z^j,   B_o(z) = sum_j beta_oj z^j,
+    z = exp(1j * w * dt),      dt = 1 / (2 * f_hi)
+
+``H_o`` is the 1 x n_in row of output o, ``alpha_j`` real n_in x n_in, ``beta_oj``
+real 1 x n_in. The sampling time is that of the **band top** ``f_hi`` (the
+highest frequency line used), so [0, f_hi] maps onto the upper half of the unit
+circle and the real coefficients supply the mirrored half. Poles are
+``lambda = ln(z) / dt``.
+
+Linearised least squares: with the weighted basis rows
+``Gamma_o(k) = w_ok [z_k^0 .. z_k^p]`` and ``Upsilon_o(k) = -w_ok [z_k^0 .. z_k^p] kron H_o(k)``,
+
+    R_o = Re(Gamma_o^H Gamma_o),  S_o = Re(Gamma_o^H Upsilon_o),  T_o = Re(Upsilon_o^H Upsilon_o)
+    M   = 2 sum_o (T_o - S_o^T R_o^-1 S_o)
+
+and the denominator minimises ``alpha^T M alpha`` with the top coefficient fixed
+to the identity. Every entry of R, S and T depends only on the lag ``l - j``:
+
+    R[j, l] = Re sum_k w^2 z_k^(l-j),   S[j, (l, b)] = -Re sum_k w^2 H_b z_k^(l-j),
+    T[(j, a), (l, b)] = Re sum_k w^2 conj(H_a) H_b z_k^(l-j)
+
+so the lag sums for all lags -p..p come from one inverse FFT per data channel
+(when the lines are integer multiples of the line spacing, as from any FFT
+analyser; otherwise from one matrix product).
+
+M is built once, for the highest order p, with the numerator at order p. The
+normal equations of a lower denominator order n are its leading
+(n+1) n_in block (numerator order stays p). With the Cholesky factor M = L L^T
+and U = L^-T, column block n of U solves the leading block system, so the
+denominators of *all* orders come from one Cholesky factorisation and one
+triangular inverse:
+
+    [alpha_0; ...; alpha_n] = U[:(n+1) n_in, blk n] @ U[blk n, blk n]^-1   (alpha_n = I)
+
+Poles are the eigenvalues of the block companion matrix of ``alpha^T``; the
+participation vector ``l_r`` of pole ``z_r`` is the null vector of
+``A(z_r)^T`` (l_r^T A(z_r) = 0), found by a small SVD per pole.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+
+from ema_pipeline.data import DataError
+
+
+@dataclass(frozen=True)
+class PoleSet:
+    """Poles of the pLSCF models of every computed order (flattened).
+
+    Attributes
+    ----------
+    order : (n_poles,) int
+        Polynomial (denominator) order n of the model the pole belongs to.
+    pole : (n_poles,) complex
+        Continuous-time pole lambda = -sigma + 1j*omega_d in rad/s (as identified,
+        i.e. of the possibly windowed FRFs), Im > 0 only.
+    participation : (n_poles, n_in) complex
+        Participation vector (unit norm; 1 for a single reference).
+    orders : (n_orders,) int
+        The orders computed.
+    dt : float
+        Sampling time of the z-domain model in s.
+    """
+
+    order: np.ndarray
+    pole: np.ndarray
+    participation: np.ndarray
+    orders: np.ndarray
+    dt: float
+
+
+def _lag_sums(freq_hz: np.ndarray, C: np.ndarray, dt: float, p: int) -> np.ndarray:
+    """g[..., p + m] = sum_k C[..., k] exp(1j * 2 pi f_k dt m) for m = -p..p.
+
+    Uses one inverse FFT per channel when f_k * 2 dt * L is an integer grid
+    (FFT analyser lines), else one matrix product.
+    """
+    lags = np.arange(-p, p + 1)
+    df = freq_hz[1] - freq_hz[0]
+    bins = freq_hz / df
+    n_hi = 1.0 / (2.0 * dt * df)  # f_hi / df
+    on_grid = (
+        np.allclose(bins, np.round(bins), rtol=0, atol=1e-6)
+        and abs(n_hi - round(n_hi)) < 1e-6
+    )
+    if on_grid:
+        L = 2 * int(round(n_hi))
+        if L >= 2 * p + 1:
+            full = np.zeros(C.shape[:-1] + (L,), dtype=complex)
+            full[..., np.round(bins).astype(int) % L] = C
+            g = np.fft.ifft(full, axis=-1) * L
+            return g[..., lags % L]
+    E = np.exp(1j * 2 * np.pi * dt * np.outer(freq_hz, lags))
+    return C @ E
+
+
+def plscf_normal_matrix(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    max_order: int,
+    dt: float,
+    weights: np.ndarray | None = None,
+) -> np.ndarray:
+    """Reduced normal matrix M of pLSCF for denominator and numerator order ``max_order``.
+
+    Parameters
+    ----------
+    freq_hz : (n_freq,) frequency lines in Hz.
+    H : (n_out, n_in, n_freq) complex FRFs.
+    max_order : highest polynomial order p.
+    dt : sampling time of the z-domain basis in s.
+    weights : (n_freq,) or (n_out, n_freq) real, optional
+        Weight w_ok of each line; ``None`` = 1. With weights per output the
+        matrices R_o differ per output and are factorised one by one.
+
+    Returns
+    -------
+    M : ((p+1) n_in, (p+1) n_in) real symmetric, M = 2 sum_o (T_o - S_o^T R_o^-1 S_o).
+    """
+    n_out, n_in, _ = H.shape
+    p = int(max_order)
+    q = p + 1
+    idx = (np.arange(q)[None, :] - np.arange(q)[:, None]) + p  # lag l - j
+    if weights is None:
+        w2 = np.ones(freq_hz.size)
+    else:
+        w2 = np.asarray(weights, dtype=float) ** 2
+    per_output = w2.ndim == 2
+    w2o = w2 if per_output else w2[None, :]
+
+    # S: lag sums of w^2 H_ob   -> (n_out, n_in, 2p+1)
+    s = _lag_sums(freq_hz, w2o[:, None, :] * H, dt, p)
+    S = -np.real(s[:, :, idx])  # (n_out, n_in, q, q) [o, b, j, l]
+    S = S.transpose(0, 2, 3, 1).reshape(n_out, q, q * n_in)  # [o, j, (l, b)]
+    # T summed over outputs (the Toeplitz structure is linear): (n_in, n_in, 2p+1)
+    HH = np.einsum("oak,obk->abk", np.conj(H) * w2o[:, None, :], H)
+    t = _lag_sums(freq_hz, HH, dt, p)
+    T = np.real(t[:, :, idx])  # [a, b, j, l]
+    T = T.transpose(2, 0, 3, 1).reshape(q * n_in, q * n_in)
+    # R and the Schur complement
+    r = _lag_sums(freq_hz, w2o.astype(complex), dt, p)  # (n_out or 1, 2p+1)
+    R = np.real(r[:, idx])  # (n_out or 1, q, q)
+    if per_output:
+        X = np.stack([linalg.solve_triangular(np.linalg.cholesky(R[o]), S[o], lower=True)
+                      for o in range(n_out)])
+    else:
+        Lr = np.linalg.cholesky(R[0])
+        X = linalg.solve_triangular(Lr, S.transpose(1, 0, 2).reshape(q, -1), lower=True)
+        X = X.reshape(q, n_out, q * n_in).transpose(1, 0, 2)
+    Xs = X.reshape(n_out * q, q * n_in)
+    M = 2.0 * (T - Xs.T @ Xs)
+    return 0.5 * (M + M.T)
+
+
+def plscf_denominators(M: np.ndarray, n_in: int, orders: np.ndarray) -> list[np.ndarray]:
+    """Denominator coefficients for every order from one Cholesky factorisation.
+
+    Returns a list of arrays ``alpha`` of shape (n+1, n_in, n_in), alpha[n] = I,
+    one per requested order n (1 <= n <= p).
+    """
+    d = np.sqrt(np.clip(np.diag(M), np.finfo(float).tiny, None))
+    Ms = M / d[:, None] / d[None, :]
+    jitter = 0.0
+    for _ in range(8):
+        try:
+            L = np.linalg.cholesky(Ms + jitter * np.eye(Ms.shape[0]))
+            break
+        except np.linalg.LinAlgError:
+            jitter = 1e-14 if jitter == 0 else jitter * 100
+    else:  # pragma: no cover - M with NaN would fail earlier
+        raise DataError("pLSCF normal equations are singular (constant or all-zero FRFs?)")
+    U, info = linalg.lapack.dtrtri(L.T, lower=0)
+    if info != 0:  # pragma: no cover
+        raise DataError("pLSCF normal equations are singular")
+    U = U / d[:, None]  # undo the diagonal scaling: U = L^-T of the unscaled M
+    out = []
+    for n in orders:
+        blk = slice(n * n_in, (n + 1) * n_in)
+        col = U[: (n + 1) * n_in, blk]
+        alpha = col @ np.linalg.inv(col[blk])
+        out.append(alpha.reshape(n + 1, n_in, n_in))
+    return out
+
+
+def companion_poles(alpha: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Discrete poles z and continuous poles ln(z)/dt of a monic matrix polynomial.
+
+    alpha : (n+1, n_in, n_in) with alpha[n] = I. The block companion of alpha^T
+    has the poles as eigenvalues.
+    """
+    n = alpha.shape[0] - 1
+    n_in = alpha.shape[1]
+    N = n * n_in
+    C = np.zeros((N, N))
+    if N > n_in:
+        C[: N - n_in, n_in:] = np.eye(N - n_in)
+    C[N - n_in :, :] = -np.concatenate([alpha[j].T for j in range(n)], axis=1)
+    z = np.linalg.eigvals(C)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.log(z.astype(complex)) / dt
+    return z, lam
+
+
+def participation_vectors(alpha: np.ndarray, z: np.ndarray) -> np.ndarray:
+    """Unit participation vectors l_r with l_r^T A(z_r) = 0 (null vector of A^T)."""
+    n_in = alpha.shape[1]
+    if n_in == 1:
+        return np.ones((z.size, 1), dtype=complex)
+    powers = z[:, None] ** np.arange(alpha.shape[0])[None, :]  # (n_poles, n+1)
+    A = np.einsum("rj,jab->rab", powers, alpha)
+    _, _, vh = np.linalg.svd(np.swapaxes(A, 1, 2))
+    return vh[:, -1, :].conj()
+
+
+def plscf(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    *,
+    max_order: int,
+    orders: np.ndarray | None = None,
+    weights: np.ndarray | None = None,
+    dt: float | None = None,
+) -> PoleSet:
+    """pLSCF poles of every model order from one normal-matrix build.
+
+    Parameters
+    ----------
+    freq_hz : (n_freq,) band lines in Hz (already restricted to the band).
+    H : (n_out, n_in, n_freq) complex FRFs in that band.
+    max_order : highest denominator order p (the model has p * n_in poles).
+    orders : orders to solve (default 1..p).
+    weights : (n_freq,) or (n_out, n_freq) line weights, optional.
+    dt : z-domain sampling time; default 1 / (2 * freq_hz[-1]) (band top).
+
+    Returns
+    -------
+    PoleSet with the poles of positive frequency below the band top.
+    """
+    n_out, n_in, n_freq = H.shape
+    p = int(max_order)
+    if dt is None:
+        dt = 1.0 / (2.0 * freq_hz[-1])
+    orders = np.arange(1, p + 1) if orders is None else np.asarray(orders, dtype=int)
+    M = plscf_normal_matrix(freq_hz, H, p, dt, weights)
+    alphas = plscf_denominators(M, n_in, orders)
+    f_top = freq_hz[-1]
+    o_list, l_list, p_list = [], [], []
+    for n, alpha in zip(orders, alphas, strict=True):
+        z, lam = companion_poles(alpha, dt)
+        keep = np.isfinite(lam) & (lam.imag > 0) & (lam.imag < 2 * np.pi * f_top * 0.9999)
+        z, lam = z[keep], lam[keep]
+        o_list.append(np.full(lam.size, n))
+        l_list.append(lam)
+        p_list.append(participation_vectors(alpha, z))
+    return PoleSet(
+        order=np.concatenate(o_list),
+        pole=np.concatenate(l_list),
+        participation=np.concatenate(p_list, axis=0),
+        orders=orders,
+        dt=float(dt),
+    )
