@@ -118,7 +118,8 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress) -> None:
         if modes.n_modes < exp.n_modes:
             result.problems.append(
                 f"configuration {spec.name!r}: only {modes.n_modes} modes identified, the FE "
-                f"stage needs {exp.n_modes}; {spec.name} is left out of Tables 2 and 6"
+                f"stage needs {exp.n_modes}"
+                + ("" if spec.name == exp.genuine_name else "; the missing ones are paired as such")
             )
         elif modes.n_modes > exp.n_modes:
             result.notes.append(
@@ -143,13 +144,15 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
     from ema_pipeline import added_mass, fe
 
     genuine = exp.genuine_name
-    complete = {n: m for n, m in result.measured.items() if m.n_modes >= exp.n_modes}
+    # The genuine state defines the mode numbers and must be complete; a modified
+    # state with fewer modes is still used: its missing modes are reported as such.
+    usable = {n: m for n, m in result.measured.items() if m.n_modes >= exp.n_modes or n != genuine}
     start = time.perf_counter()
     say(
         "[fe] modal added mass, initial FE model, update (differential evolution), SEREP, "
         "local added mass"
     )
-    if genuine not in complete:
+    if genuine not in usable:
         result.problems.append(
             f"the genuine configuration {genuine!r} has no complete modal table: Tables 2-6 "
             "need it; only Table 3 (initial FE model) is computed"
@@ -164,7 +167,7 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
     try:
         stage = added_mass.run_fe_stage(
             exp.beam,
-            complete,
+            usable,
             genuine=genuine,
             immersed_elements=exp.immersed_elements,
             n_repeats=exp.update_repeats,

@@ -1,0 +1,248 @@
+"""`ema-pipeline run`: the whole study on the shipped example and on a second
+experiment, against the paper's tables and the simulated truth."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from html.parser import HTMLParser
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+from ema_pipeline import acquisition, io, paper
+from ema_pipeline.cli import main
+from ema_pipeline.data import Beam
+
+TABLES = {
+    "table1_modal_parameters": ["configuration", "mode", "fd_hz", "zeta_pct"],
+    "table2_modal_added_mass": ["configuration", "mode", "added_mass_ratio"],
+    "table3_fe_initial": ["mode", "fn_hz"],
+    "table4_updated_parameters": ["parameter", "unit", "initial", "updated", "lower", "upper"],
+    "table5_fe_updated": ["mode", "fn_hz"],
+    "table6_local_added_mass": ["configuration", "method", "delta_k", "delta_m"],
+}
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory, example_dir) -> Path:
+    results = tmp_path_factory.mktemp("study") / "results"
+    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--quiet"]) == 0
+    return results
+
+
+def _table(results: Path, name: str) -> pd.DataFrame:
+    table = pd.read_csv(results / "tables" / f"{name}.csv")
+    assert list(table.columns[: len(TABLES[name])]) == TABLES[name]
+    return table
+
+
+def test_table1_reproduces_the_paper(study):
+    t1 = _table(study, "table1_modal_parameters")
+    for cfg in paper.CONFIGURATIONS:
+        rows = t1[t1["configuration"] == cfg].sort_values("mode")
+        assert len(rows) == 4
+        np.testing.assert_allclose(rows["fd_hz"], paper.TABLE1_FD_HZ[cfg], atol=0.02)
+        np.testing.assert_allclose(rows["zeta_pct"] / 100, paper.TABLE1_ZETA[cfg], rtol=0.05)
+
+
+def test_table2_and_table6_reproduce_the_paper(study):
+    t2 = _table(study, "table2_modal_added_mass")
+    for cfg, ratios in paper.TABLE2_RATIO.items():
+        got = t2[t2["configuration"] == cfg].sort_values("mode")["added_mass_ratio"]
+        np.testing.assert_allclose(got, ratios, atol=0.002)
+    t6 = _table(study, "table6_local_added_mass")
+    block = t6[t6["method"] == "block"].set_index("configuration")
+    for cfg, ref in paper.TABLE6.items():
+        assert block.loc[cfg, "delta_m"] == pytest.approx(ref["delta_m"], rel=0.05)
+        assert abs(block.loc[cfg, "delta_k"]) <= 0.005
+    assert set(t6["method"]) == {"block", "projected"}
+
+
+def test_fe_tables_reproduce_the_paper(study):
+    np.testing.assert_allclose(_table(study, "table3_fe_initial")["fn_hz"], paper.TABLE3_FN_HZ,
+                               atol=0.01)
+    t5 = _table(study, "table5_fe_updated")
+    np.testing.assert_allclose(t5["fn_hz"], paper.TABLE5_FN_HZ, rtol=0.02)
+    t4 = _table(study, "table4_updated_parameters")
+    params = t4.set_index("parameter")
+    for name in ("length", "width", "thickness", "youngs_modulus", "density"):
+        row = params.loc[name]
+        assert row["lower"] <= row["updated"] <= row["upper"]
+
+
+class _Collector(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.images: list[str] = []
+        self.ids: set[str] = set()
+        self.external: list[str] = []
+        self.tables = 0
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if "id" in a:
+            self.ids.add(a["id"])
+        if tag == "img":
+            self.images.append(a.get("src", ""))
+        if tag == "table":
+            self.tables += 1
+        for key in ("src", "href"):
+            if key in a and not str(a[key]).startswith(("data:", "#")):
+                self.external.append(a[key])
+        if tag in ("link", "script") and (a.get("src") or a.get("href")):
+            self.external.append(tag)
+
+
+def test_html_report_is_self_contained_with_every_figure_and_table(study):
+    parser = _Collector()
+    parser.feed((study / "report.html").read_text())
+    pngs = sorted(p.stem for p in (study / "figures").glob("*.png"))
+    assert {"fig4_frf_overlay", "fig5_zoom_mode2", "mode_shapes", "modal_added_mass",
+            "stabilization_genuine", "stabilization_larger_tank",
+            "stabilization_smaller_tank"} <= set(pngs)
+    assert len(parser.images) == len(pngs)
+    assert all(src.startswith("data:image/png;base64,") and len(src) > 1000
+               for src in parser.images)
+    assert {f"fig-{p}" for p in pngs} <= parser.ids
+    assert set(TABLES) <= parser.ids and parser.tables >= 6
+    assert parser.external == []
+    md = (study / "report.md").read_text()
+    assert all(f"figures/{p}.png" in md for p in pngs)
+    assert "paper_fd_hz" in md and "dev_fd_hz" in md  # printed beside the paper's values
+
+
+def test_results_store_and_summary(study):
+    with h5py.File(study / "ema_results.h5") as h5:
+        assert h5.attrs["schema"] == "ema-pipeline/results" and h5.attrs["complete"]
+        assert set(h5["frf"]) == set(paper.CONFIGURATIONS)
+        assert h5["identification/genuine/stabilization/order"].size > 100
+        assert "update" in h5["fe"] and "tables" in h5
+    summary = json.loads((study / "summary.json").read_text())
+    assert summary["ok"] and summary["problems"] == []
+    assert summary["modes"]["genuine"]["fd_hz"][0] == pytest.approx(18.14, abs=0.02)
+
+
+def test_rerun_is_reproducible_and_replaces_the_folder(study, tmp_path, example_dir):
+    again = tmp_path / "results"
+    shutil.copytree(study, again)
+    (again / "stale.txt").write_text("from an older run")
+    assert main(["run", "--raw", str(example_dir), "--results", str(again), "--quiet"]) == 0
+    assert not (again / "stale.txt").exists()
+    for name in TABLES:
+        assert (again / "tables" / f"{name}.csv").read_bytes() == (
+            study / "tables" / f"{name}.csv"
+        ).read_bytes(), name
+    assert not list(tmp_path.glob(".results.*"))  # no temporary folders left
+
+
+# ----------------------------------------------------------- bad experiments
+
+
+def _copy_example(example_dir: Path, dest: Path) -> Path:
+    shutil.copytree(example_dir, dest)
+    return dest / "experiment.toml"
+
+
+def test_missing_frf_file_is_reported_and_the_rest_written(tmp_path, example_dir, capsys):
+    toml = _copy_example(example_dir, tmp_path / "raw")
+    (tmp_path / "raw" / "smaller_tank.uff").unlink()
+    code = main(["run", "--raw", str(tmp_path / "raw"), "--results", str(tmp_path / "res"),
+                 "--json"])
+    assert code == 1
+    out = json.loads(capsys.readouterr().out)
+    assert any("smaller_tank" in p and "no such file" in p for p in out["problems"])
+    t1 = pd.read_csv(tmp_path / "res" / "tables" / "table1_modal_parameters.csv")
+    assert set(t1["configuration"]) == {"genuine", "larger_tank"}
+    t6 = pd.read_csv(tmp_path / "res" / "tables" / "table6_local_added_mass.csv")
+    assert set(t6["configuration"]) == {"larger_tank"}
+    assert "no such file" in (tmp_path / "res" / "report.html").read_text()
+    assert toml.exists()
+
+
+def test_unknown_configuration_name_is_a_usage_error(tmp_path, example_dir, capsys):
+    toml = _copy_example(example_dir, tmp_path / "raw")
+    toml.write_text(toml.read_text().replace('genuine = "genuine"', 'genuine = "in_air"'))
+    assert main(["run", "--raw", str(tmp_path / "raw"), "--results", str(tmp_path / "r")]) == 2
+    assert "genuine configuration 'in_air' is not among" in capsys.readouterr().err
+    assert not (tmp_path / "r").exists()
+
+
+def test_too_few_modes_for_the_fe_stage(tmp_path, example_dir, capsys):
+    toml = _copy_example(example_dir, tmp_path / "raw")
+    toml.write_text(toml.read_text().replace("n_modes = 4", "n_modes = 6"))
+    code = main(["run", "--raw", str(tmp_path / "raw"), "--results", str(tmp_path / "res"),
+                 "--quiet"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "the FE stage needs 6" in err
+    tables = {p.stem for p in (tmp_path / "res" / "tables").glob("*.csv")}
+    assert {"table1_modal_parameters", "table3_fe_initial"} <= tables
+    assert (tmp_path / "res" / "report.html").exists()
+
+
+# ----------------------------------------------------- a second experiment
+
+SECOND_RATIOS = np.array([0.20, 0.15, 0.10, 0.08, 0.06, 0.05])
+
+
+@pytest.fixture(scope="module")
+def second_experiment(tmp_path_factory) -> Path:
+    """A 0.9 m beam, sensors at nodes 4 and 9, hammer at node 7, six modes in the
+    band, two immersed elements; the modified state has known modal added mass."""
+    raw = tmp_path_factory.mktemp("second")
+    beam = Beam(length_m=0.9)
+    setup = acquisition.TestSetup(beam=beam, response_nodes=(4, 9), hammer_node=7)
+    fn_air, _ = acquisition.cantilever_modes(beam, np.array([0.0]), 6)
+    fn_air = fn_air * 0.97
+    zeta = np.array([0.005, 0.004, 0.003, 0.003, 0.0035, 0.004])
+    truth = {"air": fn_air, "pond": fn_air / np.sqrt(1 + SECOND_RATIOS)}
+    for k, (name, fn) in enumerate(truth.items()):
+        fd = fn * np.sqrt(1 - zeta**2)
+        modes = acquisition.configuration_modes(name, fd_hz=fd, zeta=zeta, n_modes_total=9)
+        frf = acquisition.simulate_impact_test(modes, setup, seed=20 + k)
+        frf.configuration = name
+        io.write_frf(frf, raw / ("air.h5" if name == "air" else "pond.uff"))
+    (raw / "experiment.toml").write_text(
+        """
+[experiment]
+name = "Second beam: 0.9 m, two immersed elements"
+genuine = "air"
+[beam]
+length_m = 0.9
+[sensors]
+response_nodes = [4, 9]
+hammer_node = 7
+[identification]
+band_hz = [4.0, 950.0]
+[fe]
+immersed_elements = [9, 10]
+n_modes = 6
+update_repeats = 2
+[[configurations]]
+name = "air"
+file = "air.h5"
+[[configurations]]
+name = "pond"
+file = "pond.uff"
+"""
+    )
+    return raw
+
+
+def test_second_experiment_runs_without_code_change(second_experiment, tmp_path):
+    res = tmp_path / "res"
+    assert main(["run", "--raw", str(second_experiment), "--results", str(res), "--quiet"]) == 0
+    t1 = pd.read_csv(res / "tables" / "table1_modal_parameters.csv")
+    assert sorted(set(t1["configuration"])) == ["air", "pond"]
+    assert (t1.groupby("configuration").size() == 6).all()
+    t2 = pd.read_csv(res / "tables" / "table2_modal_added_mass.csv")
+    np.testing.assert_allclose(t2.sort_values("mode")["added_mass_ratio"], SECOND_RATIOS,
+                               atol=0.002)
+    t6 = pd.read_csv(res / "tables" / "table6_local_added_mass.csv")
+    assert sorted(set(t6["element"])) == [9, 10] and len(t6) == 4  # 2 elements x 2 methods
+    html = (res / "report.html").read_text()
+    assert "Second beam" in html and "paper_fd_hz" not in html  # no paper comparison here
