@@ -82,7 +82,7 @@ import signal
 import sys
 import threading
 import time
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass, field
@@ -345,8 +345,11 @@ class _LocalBackend:
 
     can_restart = True
 
-    def __init__(self, workers: int) -> None:
+    def __init__(
+        self, workers: int, process: Callable[[FileTask], FileRecord] = process_file
+    ) -> None:
         self.concurrency = workers
+        self._process = process
         self.label = f"{workers} local process{'es' if workers > 1 else ''}"
         self._env = contextlib.ExitStack()
         self._env.enter_context(_single_threaded_children())
@@ -361,7 +364,7 @@ class _LocalBackend:
         )
 
     def submit(self, task: FileTask) -> cf.Future[FileRecord]:
-        return self._executor.submit(process_file, task)
+        return self._executor.submit(self._process, task)
 
     def restart(self) -> None:
         self._terminate()
@@ -657,6 +660,131 @@ class _Slot:
     attempts: int = 1
 
 
+#: Abort when the worker pool dies this many times in a row without finishing a file.
+_MAX_BREAKS = 5
+
+
+class _Loop:
+    """The streaming loop over one backend: fill the window, collect the
+    finished tasks, write the rows in input order.
+
+    After the process pool dies, the tasks that were in it are retried one at
+    a time (the pool holds only that task), so a file that kills its worker is
+    found and recorded as failed, and the others are not blamed.
+    """
+
+    def __init__(
+        self,
+        tasks: Iterator[FileTask],
+        report: BatchReport,
+        backend: _Backend,
+        summary: Any,
+        failures: Any,
+        bar: tqdm,
+    ) -> None:
+        self.tasks, self.report, self.backend = tasks, report, backend
+        self.summary, self.failures, self.bar = summary, failures, bar
+        self.window = 2 * backend.concurrency
+        self.running: dict[cf.Future[FileRecord], _Slot] = {}
+        self.buffer: dict[int, FileRecord | None] = {}  # finished, unwritten (None: not run)
+        self.retry: deque[_Slot] = deque()
+        self.next_submit = self.next_write = 0
+        self.breaks = 0  # pool deaths since a file last finished
+        self.stopping = False
+
+    def run(self, stop: _StopRequest) -> None:
+        """Until every file is written (or, after a stop request, all running ones)."""
+        n = self.report.n_files
+        while True:
+            if stop.requested and not self.stopping:
+                self._stop()
+            self._fill(n)
+            if not self.running:
+                break
+            done, _ = cf.wait(self.running, timeout=_POLL_S, return_when=cf.FIRST_COMPLETED)
+            self._collect(done)
+            self._write_ready()
+        for slot in self.retry:  # stopped while retrying
+            self.buffer[slot.index] = None
+        self._write_ready(everything=True)
+        self.report.n_not_run = n - self.report.n_done
+
+    def _stop(self) -> None:
+        self.stopping = True
+        self.report.interrupted = True
+        for future in self.running:
+            future.cancel()
+        if not self.bar.disable:
+            self.bar.write(
+                "batch: stopping: waiting for the files in progress (signal again to abort)",
+                file=sys.stderr,
+            )
+
+    def _fill(self, n: int) -> None:
+        if self.stopping:
+            return
+        if self.retry:  # isolate: one task at a time in a fresh pool
+            if not self.running:
+                slot = self.retry.popleft()
+                self.running[self.backend.submit(slot.task)] = slot
+            return
+        while (
+            self.next_submit < n
+            and len(self.running) < self.window
+            and self.next_submit - self.next_write < _MAX_AHEAD
+        ):
+            task = next(self.tasks)
+            self.running[self.backend.submit(task)] = _Slot(self.next_submit, task)
+            self.next_submit += 1
+
+    def _collect(self, done: set[cf.Future[FileRecord]]) -> None:
+        broken = self.backend.can_restart and any(_died(f) for f in done)
+        if broken:  # every task in the pool fails with it: take them all now
+            cf.wait(self.running)
+            done = set(self.running)
+        died: list[_Slot] = []
+        for future in done:
+            slot = self.running.pop(future)
+            if broken and _died(future) and slot.attempts == 1 and not self.stopping:
+                died.append(slot)
+                continue
+            if not _died(future) and not future.cancelled():
+                self.breaks = 0
+            self._finish(slot, _collect(future, slot))
+        if broken:
+            self.breaks += 1
+            if self.breaks >= _MAX_BREAKS:
+                raise ConfigError(
+                    f"the worker processes died {self.breaks} times in a row without "
+                    "finishing a file; see the errors above (cannot start? out of memory?)"
+                )
+            self.backend.restart()
+            for slot in sorted(died, key=lambda s: s.index):
+                slot.attempts += 1
+                self.retry.append(slot)
+
+    def _finish(self, slot: _Slot, rec: FileRecord | None) -> None:
+        self.buffer[slot.index] = rec
+        if rec is None:
+            return
+        _count(rec, self.report)
+        self.bar.update(1)
+        if rec.status == "failed":
+            self.bar.set_postfix(failed=self.report.n_errors, refresh=False)
+
+    def _write_ready(self, everything: bool = False) -> None:
+        buffer = self.buffer
+        while self.next_write in buffer or (everything and buffer):
+            index = self.next_write if self.next_write in buffer else min(buffer)
+            rec = buffer.pop(index)
+            self.next_write = index + 1
+            if rec is None:
+                continue
+            self.summary.writerow(_summary_row(rec, self.report.out))
+            if rec.status == "failed":
+                self.failures.writerow([rec.file, rec.sha256, rec.reason])
+
+
 def _run(
     tasks: Iterator[FileTask],
     report: BatchReport,
@@ -664,13 +792,12 @@ def _run(
     *,
     progress: bool,
 ) -> None:
-    """The streaming loop: fill the window, collect, write rows in input order."""
-    n = report.n_files
-    out = report.out
+    """Run the tasks on a backend; summary.csv and failures.csv are renamed
+    into place at the end (also after a stop request), not after an abort."""
     with contextlib.ExitStack() as stack:
         summary = stack.enter_context(_csv_stream(report.summary_csv, SUMMARY_COLUMNS))
         failures = stack.enter_context(_csv_stream(report.failures_csv, FAILURE_COLUMNS))
-        if n == 0:
+        if report.n_files == 0:
             return
         backend = make_backend()
         report.backend = backend.label
@@ -678,7 +805,7 @@ def _run(
         stack.callback(lambda: backend.close(abort=aborted))
         bar = stack.enter_context(
             tqdm(
-                total=n,
+                total=report.n_files,
                 unit="file",
                 desc="batch",
                 file=sys.stderr,
@@ -688,76 +815,9 @@ def _run(
             )
         )
         if progress:
-            bar.write(f"batch: {n} files on {backend.label}", file=sys.stderr)
+            bar.write(f"batch: {report.n_files} files on {backend.label}", file=sys.stderr)
         stop = stack.enter_context(_StopRequest())
-
-        window = 2 * backend.concurrency
-        running: dict[cf.Future[FileRecord], _Slot] = {}
-        buffer: dict[int, FileRecord | None] = {}  # finished, not yet written (None: not run)
-        next_submit = next_write = 0
-        stopping = False
-
-        def write_ready(everything: bool = False) -> int:
-            nonlocal next_write
-            while next_write in buffer or (everything and buffer):
-                index = next_write if next_write in buffer else min(buffer)
-                rec = buffer.pop(index)
-                next_write = index + 1
-                if rec is None:
-                    continue
-                summary.writerow(_summary_row(rec, out))
-                if rec.status == "failed":
-                    failures.writerow([rec.file, rec.sha256, rec.reason])
-            return next_write
-
-        while True:
-            if stop.requested and not stopping:
-                stopping = True
-                report.interrupted = True
-                for future in running:
-                    future.cancel()
-                if progress:
-                    bar.write(
-                        "batch: stopping: waiting for the files in progress "
-                        "(signal again to abort)",
-                        file=sys.stderr,
-                    )
-            while (
-                not stopping
-                and next_submit < n
-                and len(running) < window
-                and next_submit - next_write < _MAX_AHEAD
-            ):
-                task = next(tasks)
-                running[backend.submit(task)] = _Slot(next_submit, task)
-                next_submit += 1
-            if not running:
-                break
-            done, _ = cf.wait(running, timeout=_POLL_S, return_when=cf.FIRST_COMPLETED)
-            broken = backend.can_restart and any(_died(f) for f in done)
-            if broken:  # every task in the pool fails with it: collect them all
-                cf.wait(running)
-                done = set(running)
-            retry: list[_Slot] = []
-            for future in done:
-                slot = running.pop(future)
-                if broken and _died(future) and slot.attempts < 2 and not stopping:
-                    retry.append(slot)
-                    continue
-                rec = buffer[slot.index] = _collect(future, slot)
-                if rec is not None:
-                    _count(rec, report)
-                    bar.update(1)
-                    if rec.status == "failed":
-                        bar.set_postfix(failed=report.n_errors, refresh=False)
-            if broken:
-                backend.restart()
-                for slot in sorted(retry, key=lambda s: s.index):
-                    slot.attempts += 1
-                    running[backend.submit(slot.task)] = slot
-            write_ready()
-        write_ready(everything=True)
-        report.n_not_run = n - report.n_done
+        _Loop(tasks, report, backend, summary, failures, bar).run(stop)
         aborted = False
 
 

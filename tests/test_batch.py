@@ -1,0 +1,399 @@
+"""Tests of ``ema-pipeline batch`` (ema_pipeline.pipeline.batch).
+
+The simulated files hold only the 2-400 Hz lines of the default impact test
+(three modes, about 170 kB each), so one identification takes a fraction of a
+second; the batch identifies in 5-395 Hz.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pandas as pd
+import pytest
+
+from ema_pipeline import acquisition, io, paper
+from ema_pipeline.cli import main
+from ema_pipeline.data import ConfigError
+from ema_pipeline.pipeline import batch
+from ema_pipeline.pipeline.batch import BatchReport, run_batch
+from ema_pipeline.pipeline.single import IdentifyOptions
+
+FILE_BAND_HZ = (2.0, 400.0)
+OPTIONS = IdentifyOptions(band_hz=(5.0, 395.0))
+CLI_BAND = ["--band", "5", "395"]
+N_MODES = 3  # Table 1 modes below 395 Hz
+
+#: (relative path, configuration, seed, format): equal stems in one folder
+#: (a.uff, a.h5) and in different folders (genuine_1.h5).
+GOOD_FILES = (
+    ("genuine_1.h5", "genuine", 1, "h5"),
+    ("a.uff", "larger_tank", 2, "uff"),
+    ("a.h5", "smaller_tank", 3, "h5"),
+    ("day2/genuine_1.h5", "genuine", 4, "h5"),
+    ("day2/b.uff", "smaller_tank", 5, "uff-binary"),
+    ("day2/deep/c.h5", "larger_tank", 6, "h5"),
+)
+BAD_FILES = ("corrupt.uff", "day2/nan.h5", "truncated.uff")
+
+
+def _simulate(path: Path, configuration: str, seed: int, fmt: str) -> None:
+    frf = acquisition.simulate_impact_test(configuration, seed=seed).band(*FILE_BAND_HZ)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    io.write_frf(frf, path, fmt)
+
+
+def _read_summary(out: Path) -> pd.DataFrame:
+    return pd.read_csv(out / "summary.csv", keep_default_na=False, dtype=str)
+
+
+def _without_timing(summary: pd.DataFrame) -> pd.DataFrame:
+    return summary.drop(columns=["seconds"]).reset_index(drop=True)
+
+
+def _temporaries(out: Path) -> list[Path]:
+    return [p for p in out.rglob("*") if p.name.endswith(".tmp")]
+
+
+def _result_files(out: Path) -> list[Path]:
+    return sorted(p for p in out.rglob("*_result.h5") if not p.name.startswith("."))
+
+
+@pytest.fixture(scope="module")
+def good_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    folder = tmp_path_factory.mktemp("raw")
+    for rel, configuration, seed, fmt in GOOD_FILES:
+        _simulate(folder / rel, configuration, seed, fmt)
+    return folder
+
+
+@pytest.fixture(scope="module")
+def local_run(good_folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The good files through two local worker processes."""
+    out = tmp_path_factory.mktemp("out_local")
+    report = run_batch(
+        good_folder, out, options=OPTIONS, workers=2, scheduler=None, force=False, progress=False
+    )
+    assert (report.n_ok, report.n_failed) == (len(GOOD_FILES), 0), report.summary_line()
+    return out
+
+
+def _bad_folder(good_folder: Path, target: Path) -> Path:
+    """The good files plus two corrupt ones and a truncated one."""
+    folder = target / "raw"
+    shutil.copytree(good_folder, folder)
+    (folder / "corrupt.uff").write_bytes(b"    -1\n    58\nthis is not a UFF record\n" * 5)
+    nan_h5 = folder / "day2" / "nan.h5"
+    _simulate(nan_h5, "genuine", 7, "h5")
+    with h5py.File(nan_h5, "r+") as h5:
+        H = h5["frf/H"][()]
+        H[0, 0, 100] = np.nan
+        h5["frf/H"][...] = H
+    whole = (folder / "a.uff").read_bytes()  # cut inside the second record
+    (folder / "truncated.uff").write_bytes(whole[: int(0.7 * len(whole))])
+    return folder
+
+
+def test_cli_batch_good_and_bad_files(
+    good_folder: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Every good file is identified (Table 1 within 0.1 %), with outputs that
+    mirror the input folders; the three bad files are in failures.csv with
+    reasons naming them, and the exit status is 1."""
+    folder = _bad_folder(good_folder, tmp_path)
+    out = tmp_path / "out"
+    code = main(["batch", str(folder), "--out", str(out), "--workers", "2", "--quiet", *CLI_BAND])
+    assert code == 1
+    line = capsys.readouterr().err.strip().splitlines()[-1]
+    assert line.startswith(f"batch: {len(GOOD_FILES) + 3} files: {len(GOOD_FILES)} ok, 0 skipped")
+    assert "3 failed" in line and "failures.csv" in line
+
+    summary = _read_summary(out).set_index("file")
+    assert list(summary.index) == sorted(summary.index)  # input order
+    assert set(summary.index) == {rel for rel, *_ in GOOD_FILES} | set(BAD_FILES)
+    expected_dirs = {  # equal stems in one folder get a folder named after the file
+        "genuine_1.h5": ".",
+        "a.uff": "a.uff",
+        "a.h5": "a.h5",
+        "day2/genuine_1.h5": "day2",
+        "day2/b.uff": "day2",
+        "day2/deep/c.h5": "day2/deep",
+    }
+    for rel, configuration, _, _ in GOOD_FILES:
+        row = summary.loc[rel]
+        assert row["status"] == "ok", rel
+        assert row["configuration"] == configuration
+        assert row["sha256"] == io.sha256_file(folder / rel)
+        stem = Path(rel).stem
+        modes_csv = Path(expected_dirs[rel]) / f"{stem}_modes.csv"
+        assert Path(row["modes_csv"]) == modes_csv
+        assert Path(row["result_h5"]) == modes_csv.with_name(f"{stem}_result.h5")
+        assert io.results_complete(out / row["result_h5"])
+        modes = io.read_csv(out / modes_csv, required=("fd_hz",))
+        truth = paper.TABLE1_FD_HZ[configuration][:N_MODES]
+        assert int(row["n_modes"]) == N_MODES == len(modes)
+        np.testing.assert_allclose(modes["fd_hz"], truth, rtol=1e-3)
+        freqs = [float(f) for f in row["frequencies_hz"].split(";")]
+        np.testing.assert_allclose(freqs, modes["fn_hz"], rtol=1e-9)
+        assert 0 < float(row["fit_error"]) < 0.1 and 0.9 < float(row["fit_frac"]) <= 1.0
+
+    failures = pd.read_csv(out / "failures.csv", keep_default_na=False, dtype=str)
+    assert sorted(failures["file"]) == sorted(BAD_FILES)
+    for _, row in failures.iterrows():
+        assert Path(row["file"]).name in row["reason"], row["reason"]
+        assert row["sha256"] == io.sha256_file(folder / row["file"])
+        assert summary.loc[row["file"], "status"] == "failed"
+    reasons = dict(zip(failures["file"], failures["reason"], strict=True))
+    assert "NaN" in reasons["day2/nan.h5"]
+    assert not _temporaries(out)
+    assert not list(out.rglob("corrupt*")) and not list(out.rglob("truncated*"))
+
+
+def test_workers_1_and_2_identical_and_rerun_skips(
+    good_folder: Path, local_run: Path, tmp_path: Path
+) -> None:
+    """--workers 1 and --workers 2 give the same summary; a rerun skips every
+    file without rewriting it (same summary rows, status skipped); --force
+    recomputes."""
+    out = tmp_path / "out"
+    report = run_batch(good_folder, out, options=OPTIONS, workers=1, force=False, progress=False)
+    assert (report.n_ok, report.n_skipped, report.n_failed) == (len(GOOD_FILES), 0, 0)
+    one, two = _read_summary(out), _read_summary(local_run)
+    pd.testing.assert_frame_equal(_without_timing(one), _without_timing(two))
+
+    stamps = {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in out.rglob("*_*.*")}
+    again = run_batch(good_folder, out, options=OPTIONS, workers=2, force=False, progress=False)
+    assert (again.n_ok, again.n_skipped, again.n_failed) == (0, len(GOOD_FILES), 0)
+    assert "0 ok, 6 skipped, 0 failed" in again.summary_line()
+    assert {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in stamps} == stamps
+    skipped = _without_timing(_read_summary(out))
+    assert set(skipped["status"]) == {"skipped"}
+    pd.testing.assert_frame_equal(
+        skipped.drop(columns="status"), _without_timing(one).drop(columns="status")
+    )
+
+    forced = run_batch(good_folder, out, options=OPTIONS, workers=2, force=True, progress=False)
+    assert (forced.n_ok, forced.n_skipped) == (len(GOOD_FILES), 0)
+    assert all(p.stat().st_ino != ino for p, (ino, _) in stamps.items())
+    pd.testing.assert_frame_equal(_without_timing(_read_summary(out)), _without_timing(one))
+
+
+def test_scheduler_matches_local_processes(
+    good_folder: Path, local_run: Path, tmp_path: Path
+) -> None:
+    """--scheduler on a dask LocalCluster gives the results of local processes."""
+    distributed = pytest.importorskip("distributed")
+    out = tmp_path / "out"
+    with distributed.LocalCluster(
+        n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None
+    ) as cluster:
+        address = cluster.scheduler_address
+        assert address.startswith("tcp://")
+        code = main(["batch", str(good_folder), "--out", str(out), "--scheduler", address,
+                     "--quiet", *CLI_BAND])  # fmt: skip
+    assert code == 0
+    dask_summary, local_summary = _read_summary(out), _read_summary(local_run)
+    pd.testing.assert_frame_equal(
+        _without_timing(dask_summary).drop(columns="frequencies_hz"),
+        _without_timing(local_summary).drop(columns="frequencies_hz"),
+    )
+    for rel in dask_summary["result_h5"]:
+        with h5py.File(out / rel) as a, h5py.File(local_run / rel) as b:
+            np.testing.assert_allclose(a["modes/fn_hz"][()], b["modes/fn_hz"][()], rtol=1e-9)
+            np.testing.assert_allclose(a["modes/zeta_pct"][()], b["modes/zeta_pct"][()], rtol=1e-6)
+
+
+def _start_batch(folder: Path, out: Path, workers: int) -> subprocess.Popen[str]:
+    cmd = [sys.executable, "-m", "ema_pipeline.cli", "batch", str(folder), "--out", str(out),
+           "--workers", str(workers), "--quiet", *CLI_BAND]  # fmt: skip
+    return subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True
+    )
+
+
+def _wait_for_results(out: Path, n: int, proc: subprocess.Popen[str], timeout: float) -> None:
+    deadline = time.monotonic() + timeout
+    while len(_result_files(out)) < n:
+        if proc.poll() is not None:
+            pytest.fail(f"batch ended early ({proc.returncode}): {proc.stderr.read()}")
+        if time.monotonic() > deadline:
+            os.killpg(proc.pid, signal.SIGKILL)
+            pytest.fail("no results appeared")
+        time.sleep(0.02)
+
+
+@pytest.fixture(scope="module")
+def many_files(good_folder: Path, tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """12 files (copies of the good ones under other names)."""
+    folder = tmp_path_factory.mktemp("many")
+    sources = [good_folder / rel for rel, *_ in GOOD_FILES]
+    for k in range(12):
+        src = sources[k % len(sources)]
+        shutil.copy(src, folder / f"run{k:02d}{src.suffix}")
+    return folder
+
+
+def test_killed_batch_resumes(many_files: Path, tmp_path: Path) -> None:
+    """SIGKILL a running batch (the whole process group): only complete results
+    remain; the rerun skips them without rewriting, and finishes the rest."""
+    out = tmp_path / "out"
+    proc = _start_batch(many_files, out, workers=1)
+    _wait_for_results(out, 3, proc, timeout=120)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.communicate()
+
+    done = _result_files(out)
+    n_total = len(io.find_frf_files(many_files))
+    assert 3 <= len(done) < n_total, "the batch finished before it was killed"
+    assert all(io.results_complete(p) for p in done)  # atomic: nothing half-written
+    assert all(p.name.startswith(".") for p in _temporaries(out))  # only hidden temporaries
+    assert not (out / "summary.csv").exists()  # written only at the end
+    stamps = {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in done}
+
+    report = run_batch(many_files, out, options=OPTIONS, workers=2, progress=False)
+    assert report.n_skipped == len(done)
+    assert report.n_ok == n_total - len(done) and report.n_failed == 0
+    summary = _read_summary(out)
+    skipped = {out / p for p in summary.loc[summary["status"] == "skipped", "result_h5"]}
+    assert skipped == set(done)
+    assert {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in done} == stamps
+    assert len(_result_files(out)) == n_total
+    assert all(io.results_complete(p) for p in _result_files(out))
+    assert not _temporaries(out)  # the killed run's temporaries are gone
+
+
+def test_sigint_stops_cleanly(many_files: Path, tmp_path: Path) -> None:
+    """Ctrl-C (SIGINT to the process group): running files finish, the rest is
+    cancelled, summary.csv lists what was done, the exit status is 1, nothing
+    partial is left."""
+    out = tmp_path / "out"
+    proc = _start_batch(many_files, out, workers=2)
+    _wait_for_results(out, 2, proc, timeout=120)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1, err
+    assert "batch: interrupted after" in err and "not run" in err
+
+    summary = _read_summary(out)
+    n_total = len(io.find_frf_files(many_files))
+    assert 2 <= len(summary) < n_total
+    assert set(summary["status"]) == {"ok"}
+    assert {out / p for p in summary["result_h5"]} == set(_result_files(out))
+    assert all(io.results_complete(p) for p in _result_files(out))
+    assert not _temporaries(out)
+
+
+def test_missing_distributed_is_a_clear_error(
+    good_folder: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setitem(sys.modules, "distributed", None)  # import distributed fails
+    with pytest.raises(ConfigError, match=r"\[distributed\]"):
+        run_batch(good_folder, tmp_path / "out", scheduler="tcp://127.0.0.1:1", progress=False)
+    code = main(["batch", str(good_folder), "--out", str(tmp_path / "o"), "--scheduler", "x"])
+    assert code == 2
+
+
+def test_bad_arguments_and_lock(good_folder: Path, tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="no such folder"):
+        run_batch(tmp_path / "missing", tmp_path / "out", progress=False)
+    with pytest.raises(ConfigError, match="at least 1"):
+        run_batch(good_folder, tmp_path / "out", workers=0, progress=False)
+    out = tmp_path / "locked"
+    out.mkdir()
+    with batch._exclusive(out), pytest.raises(ConfigError, match="another batch"):
+        run_batch(good_folder, out, progress=False)
+
+
+def test_empty_folder(tmp_path: Path) -> None:
+    (tmp_path / "raw").mkdir()
+    (tmp_path / "raw" / "notes.txt").write_text("no FRFs here")
+    report = run_batch(tmp_path / "raw", tmp_path / "out", progress=False)
+    assert (report.n_files, report.n_failed) == (0, 0)
+    with open(tmp_path / "out" / "summary.csv", newline="") as fh:
+        assert list(csv.reader(fh)) == [list(batch.SUMMARY_COLUMNS)]
+
+
+def test_inputs_layout_and_stale_temporaries(good_folder: Path, tmp_path: Path) -> None:
+    """Outputs under DIR are not inputs; equal stems get their own folders;
+    hidden temporaries of a killed run are removed."""
+    folder = tmp_path / "raw"
+    shutil.copytree(good_folder, folder)
+    out = folder / "results"
+    (out / "x").mkdir(parents=True)
+    shutil.copy(folder / "a.h5", out / "x" / "old_result.h5")
+    (out / "x" / ".a_result.h5.abc123.tmp").write_bytes(b"half")
+    (out / "keep.tmp").write_bytes(b"not ours")
+    files = batch.find_inputs(folder, out)
+    assert [p.relative_to(folder).as_posix() for p in files] == sorted(
+        rel for rel, *_ in GOOD_FILES
+    )
+    layout = dict(batch.output_dirs(files, folder, out))
+    assert layout["a.uff"] == out / "a.uff" and layout["a.h5"] == out / "a.h5"
+    assert layout["day2/genuine_1.h5"] == out / "day2"
+    assert batch.remove_stale_temporaries(out) == 1
+    assert (out / "keep.tmp").exists()
+
+
+def test_summary_line() -> None:
+    report = BatchReport(
+        folder=Path("raw"),
+        out=Path("OUT"),
+        n_files=200,
+        n_ok=197,
+        n_errors=3,
+        seconds=81.2,
+        failures_csv=Path("OUT/failures.csv"),
+    )
+    assert report.summary_line() == (
+        "batch: 200 files: 197 ok, 0 skipped, 3 failed (see OUT/failures.csv) "
+        "in 81.2 s, 2.46 files/s"
+    )
+    assert report.n_failed == 3
+    stopped = BatchReport(
+        folder=Path("raw"), out=Path("OUT"), n_files=10, n_ok=4, n_not_run=6, seconds=2.0,
+        interrupted=True,
+    )  # fmt: skip
+    assert stopped.n_failed == 6
+    assert stopped.summary_line().startswith("batch: interrupted after 4 of 10 files: 4 ok")
+
+
+def _crash_on_name(task: batch.FileTask) -> batch.FileRecord:
+    """Like process_file, but the worker dies on files named crash*."""
+    if Path(task.file).name.startswith("crash"):
+        os._exit(3)
+    return batch.process_file(task)
+
+
+def test_worker_crash_is_isolated(good_folder: Path, tmp_path: Path) -> None:
+    """A file that kills its worker process is recorded as failed; the files
+    that were in the pool with it are retried and succeed."""
+    folder = tmp_path / "raw"
+    folder.mkdir()
+    for name in ("a1.h5", "crash.h5", "a3.h5", "a4.h5"):
+        shutil.copy(good_folder / "genuine_1.h5", folder / name)
+    out = tmp_path / "out"
+    out.mkdir()
+    files = batch.find_inputs(folder, out)
+    tasks = (
+        batch.FileTask(path=p, file=name, out_dir=target, options=OPTIONS, force=False)
+        for p, (name, target) in zip(files, batch.output_dirs(files, folder, out), strict=True)
+    )
+    report = BatchReport(
+        folder=folder, out=out, n_files=len(files), summary_csv=out / "summary.csv",
+        failures_csv=out / "failures.csv",
+    )  # fmt: skip
+    batch._run(tasks, report, lambda: batch._LocalBackend(2, _crash_on_name), progress=False)
+    assert (report.n_ok, report.n_errors) == (3, 1)
+    failures = pd.read_csv(out / "failures.csv")
+    assert list(failures["file"]) == ["crash.h5"]
+    assert "worker process died" in failures["reason"][0] and "crash.h5" in failures["reason"][0]
+    assert list(_read_summary(out)["status"]) == ["ok", "ok", "ok", "failed"]
