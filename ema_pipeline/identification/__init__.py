@@ -30,9 +30,8 @@ from ema_pipeline.identification.core import (
     plot_fit_quality,
     reciprocal,
 )
-from ema_pipeline.identification.lsfd import (
+from ema_pipeline.identification.lsfd import (  # the module stays ``identification.lsfd``
     frac,
-    lsfd,
     mac,
     modal_std,
     mpc,
@@ -66,7 +65,6 @@ __all__ = [
     "default_max_order",
     "frac",
     "identify",
-    "lsfd",
     "mac",
     "modal_std",
     "modes_table",

@@ -144,7 +144,7 @@ def _resolve_band(frf: FRFSet, band_hz: tuple[float, float] | None) -> tuple[flo
     return lo, hi
 
 
-def _check_input(frf: FRFSet, sub: FRFSet, max_order: int, where: str) -> None:
+def _check_finite(frf: FRFSet, where: str) -> None:
     bad = ~np.isfinite(frf.H)
     if bad.any():
         o, i, k = np.argwhere(bad)[0]
@@ -155,6 +155,9 @@ def _check_input(frf: FRFSet, sub: FRFSet, max_order: int, where: str) -> None:
         )
     if frf.coherence is not None and not np.all(np.isfinite(frf.coherence)):
         raise DataError(f"{where}coherence contains NaN/inf values")
+
+
+def _check_input(sub: FRFSet, max_order: int, where: str) -> None:
     n_lines = sub.freq_hz.size
     if max_order < 1:
         raise DataError(f"max_order must be >= 1, got {max_order}")
@@ -246,10 +249,11 @@ def identify(
         raise DataError(f"unknown identification method {method!r}; use 'plscf' or 'sdypy-lscf'")
     if weighting not in ("none", "coherence"):
         raise DataError(f"unknown weighting {weighting!r}; use 'none' or 'coherence'")
+    _check_finite(frf, where)
     lo, hi = _resolve_band(frf, band_hz)
     sub = frf.band(lo, hi)
     p = default_max_order(frf.n_in, sub.freq_hz.size) if max_order is None else int(max_order)
-    _check_input(frf, sub, p, where)
+    _check_input(sub, p, where)
     if weighting == "coherence" and frf.coherence is None:
         raise DataError(f"{where}coherence weighting asked for but the FRF set has no coherence")
     expect_hz = None if expect is None else np.sort(np.atleast_1d(np.asarray(expect, float)))

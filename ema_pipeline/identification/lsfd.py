@@ -231,7 +231,8 @@ def _vp_solve(
     Model per channel: sum_r a_r/(jw - l_r) + conj + background @ c (complex c).
     Noise: independent per line with the variance model of :func:`_noise_model`,
     estimated from the residual of the start poles and once more after a first
-    weighted solve. Returns the poles, the inverse Fisher matrix of
+    weighted solve, approximated as separable, std_ck = s_c u_k, so that one
+    projection serves all channels. Returns the poles, the inverse Fisher matrix of
     (sigma_r, omega_dr), the noise std (2n, n_ch) and the iterations.
     """
     n = freq_hz.size
@@ -251,18 +252,17 @@ def _vp_solve(
         cols[:, 1::2] = 1j * (g - gc)
         return np.concatenate([_real_stack(cols), bg_r], axis=1)
 
-    def fit(lam: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Weighted projection per channel. W: (2n, n_ch) = 1/std."""
-        A = design(lam)
-        Aw = A.T[None, :, :] * W.T[:, None, :]  # (n_ch, K, 2n)
-        scale = np.max(np.abs(Aw), axis=2, keepdims=True)
+    def fit(lam: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
+        """Projection with row weights u (2n,) shared by all channels."""
+        Aw = design(lam) * u[:, None]
+        scale = np.max(np.abs(Aw), axis=0)
         scale[scale == 0] = 1.0
-        Qm, Rm = _batched_qr(np.swapaxes(Aw / scale, 1, 2))  # (n_ch, 2n, K)
-        Yw = (Y * W).T[:, :, None]  # (n_ch, 2n, 1)
-        QtY = np.swapaxes(Qm, 1, 2) @ Yw
-        Rw = (Yw - Qm @ QtY)[:, :, 0].T  # weighted residual (2n, n_ch)
-        X = np.linalg.solve(Rm, QtY)[:, :, 0] / scale[:, :, 0]  # (n_ch, K)
-        return Qm, Rw, X.T
+        Qm, Rm = _batched_qr(Aw / scale)
+        Yw = Y * u[:, None]
+        QtY = Qm.T @ Yw
+        Rw = Yw - Qm @ QtY  # row-weighted residual (2n, n_ch)
+        X = np.linalg.solve(Rm, QtY) / scale[:, None]  # (K, n_ch)
+        return Qm, Rw, X
 
     def jac(lam: np.ndarray, X: np.ndarray) -> np.ndarray:
         a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
@@ -273,14 +273,17 @@ def _vp_solve(
         J[:, 1::2] = 1j * (t1 - t2)  # d/d omega_d
         return np.concatenate([J.real, J.imag], axis=0)  # (2n, 2m, n_ch)
 
-    def normal(lam: np.ndarray, W: np.ndarray) -> tuple[np.ndarray, np.ndarray, float]:
-        Qm, Rw, X = fit(lam, W)
-        Jw = jac(lam, X) * W[:, None, :]
-        Jc = np.transpose(Jw, (2, 0, 1))  # (n_ch, 2n, 2m)
-        Jp = Jc - Qm @ (np.swapaxes(Qm, 1, 2) @ Jc)
-        F = np.einsum("cip,ciq->pq", Jp, Jp)
-        g = np.einsum("cip,ic->p", Jp, Rw)
-        return F, g, float(np.sum(Rw**2))
+    def cost_of(Rw: np.ndarray, inv_s2: np.ndarray) -> float:
+        return float(np.sum(Rw**2 * inv_s2[None, :]))
+
+    def normal(lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray) -> tuple[np.ndarray, ...]:
+        Qm, Rw, X = fit(lam, u)
+        Jw = jac(lam, X) * u[:, None, None]
+        Jf = Jw.reshape(Jw.shape[0], -1)
+        Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jw.shape)
+        F = np.einsum("ipc,iqc,c->pq", Jp, Jp, inv_s2)
+        g = np.einsum("ipc,ic,c->p", Jp, Rw, inv_s2)
+        return F, g, cost_of(Rw, inv_s2)
 
     def lam_of(th: np.ndarray) -> np.ndarray:
         return -th[0::2] + 1j * th[1::2]
@@ -288,13 +291,16 @@ def _vp_solve(
     theta = np.empty(2 * m)
     theta[0::2] = -poles.real
     theta[1::2] = poles.imag
-    ones = np.ones_like(Y)
     it_total = 0
+    u = np.ones(2 * n)
     for _round in range(2):
-        _, R0, _ = fit(lam_of(theta), ones)
+        _, R0, _ = fit(lam_of(theta), np.ones(2 * n))
         std = _noise_model(R0, Y, n_lin)
-        W = 1.0 / std
-        F, g, cost = normal(lam_of(theta), W)
+        # separable approximation std_ck ~ s_c u_k (one projection for all channels)
+        s2 = np.mean(std**2, axis=0)
+        inv_s2 = 1.0 / np.maximum(s2, np.finfo(float).tiny)
+        u = 1.0 / np.sqrt(np.mean(std**2 * inv_s2[None, :], axis=1))
+        F, g, cost = normal(lam_of(theta), u, inv_s2)
         mu = 1e-3
         for _it in range(max_iter):
             it_total += 1
@@ -305,27 +311,29 @@ def _vp_solve(
                 break
             trial = theta + step
             if np.all(trial[0::2] > 0):
-                cost_t = float(np.sum(fit(lam_of(trial), W)[1] ** 2))
+                cost_t = cost_of(fit(lam_of(trial), u)[1], inv_s2)
             else:
                 cost_t = np.inf
             if cost_t < cost:
                 theta = trial
-                F, g, cost_new = normal(lam_of(theta), W)
+                F, g, cost_new = normal(lam_of(theta), u, inv_s2)
                 sd = np.sqrt(1.0 / np.maximum(np.diag(F), 1e-300))
-                done = (cost - cost_new) < 1e-10 * cost or np.all(np.abs(step) < 1e-4 * sd)
+                done = (cost - cost_new) < 1e-8 * cost or np.all(np.abs(step) < 1e-3 * sd)
                 cost = cost_new
                 mu = max(mu / 10, 1e-9)
                 if done:
                     break
             else:
                 mu *= 10
-                if mu > 1e8:
+                if mu > 1e6:
                     break
     try:
         Finv = np.linalg.inv(F)
     except np.linalg.LinAlgError:
         Finv = np.linalg.pinv(F)
-    _, Rw, _ = fit(lam_of(theta), W)
+    _, Rw, _ = fit(lam_of(theta), u)
+    Rw = Rw * np.sqrt(inv_s2)[None, :]
+    std = np.sqrt(1.0 / inv_s2)[None, :] / u[:, None]
     return lam_of(theta), Finv * _correlation_factor(Rw), std, it_total
 
 
@@ -334,7 +342,7 @@ def refine_poles(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = 25.0,
+    half_width: float = 12.0,
     min_lines: int = 40,
     max_iter: int = 30,
     max_shift: float = 0.5,
@@ -353,7 +361,8 @@ def refine_poles(
     Fisher matrix F = sum_c Jp_c^T (I - P) Jp_c / s_c^2 (Jp the Jacobian with
     respect to the poles, P the projection onto the linear terms): least-squares
     covariance propagation. A pole that moves by more than ``max_shift`` times
-    its decay rate plus one line keeps its start value (refinement failed).
+    its decay rate plus one line keeps its start value (refinement failed) and
+    gets the covariance evaluated there.
 
     Parameters
     ----------
@@ -390,7 +399,9 @@ def refine_poles(
         k = int(np.flatnonzero(members == r)[0])
         lam_r = lam[k]
         if abs(lam_r - poles[r]) > max_shift * abs(poles[r].real) + 2 * np.pi * df:
-            continue
+            # refinement wandered off: keep the start pole, covariance there
+            lam, Finv, s, it = _vp_solve(f, Y, poles[members], background, 0)
+            lam_r = poles[r]
         out[r] = lam_r
         cov[r] = Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
         noise[r] = np.sqrt(np.mean(s**2, axis=0))

@@ -1,0 +1,122 @@
+"""sdypy-EMA (LSCF + LSFD) as an independent reference backend of :func:`identify`.
+
+Only sdypy-EMA's public API is used: ``EMA.Model(...)``, ``get_poles``,
+``select_closest_poles`` and ``get_constants``. sdypy-EMA picks poles near
+given frequencies only, so the frequencies come from ``expect`` or, without
+it, from this package's automatic pLSCF selection (documented behaviour: the
+two backends then agree on *which* modes, and sdypy-EMA estimates them
+independently). No uncertainty: standard deviations are NaN.
+
+Known trap handled here: ``select_closest_poles`` narrows a search window that
+starts at ``f_window`` Hz wide; for a guess below ``f_window / 2`` the window
+reaches 0 Hz, where its table of stable poles is zero-padded, and it silently
+returns 0 Hz. The window is therefore at most 1.5 x the lowest guess.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import warnings
+from dataclasses import replace
+
+import numpy as np
+
+from ema_pipeline.data import DataError, FRFSet
+from ema_pipeline.identification import lsfd as _lsfd
+from ema_pipeline.identification.stabilization import StabilizationData
+
+
+def identify_sdypy(
+    frf: FRFSet,
+    *,
+    band_hz: tuple[float, float],
+    max_order: int | None = None,
+    expect: np.ndarray | None = None,
+    lower_residual: bool = True,
+    upper_residual: bool = True,
+) -> object:
+    """Identify with sdypy-EMA; returns an :class:`IdentificationResult`.
+
+    ``max_order`` is sdypy-EMA's ``pol_order_high`` (default 100, its own
+    default; its LSCF then solves polynomial orders 2, 4, ..., 2 * max_order).
+    Poles are window-corrected like the pLSCF ones. The synthesised FRFs (and
+    FRAC, error) are sdypy-EMA's LSFD reconstruction; residues, shapes, MAC and
+    MPC come from this package's LSFD at sdypy-EMA's poles (same model).
+    """
+    from sdypy import EMA
+
+    from ema_pipeline.identification.core import (
+        IdentificationSettings,
+        _resolve_band,
+        finish_identification,
+    )
+
+    lo, hi = _resolve_band(frf, band_hz)
+    decay = float(frf.acquisition.window_decay_rate)
+    p = 100 if max_order is None else int(max_order)
+    if expect is None:
+        from ema_pipeline.identification.core import identify
+
+        auto = identify(frf, band_hz=(lo, hi), refine=False)
+        guesses = auto.modes.fd_hz
+        if guesses.size == 0:
+            raise DataError("sdypy-lscf: the automatic selection found no mode to look for")
+    else:
+        guesses = np.sort(np.asarray(expect, dtype=float))
+    n_out, n_in, n_freq = frf.H.shape
+    # sdypy-EMA cuts the axis at the line nearest ``upper`` (exclusive): pass the
+    # axis up to one line above the band top.
+    top = min(int(np.searchsorted(frf.freq_hz, hi, side="right")) + 1, n_freq)
+    H2 = frf.H[..., :top].reshape(n_out * n_in, top)
+    upper = float(frf.freq_hz[top - 1]) if top < n_freq else float(frf.freq_hz[-1]) + 1e-9
+    with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
+        warnings.simplefilter("ignore")  # and its progress bars
+        model = EMA.Model(
+            frf=H2, freq=frf.freq_hz[:top], lower=lo, upper=upper, pol_order_high=p,
+            frf_form=frf.quantity,
+        )
+        model.get_poles(show_progress=False)
+        f_window = float(min(50.0, 1.5 * np.min(guesses)))
+        model.select_closest_poles(list(guesses), f_window=f_window)
+        poles = np.array(
+            [model.all_poles[i][j] for i, j in np.asarray(model.pole_ind, dtype=int)],
+            dtype=complex,
+        )
+        H_sdypy, _ = model.get_constants(
+            method="lsfd", whose_poles="own", lower_r=lower_residual, upper_r=upper_residual
+        )
+    poles = np.where(poles.imag < 0, poles.conj(), poles)
+    if np.any(np.abs(poles.imag) < 2 * np.pi * lo):
+        raise DataError(
+            f"sdypy-lscf returned a pole below the band for guesses {guesses} Hz "
+            "(its f_window trap); give better expected frequencies"
+        )
+    order = np.argsort(poles.imag)
+    poles = poles[order]
+    sub = frf.band(lo, hi)
+    empty = np.zeros(0)
+    stab = StabilizationData(
+        order=empty.astype(int), freq_hz=empty, zeta=empty, flags=empty.astype(np.uint8),
+        pole=empty.astype(complex), cluster=empty.astype(int),
+    )
+    settings = IdentificationSettings(
+        method="sdypy-lscf", band_hz=(lo, hi), max_order=p,
+        orders=np.arange(2, 2 * p + 1, 2), dt_s=float(model.sampling_time),
+        weighting="none", window_decay_rate=decay, tol_freq=0.001, tol_zeta=0.05,
+        tol_mac=float("nan"), min_fraction=float("nan"), refine=False,
+        lower_residual=lower_residual, upper_residual=upper_residual,
+        expect_hz=None if expect is None else guesses, uncertainty="none (NaN)",
+    )
+    result = finish_identification(
+        sub, poles, decay=decay, refine=False, lower_residual=lower_residual,
+        upper_residual=upper_residual, stab=stab, selected=None, settings=settings,
+    )
+    # sdypy-EMA's own LSFD synthesis on the band lines
+    f_sd = np.asarray(model.freq)
+    idx = np.clip(np.searchsorted(f_sd, sub.freq_hz - 1e-9), 0, f_sd.size - 1)
+    H_fit = np.asarray(H_sdypy)[:, idx].reshape(n_out, n_in, -1)
+    return replace(
+        result, H_fit=H_fit, frac=_lsfd.frac(sub.H, H_fit),
+        error=_lsfd.normalised_error(sub.H, H_fit),
+    )
