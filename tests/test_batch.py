@@ -307,6 +307,9 @@ def test_bad_arguments_and_lock(good_folder: Path, tmp_path: Path) -> None:
         run_batch(tmp_path / "missing", tmp_path / "out", progress=False)
     with pytest.raises(ConfigError, match="at least 1"):
         run_batch(good_folder, tmp_path / "out", workers=0, progress=False)
+    for out in (good_folder, good_folder.parent):  # results would become inputs
+        with pytest.raises(ConfigError, match="read back as inputs"):
+            run_batch(good_folder, out, progress=False)
     out = tmp_path / "locked"
     out.mkdir()
     with batch._exclusive(out), pytest.raises(ConfigError, match="another batch"):

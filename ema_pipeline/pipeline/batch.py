@@ -82,6 +82,7 @@ import signal
 import sys
 import threading
 import time
+import traceback
 from collections import Counter, deque
 from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures.process import BrokenProcessPool
@@ -196,10 +197,12 @@ def process_file(task: FileTask) -> FileRecord:
     try:
         outcome = identify_file(task.path, task.out_dir, task.options, force=task.force)
     except Exception as exc:  # one file must never stop the batch
+        frames = traceback.extract_tb(exc.__traceback__)
+        where = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
         return FileRecord(
             file=task.file,
             status="failed",
-            reason=_naming(f"unexpected {type(exc).__name__}: {exc}", task),
+            reason=_naming(f"unexpected {type(exc).__name__}: {exc}{where}", task),
             seconds=time.perf_counter() - start,
         )
     outputs = {
@@ -613,8 +616,9 @@ def run_batch(
 
     Raises
     ------
-    ConfigError : no such folder, bad ``workers``, unreachable scheduler or
-        missing ``distributed``, or another batch writing to ``out``.
+    ConfigError : no such folder, ``out`` is or contains ``folder``, bad
+        ``workers``, unreachable scheduler or missing ``distributed``, another
+        batch writing to ``out``, or worker processes that keep dying.
     KeyboardInterrupt : on a second SIGINT/SIGTERM (abort).
     """
     options = IdentifyOptions() if options is None else options
@@ -623,6 +627,11 @@ def run_batch(
         raise ConfigError(f"{folder}: no such folder")
     if workers is not None and workers < 1:
         raise ConfigError(f"workers must be at least 1, got {workers}")
+    if _is_inside(folder, out):
+        raise ConfigError(
+            f"the output folder {out} is (or contains) the input folder {folder}: results "
+            "would be read back as inputs; choose an output folder outside it or below it"
+        )
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
     with _exclusive(out):
@@ -815,7 +824,9 @@ def _run(
             )
         )
         if progress:
-            bar.write(f"batch: {report.n_files} files on {backend.label}", file=sys.stderr)
+            stale = report.n_stale_removed
+            note = f"; removed {stale} temporary files of an interrupted run" if stale else ""
+            bar.write(f"batch: {report.n_files} files on {backend.label}{note}", file=sys.stderr)
         stop = stack.enter_context(_StopRequest())
         _Loop(tasks, report, backend, summary, failures, bar).run(stop)
         aborted = False
