@@ -58,6 +58,8 @@ from ema_pipeline.data import (
 SCHEMA_FRF = "ema-pipeline/frf"
 SCHEMA_RESULTS = "ema-pipeline/results"
 SCHEMA_VERSION = 1
+# Compressed, and without creation times so that a rerun writes identical bytes.
+_DATASET_OPTIONS: dict[str, Any] = {"compression": "gzip", "shuffle": True, "track_times": False}
 
 UFF_SUFFIXES = {".uff", ".unv", ".58"}
 HDF5_SUFFIXES = {".h5", ".hdf5", ".hdf"}
@@ -190,12 +192,12 @@ def _put_attrs(obj: h5py.HLObject, values: Mapping[str, Any]) -> None:
 
 def write_frf_group(group: h5py.Group, frf: FRFSet) -> None:
     """Store an FRFSet in an (open) HDF5 group."""
-    group.create_dataset("freq_hz", data=frf.freq_hz)
-    group.create_dataset("H", data=frf.H, compression="gzip", shuffle=True)
+    group.create_dataset("freq_hz", data=frf.freq_hz, track_times=False)
+    group.create_dataset("H", data=frf.H, **_DATASET_OPTIONS)
     if frf.coherence is not None:
-        group.create_dataset("coherence", data=frf.coherence, compression="gzip", shuffle=True)
-    group.create_dataset("response_dofs", data=_dofs_array(frf.response_dofs))
-    group.create_dataset("reference_dofs", data=_dofs_array(frf.reference_dofs))
+        group.create_dataset("coherence", data=frf.coherence, **_DATASET_OPTIONS)
+    group.create_dataset("response_dofs", data=_dofs_array(frf.response_dofs), track_times=False)
+    group.create_dataset("reference_dofs", data=_dofs_array(frf.reference_dofs), track_times=False)
     _put_attrs(
         group,
         {
@@ -317,7 +319,7 @@ def _store(group: h5py.Group, name: str, value: Any) -> None:
             data = value[col].to_numpy()
             if data.dtype == object or pd.api.types.is_string_dtype(value[col]):
                 data = np.array([str(v) for v in data], dtype=h5py.string_dtype())
-            sub.create_dataset(str(col), data=data)
+            sub.create_dataset(str(col), data=data, track_times=False)
     elif is_dataclass(value) and not isinstance(value, type):
         sub = group.create_group(name)
         sub.attrs["kind"] = type(value).__name__
@@ -330,7 +332,7 @@ def _store(group: h5py.Group, name: str, value: Any) -> None:
     elif isinstance(value, str | bool | int | float | np.generic):
         group.attrs[name] = value
     elif isinstance(value, tuple | list) and value and all(isinstance(v, DOF) for v in value):
-        group.create_dataset(name, data=_dofs_array(tuple(value)))
+        group.create_dataset(name, data=_dofs_array(tuple(value)), track_times=False)
     elif isinstance(value, tuple | list) and value and all(isinstance(v, str) for v in value):
         group.attrs[name] = np.array(value, dtype=object)
     elif (
@@ -345,8 +347,8 @@ def _store(group: h5py.Group, name: str, value: Any) -> None:
         data = np.asarray(value)
         if data.dtype == object:
             raise DataError(f"cannot store {name!r} of type {type(value).__name__} in HDF5")
-        compress = {"compression": "gzip", "shuffle": True} if data.size > 4096 else {}
-        group.create_dataset(name, data=data, **compress)
+        options = _DATASET_OPTIONS if data.size > 4096 else {"track_times": False}
+        group.create_dataset(name, data=data, **options)
 
 
 def write_results_h5(

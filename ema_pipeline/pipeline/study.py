@@ -312,7 +312,8 @@ def write_study(
             io.write_bytes(png, tmp_dir / "figures" / f"{name}.png")
         io.write_text(report.render_markdown(rin, list(figures)), tmp_dir / "report.md")
         io.write_text(report.render_html(rin, figures), tmp_dir / "report.html")
-        io.write_text(json.dumps(summary(result), indent=2) + "\n", tmp_dir / "summary.json")
+        reproducible = {k: v for k, v in summary(result).items() if k != "seconds"}
+        io.write_text(json.dumps(reproducible, indent=2) + "\n", tmp_dir / "summary.json")
         say("[store] ema_results.h5")
         io.write_results_h5(
             {
