@@ -30,6 +30,11 @@ Method = Literal["plscf", "sdypy-lscf"]
 #: simulated impact tests (3 configurations x 20 seeds, 40 dB SNR, 4 averages):
 #: with 2.0 the RMS of error/std is 0.7-1.1 per mode and parameter.
 STD_CALIBRATION = 2.0
+
+#: Automatic selection drops a pole whose decay rate has a (calibrated)
+#: relative standard deviation above this: it models noise, not a mode.
+#: Physical modes of the simulated tests sit below 0.01, noise poles near 1.
+MAX_REL_SIGMA_STD = 0.5
 Weighting = Literal["none", "coherence"]
 
 
@@ -286,7 +291,7 @@ def identify(
     sel = select_poles(stab, labels, expect_hz=expect_hz, min_fraction=min_fraction)
     return finish_identification(
         sub, sel.pole, decay=decay, refine=refine, lower_residual=lower_residual,
-        upper_residual=upper_residual, stab=stab, selected=sel,
+        upper_residual=upper_residual, stab=stab, selected=sel, screen=expect_hz is None,
         settings=IdentificationSettings(
             method="plscf", band_hz=(lo, hi), max_order=p, orders=orders, dt_s=poles.dt,
             weighting=weighting, window_decay_rate=decay, tol_freq=tol_freq,
@@ -310,14 +315,31 @@ def finish_identification(
     stab: StabilizationData,
     selected: SelectedPoles | None,
     settings: IdentificationSettings,
+    screen: bool = False,
 ) -> IdentificationResult:
-    """LSFD, optional refinement with covariance, window correction, indicators."""
+    """LSFD, optional refinement with covariance, window correction, indicators.
+
+    With ``screen`` (automatic selection) poles whose decay rate the data do
+    not determine (calibrated std(sigma)/sigma >= ``MAX_REL_SIGMA_STD``) are
+    dropped as computational before refinement.
+    """
     freq = sub.freq_hz
     n_out, n_in, n_freq = sub.H.shape
     Hc = sub.H.reshape(n_out * n_in, n_freq)
     m = pole_id.size
     fn_std = np.full(m, np.nan)
     zeta_std = np.full(m, np.nan)
+    if m and refine and screen:
+        rel = STD_CALIBRATION * _lsfd.pole_significance(freq, Hc, pole_id)
+        keep = rel < MAX_REL_SIGMA_STD
+        pole_id = pole_id[keep]
+        if selected is not None:
+            selected = SelectedPoles(
+                **{k: v[keep] for k, v in selected.__dict__.items()}
+            )
+        m = pole_id.size
+        fn_std = fn_std[keep]
+        zeta_std = zeta_std[keep]
     if m and refine:
         ref = _lsfd.refine_poles(freq, Hc, pole_id)
         pole_id = ref.pole

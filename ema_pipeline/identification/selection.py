@@ -80,12 +80,23 @@ def cluster_poles(
     idx = np.flatnonzero(cand)
     if idx.size == 0:
         return labels
-    if idx.size == 1:
-        labels[idx] = 0
-        return labels
-    d = _distance(stab.freq_hz[idx], stab.zeta[idx], tol_freq, tol_zeta)
-    Z = linkage(squareform(d, checks=False), method="average")
-    labels[idx] = fcluster(Z, t=1.0, criterion="distance") - 1
+    # Poles more than tol_freq apart in frequency can never share a cluster
+    # (their distance exceeds 1), so split the sorted candidates at such gaps
+    # first and cluster each group on its own: memory and time stay small.
+    idx = idx[np.argsort(stab.freq_hz[idx])]
+    lf = np.log(stab.freq_hz[idx])
+    cuts = np.flatnonzero(np.diff(lf) > tol_freq) + 1
+    next_label = 0
+    for group in np.split(idx, cuts):
+        if group.size == 1:
+            labels[group] = next_label
+            next_label += 1
+            continue
+        d = _distance(stab.freq_hz[group], stab.zeta[group], tol_freq, tol_zeta)
+        Z = linkage(squareform(d, checks=False), method="average")
+        sub = fcluster(Z, t=1.0, criterion="distance") - 1
+        labels[group] = sub + next_label
+        next_label += int(sub.max()) + 1
     return labels
 
 
