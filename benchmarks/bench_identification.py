@@ -109,7 +109,7 @@ def main() -> None:
     ]
     times = {}
     for label, fn, args in rows:
-        t, mem, (f, z) = measure(fn, *args, repeat=1 if fn is run_sdypy else 3)
+        t, mem, (f, z) = measure(fn, *args, repeat=2 if fn is run_sdypy else 3)
         times[label] = t
         print(f"{label:48s} {t:8.3f} s  peak {mem:7.1f} MiB  {errors(truth, f, z)}")
     floor = eig_floor(frf, 200)
