@@ -1,0 +1,149 @@
+"""File formats: the project's HDF5 files, Universal File Format dataset 58, CSV
+tables and the experiment description (TOML).
+
+This is the only package that knows file layouts. Everything it writes goes to
+a temporary file in the target folder first and is renamed into place when
+complete (:func:`atomic_path`), so an interrupted run never leaves a
+half-written result. Everything it reads is checked, and problems are raised as
+:class:`~ema_pipeline.data.DataError` naming the file.
+
+Modules: :mod:`.files` (hashes, atomic writes, CSV), :mod:`.hdf5` (FRF files
+and results stores), :mod:`.uff` (dataset 58), :mod:`.experiment` (TOML).
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+from ema_pipeline.data import DataError, FRFSet
+from ema_pipeline.io.experiment import experiment_file_path, read_experiment
+from ema_pipeline.io.files import (
+    _check_readable,
+    atomic_path,
+    read_csv,
+    sha256_file,
+    write_bytes,
+    write_csv,
+    write_text,
+)
+from ema_pipeline.io.hdf5 import (
+    HDF5_SUFFIXES,
+    SCHEMA_FRF,
+    SCHEMA_RESULTS,
+    SCHEMA_VERSION,
+    read_frf_from_results,
+    read_frf_group,
+    read_frf_h5,
+    read_results_h5,
+    results_complete,
+    table_from_results,
+    write_frf_group,
+    write_frf_h5,
+    write_results_h5,
+)
+from ema_pipeline.io.uff import (
+    UFF_SUFFIXES,
+    read_frf_uff,
+    read_time_uff,
+    write_frf_uff,
+    write_time_uff,
+)
+
+
+def frf_format(path: str | os.PathLike[str]) -> str:
+    """``"uff"`` or ``"h5"`` from the file name, else from the first bytes."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in UFF_SUFFIXES:
+        return "uff"
+    if suffix in HDF5_SUFFIXES:
+        return "h5"
+    _check_readable(path, "an FRF file")
+    with open(path, "rb") as fh:
+        head = fh.read(8)
+    if head.startswith(b"\x89HDF"):
+        return "h5"
+    if head.strip().startswith(b"-1"):
+        return "uff"
+    raise DataError(f"{path}: unknown FRF file format (expected UFF dataset 58 or HDF5)")
+
+
+def read_frf(path: str | os.PathLike[str]) -> FRFSet:
+    """Read an FRF file: UFF dataset 58 (ASCII or binary) or the project's HDF5."""
+    path = Path(path)
+    if frf_format(path) == "uff":
+        return read_frf_uff(path)
+    return read_frf_h5(path)
+
+
+def write_frf(
+    frf: FRFSet, path: str | os.PathLike[str], fmt: str | None = None, *, coherence: bool = False
+) -> Path:
+    """Write an FRF file; ``fmt`` is "uff", "uff-binary" or "h5" (default: by suffix).
+
+    HDF5 always keeps the coherence; UFF only with ``coherence=True``.
+    """
+    fmt = fmt or frf_format_for_writing(path)
+    if fmt == "h5":
+        return write_frf_h5(frf, path)
+    if fmt in ("uff", "uff-binary"):
+        return write_frf_uff(frf, path, binary=fmt == "uff-binary", coherence=coherence)
+    raise DataError(f"unknown FRF format {fmt!r}; use uff, uff-binary or h5")
+
+
+def frf_format_for_writing(path: str | os.PathLike[str]) -> str:
+    suffix = Path(path).suffix.lower()
+    if suffix in UFF_SUFFIXES:
+        return "uff"
+    if suffix in HDF5_SUFFIXES:
+        return "h5"
+    raise DataError(f"{path}: cannot tell the format from the suffix; use .uff or .h5")
+
+
+def find_frf_files(folder: str | os.PathLike[str]) -> list[Path]:
+    """Every UFF and HDF5 file under ``folder`` (recursively), sorted."""
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise DataError(f"{folder}: no such folder")
+    suffixes = UFF_SUFFIXES | HDF5_SUFFIXES
+    return sorted(
+        p
+        for p in folder.rglob("*")
+        if p.is_file() and p.suffix.lower() in suffixes and not p.name.startswith(".")
+    )
+
+
+__all__ = [
+    "HDF5_SUFFIXES",
+    "SCHEMA_FRF",
+    "SCHEMA_RESULTS",
+    "SCHEMA_VERSION",
+    "UFF_SUFFIXES",
+    "atomic_path",
+    "experiment_file_path",
+    "find_frf_files",
+    "frf_format",
+    "frf_format_for_writing",
+    "read_csv",
+    "read_experiment",
+    "read_frf",
+    "read_frf_from_results",
+    "read_frf_group",
+    "read_frf_h5",
+    "read_frf_uff",
+    "read_results_h5",
+    "read_time_uff",
+    "results_complete",
+    "sha256_file",
+    "table_from_results",
+    "write_bytes",
+    "write_csv",
+    "write_frf",
+    "write_frf_group",
+    "write_frf_h5",
+    "write_frf_uff",
+    "write_results_h5",
+    "write_text",
+    "write_time_uff",
+]

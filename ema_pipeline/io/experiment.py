@@ -1,0 +1,124 @@
+"""The experiment description (TOML, read with ``tomllib``).
+
+See ``raw_frf/experiment.toml`` for a commented example.
+"""
+
+from __future__ import annotations
+
+import os
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from ema_pipeline.data import (
+    Beam,
+    ConfigurationSpec,
+    DataError,
+    Experiment,
+    IdentificationSettings,
+)
+
+
+def _get(table: Mapping[str, Any], key: str, kind: type, path: Path, default: Any = ...) -> Any:
+    if key not in table:
+        if default is ...:
+            raise DataError(f"{path}: missing required key {key!r}")
+        return default
+    value = table[key]
+    if kind is float and isinstance(value, int) and not isinstance(value, bool):
+        value = float(value)
+    if not isinstance(value, kind) or isinstance(value, bool) and kind is not bool:
+        raise DataError(f"{path}: {key!r} must be {kind.__name__}, got {value!r}")
+    return value
+
+
+def read_experiment(path: str | os.PathLike[str]) -> Experiment:
+    """Read an experiment description (TOML). See ``raw_frf/experiment.toml``."""
+    path = Path(path)
+    if not path.is_file():
+        raise DataError(f"{path}: experiment file not found")
+    try:
+        doc = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not valid TOML ({exc})") from exc
+    beam_t = doc.get("beam", {})
+    try:
+        beam = Beam(
+            length_m=_get(beam_t, "length_m", float, path, 0.65),
+            width_m=_get(beam_t, "width_m", float, path, 0.05),
+            thickness_m=_get(beam_t, "thickness_m", float, path, 0.01),
+            youngs_modulus_pa=_get(beam_t, "youngs_modulus_pa", float, path, 210e9),
+            density_kg_m3=_get(beam_t, "density_kg_m3", float, path, 7800.0),
+            n_elements=_get(beam_t, "n_elements", int, path, 100),
+            n_measurement_elements=_get(beam_t, "n_measurement_elements", int, path, 10),
+        )
+    except DataError as exc:
+        raise DataError(f"{path}: [beam] {exc}") from exc
+    sensors = doc.get("sensors", {})
+    ident = doc.get("identification", {})
+    fe = doc.get("fe", {})
+    configs = doc.get("configurations", [])
+    if not isinstance(configs, list) or not configs:
+        raise DataError(f"{path}: needs at least one [[configurations]] entry")
+    specs = []
+    for k, c in enumerate(configs, start=1):
+        if not isinstance(c, dict) or "name" not in c or "file" not in c:
+            raise DataError(f"{path}: configuration {k} needs 'name' and 'file'")
+        tau = c.get("exp_window_tau_s")
+        specs.append(
+            ConfigurationSpec(
+                name=str(c["name"]),
+                file=str(c["file"]),
+                description=str(c.get("description", "")),
+                exp_window_tau_s=None if tau is None else float(tau),
+            )
+        )
+    names = [s.name for s in specs]
+    if len(set(names)) != len(names):
+        raise DataError(f"{path}: configuration names repeat: {names}")
+    genuine = str(doc.get("experiment", {}).get("genuine", names[0]))
+    if genuine not in names:
+        raise DataError(f"{path}: genuine configuration {genuine!r} is not among {names}")
+    band = ident.get("band_hz")
+    if band is not None and (len(band) != 2 or not float(band[0]) < float(band[1])):
+        raise DataError(f"{path}: identification.band_hz must be [low, high], got {band}")
+    n_nodes = beam.n_measurement_elements + 1
+    immersed = tuple(int(e) for e in fe.get("immersed_elements", [beam.n_measurement_elements]))
+    for e in immersed:
+        if not 1 <= e <= beam.n_measurement_elements:
+            raise DataError(
+                f"{path}: immersed element {e} does not exist (1..{beam.n_measurement_elements})"
+            )
+    response_nodes = tuple(int(n) for n in sensors.get("response_nodes", [3, 6]))
+    hammer = int(sensors.get("hammer_node", 8))
+    for node in (*response_nodes, hammer):
+        if not 1 <= node <= n_nodes:
+            raise DataError(f"{path}: sensor node {node} does not exist (1..{n_nodes})")
+    max_order = ident.get("max_order")
+    return Experiment(
+        name=str(doc.get("experiment", {}).get("name", path.stem)),
+        beam=beam,
+        configurations=tuple(specs),
+        base_dir=str(path.parent),
+        genuine=genuine,
+        response_nodes=response_nodes,
+        hammer_node=hammer,
+        direction=int(sensors.get("direction", 3)),
+        identification=IdentificationSettings(
+            band_hz=None if band is None else (float(band[0]), float(band[1])),
+            max_order=None if max_order is None else int(max_order),
+            method=str(ident.get("method", "plscf")),
+            expect_hz=tuple(float(f) for f in ident.get("expect_hz", [])),
+        ),
+        immersed_elements=immersed,
+        n_modes=int(fe.get("n_modes", 4)),
+        update_repeats=int(fe.get("update_repeats", 5)),
+        seed=int(fe.get("seed", 0)),
+    )
+
+
+def experiment_file_path(experiment: Experiment, spec: ConfigurationSpec) -> Path:
+    """Absolute path of a configuration's FRF file (relative to the experiment file)."""
+    p = Path(spec.file)
+    return p if p.is_absolute() else Path(experiment.base_dir) / p
