@@ -372,6 +372,10 @@ def main(argv: list[str] | None = None) -> int:
     except EMAError as exc:
         print(f"ema-pipeline {args.command}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
+    except OSError as exc:  # unwritable output folder, disk full, ...
+        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
+        print(f"ema-pipeline {args.command}: error:{where} {exc.strerror or exc}", file=sys.stderr)
+        return EXIT_INPUT
     except KeyboardInterrupt:
         print(f"ema-pipeline {args.command}: interrupted", file=sys.stderr)
         return 130

@@ -47,3 +47,12 @@ def test_simulate_custom_modes_and_time_records(tmp_path):
     assert frf.freq_hz[k] == pytest.approx(20.0, abs=0.2)  # the asked first mode
     rec = io.read_time_uff(times)
     assert rec.force.shape == (4, 16384) and rec.response.shape == (4, 2, 16384)
+
+
+def test_unwritable_output_is_a_clear_error_not_a_traceback(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    code = main(["simulate", "--out", str(blocker / "sub" / "g.uff"), "--quiet"])
+    assert code == 1
+    err = capsys.readouterr().err
+    assert "error:" in err and "file" in err and "Traceback" not in err
