@@ -212,7 +212,7 @@ def main(argv: list[str] | None = None) -> int:
         for kind, folder, workers in plan:
             out = root / f"out_{kind}_w{workers}"
             shutil.rmtree(out, ignore_errors=True)
-            needed = min(workers + 0.8, os.cpu_count() or 1) - 0.2
+            needed = min(workers + 1, os.cpu_count() or 1) - 0.2
             idle = wait_until_idle(needed, args.wait_idle) if args.wait_idle > 0 else idle_cpus()
             result = run_measured(folder, out, workers)
             result["idle_before"] = idle

@@ -444,7 +444,7 @@ def find_inputs(folder: Path, out: Path) -> list[Path]:
     """The FRF files under ``folder`` (sorted), without those inside ``out``."""
     folder, out = folder.absolute(), out.absolute()
     files = io.find_frf_files(folder)
-    if _is_inside(out, folder) and out != folder:
+    if _is_inside(out, folder):
         files = [p for p in files if not _is_inside(p, out)]
     return files
 
