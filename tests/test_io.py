@@ -116,6 +116,18 @@ def test_truncated_file(frf, tmp_path, name, fmt):
         io.read_frf(cut)
 
 
+def test_file_cut_exactly_at_a_record_boundary(frf, tmp_path):
+    """Two equal records: half the file is a complete UFF of one record, which only
+    the record count our writer stores can expose."""
+    full = io.write_frf_uff(frf, tmp_path / "full.uff")
+    data = full.read_bytes()
+    half = tmp_path / "half.uff"
+    half.write_bytes(data[: len(data) // 2])
+    assert len(pyuff.UFF(str(half)).read_sets(0)["data"]) == 8193  # pyuff sees one record
+    with pytest.raises(DataError, match=r"half.uff: truncated Universal File: 1 of 2"):
+        io.read_frf(half)
+
+
 def test_no_dataset_58(tmp_path):
     path = tmp_path / "geometry.uff"
     pyuff.UFF(str(path)).write_sets(

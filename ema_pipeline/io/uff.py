@@ -196,6 +196,7 @@ def read_frf_uff(path: str | os.PathLike[str]) -> FRFSet:
         )
     coh_recs = [s for s in sets if int(s.get("func_type", 0)) == _UFF_FUNC_COHERENCE]
     meta = _metadata_from_id(frf_recs[0])
+    _check_record_count(path, meta, len(sets))
     freq = _uff_axis(path, frf_recs, meta)
 
     def dofs(rec: Mapping[str, Any]) -> tuple[DOF, DOF]:
@@ -276,8 +277,18 @@ def read_frf_uff(path: str | os.PathLike[str]) -> FRFSet:
     )
 
 
-def _id_lines(info: AcquisitionInfo, configuration: str) -> tuple[str, str]:
-    """ID lines 4 and 5: acquisition metadata and configuration as key=value pairs."""
+def _check_record_count(path: Path, meta: Mapping[str, str], n_found: int) -> None:
+    """Compare with the record count our writer stores (absent in foreign files)."""
+    if "nrec" in meta and int(meta["nrec"]) != n_found:
+        raise DataError(
+            f"{path}: truncated Universal File: {n_found} of {meta['nrec']} dataset-58 records"
+        )
+
+
+def _id_lines(info: AcquisitionInfo, configuration: str, n_records: int) -> tuple[str, str]:
+    """ID lines 4 and 5: acquisition metadata, the number of records in the file
+    (so that a file cut exactly at a record boundary is still seen as truncated)
+    and the configuration, as key=value pairs."""
 
     def num(x: float | int | None) -> str:
         return "none" if x is None else repr(x)
@@ -287,7 +298,7 @@ def _id_lines(info: AcquisitionInfo, configuration: str) -> tuple[str, str]:
         f"navg={num(info.n_averages)} tau={num(info.exp_window_tau_s)} est={info.estimator} "
         f"fwin={info.force_window.replace(' ', '_')}"
     )
-    id5 = f"ema-pipeline cfg={configuration.replace(' ', '_') or 'none'}"
+    id5 = f"ema-pipeline nrec={n_records} cfg={configuration.replace(' ', '_') or 'none'}"
     if len(id4) > 80 or len(id5) > 80:
         raise DataError(f"UFF ID lines longer than 80 characters: {id4!r} / {id5!r}")
     return id4, id5
@@ -358,7 +369,8 @@ def write_frf_uff(
     averages and window time constant; ID line 5 the configuration name.
     """
     numerator = {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}[frf.quantity]
-    id4, id5 = _id_lines(frf.acquisition, frf.configuration)
+    per_pair = 2 if coherence and frf.coherence is not None else 1
+    id4, id5 = _id_lines(frf.acquisition, frf.configuration, per_pair * frf.n_out * frf.n_in)
     info = frf.acquisition
     id2 = f"{info.estimator}, {info.n_averages or '?'} linear averages"
     records = []
@@ -420,7 +432,8 @@ def write_time_uff(
     t = np.arange(records.n_samples) / records.sample_rate_hz
     meta = (
         f"ema-pipeline fs={records.sample_rate_hz!r} ns={records.n_samples} "
-        f"trig={records.trigger_s!r} cfg={records.configuration or 'none'}"
+        f"trig={records.trigger_s!r} nrec={records.n_averages * (1 + records.response.shape[1])} "
+        f"cfg={records.configuration or 'none'}"
     )
     out = []
     ref = records.reference_dof
@@ -478,6 +491,7 @@ def read_time_uff(path: str | os.PathLike[str]) -> TimeRecords:
     if not sets:
         raise DataError(f"{path}: no time-response records (dataset 58, function type 1)")
     meta = _metadata_from_id(sets[0])
+    _check_record_count(path, meta, len(sets))
     impacts: dict[int, dict[str, Any]] = {}
     current = 0
     for k, rec in enumerate(sets):
