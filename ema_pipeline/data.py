@@ -145,13 +145,6 @@ class FRFSet:
             raise DataError(f"{where}an FRF needs at least 2 frequency lines")
         if not np.all(np.isfinite(self.freq_hz)) or np.any(np.diff(self.freq_hz) <= 0):
             raise DataError(f"{where}frequency axis must be finite and strictly increasing")
-        bad = ~np.isfinite(self.H)
-        if bad.any():
-            o, i, k = np.argwhere(bad)[0]
-            raise DataError(
-                f"{where}FRF contains {int(bad.sum())} NaN/inf values "
-                f"(first: response {o}, reference {i}, {self.freq_hz[k]:.4g} Hz)"
-            )
         if self.quantity not in QUANTITY_UNITS:
             raise DataError(
                 f"{where}unknown FRF quantity {self.quantity!r}; "
@@ -173,9 +166,23 @@ class FRFSet:
             coh = np.asarray(self.coherence, dtype=float)
             if coh.shape != self.H.shape:
                 raise DataError(f"{where}coherence shape {coh.shape} != H shape {self.H.shape}")
-            if not np.all(np.isfinite(coh)):
-                raise DataError(f"{where}coherence contains NaN/inf values")
             self.coherence = coh
+        self.check_finite()
+
+    def check_finite(self) -> None:
+        """Raise DataError naming the source, the DOFs and the frequency of the first
+        NaN/inf value in H or the coherence (the arrays can change after construction)."""
+        where = f"{self.source.path}: " if self.source.path else ""
+        bad = ~np.isfinite(self.H)
+        if bad.any():
+            o, i, k = np.argwhere(bad)[0]
+            raise DataError(
+                f"{where}FRF contains {int(bad.sum())} NaN/inf values (first: response "
+                f"{self.response_dofs[o].label()}, reference {self.reference_dofs[i].label()}, "
+                f"{self.freq_hz[k]:.4g} Hz)"
+            )
+        if self.coherence is not None and not np.all(np.isfinite(self.coherence)):
+            raise DataError(f"{where}coherence contains NaN/inf values")
 
     # -- convenience -------------------------------------------------------
     @property

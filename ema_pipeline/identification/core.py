@@ -143,23 +143,9 @@ def _resolve_band(frf: FRFSet, band_hz: tuple[float, float] | None) -> tuple[flo
         raise DataError(f"band {band_hz} Hz is not an interval lo < hi")
     if lo < f[0] - 1e-9 or hi > f[-1] + 1e-9:
         raise DataError(
-            f"band [{lo:g}, {hi:g}] Hz lies outside the frequency axis "
-            f"[{f[0]:g}, {f[-1]:g}] Hz"
+            f"band [{lo:g}, {hi:g}] Hz lies outside the frequency axis [{f[0]:g}, {f[-1]:g}] Hz"
         )
     return lo, hi
-
-
-def _check_finite(frf: FRFSet, where: str) -> None:
-    bad = ~np.isfinite(frf.H)
-    if bad.any():
-        o, i, k = np.argwhere(bad)[0]
-        raise DataError(
-            f"{where}FRF contains {int(bad.sum())} NaN/inf values (first: response "
-            f"{frf.response_dofs[o].label()}, reference {frf.reference_dofs[i].label()}, "
-            f"{frf.freq_hz[k]:.4g} Hz)"
-        )
-    if frf.coherence is not None and not np.all(np.isfinite(frf.coherence)):
-        raise DataError(f"{where}coherence contains NaN/inf values")
 
 
 def _check_input(sub: FRFSet, max_order: int, where: str) -> None:
@@ -254,7 +240,7 @@ def identify(
         raise DataError(f"unknown identification method {method!r}; use 'plscf' or 'sdypy-lscf'")
     if weighting not in ("none", "coherence"):
         raise DataError(f"unknown weighting {weighting!r}; use 'none' or 'coherence'")
-    _check_finite(frf, where)
+    frf.check_finite()
     lo, hi = _resolve_band(frf, band_hz)
     sub = frf.band(lo, hi)
     p = default_max_order(frf.n_in, sub.freq_hz.size) if max_order is None else int(max_order)
@@ -265,15 +251,20 @@ def identify(
     if expect_hz is not None and (
         expect_hz.size == 0 or np.any(expect_hz <= lo) or np.any(expect_hz >= hi)
     ):
-        raise DataError(f"expected frequencies {expect_hz} must lie inside the band "
-                        f"[{lo:g}, {hi:g}] Hz")
+        raise DataError(
+            f"expected frequencies {expect_hz} must lie inside the band [{lo:g}, {hi:g}] Hz"
+        )
     decay = float(frf.acquisition.window_decay_rate)
     if method == "sdypy-lscf":
         from ema_pipeline.identification.sdypy_backend import identify_sdypy
 
         return identify_sdypy(
-            frf, band_hz=(lo, hi), max_order=max_order, expect=expect_hz,
-            lower_residual=lower_residual, upper_residual=upper_residual,
+            frf,
+            band_hz=(lo, hi),
+            max_order=max_order,
+            expect=expect_hz,
+            lower_residual=lower_residual,
+            upper_residual=upper_residual,
         )
 
     freq = sub.freq_hz
@@ -290,15 +281,33 @@ def identify(
     stab = StabilizationData(**{**stab.__dict__, "cluster": labels})
     sel = select_poles(stab, labels, expect_hz=expect_hz, min_fraction=min_fraction)
     return finish_identification(
-        sub, sel.pole, decay=decay, refine=refine, lower_residual=lower_residual,
-        upper_residual=upper_residual, stab=stab, selected=sel, screen=expect_hz is None,
+        sub,
+        sel.pole,
+        decay=decay,
+        refine=refine,
+        lower_residual=lower_residual,
+        upper_residual=upper_residual,
+        stab=stab,
+        selected=sel,
+        screen=expect_hz is None,
         settings=IdentificationSettings(
-            method="plscf", band_hz=(lo, hi), max_order=p, orders=orders, dt_s=poles.dt,
-            weighting=weighting, window_decay_rate=decay, tol_freq=tol_freq,
-            tol_zeta=tol_zeta, tol_mac=tol_mac, min_fraction=min_fraction, refine=refine,
-            lower_residual=lower_residual, upper_residual=upper_residual,
+            method="plscf",
+            band_hz=(lo, hi),
+            max_order=p,
+            orders=orders,
+            dt_s=poles.dt,
+            weighting=weighting,
+            window_decay_rate=decay,
+            tol_freq=tol_freq,
+            tol_zeta=tol_zeta,
+            tol_mac=tol_mac,
+            min_fraction=min_fraction,
+            refine=refine,
+            lower_residual=lower_residual,
+            upper_residual=upper_residual,
             expect_hz=expect_hz,
-            uncertainty="least-squares covariance of the refined poles" if refine
+            uncertainty="least-squares covariance of the refined poles"
+            if refine
             else "scatter of the cluster poles over model orders",
         ),
     )
@@ -334,9 +343,7 @@ def finish_identification(
         keep = rel < MAX_REL_SIGMA_STD
         pole_id = pole_id[keep]
         if selected is not None:
-            selected = SelectedPoles(
-                **{k: v[keep] for k, v in selected.__dict__.items()}
-            )
+            selected = SelectedPoles(**{k: v[keep] for k, v in selected.__dict__.items()})
         m = pole_id.size
         fn_std = fn_std[keep]
         zeta_std = zeta_std[keep]
@@ -350,8 +357,9 @@ def finish_identification(
     pole = pole_id + decay
     fn, fd, zeta = pole_to_modal(pole)
     if m:
-        fit = _lsfd.lsfd(freq, Hc, pole_id, sub.quantity, lower=lower_residual,
-                         upper=upper_residual)
+        fit = _lsfd.lsfd(
+            freq, Hc, pole_id, sub.quantity, lower=lower_residual, upper=upper_residual
+        )
         q = {"receptance": 0, "mobility": 1, "accelerance": 2}[sub.quantity]
         residues = (fit.a / pole[:, None] ** q).reshape(m, n_out, n_in)
         H_fit = fit.H_fit.reshape(n_out, n_in, n_freq)
@@ -365,8 +373,13 @@ def finish_identification(
     i_ref = int(np.argmax(np.sum(np.abs(residues) ** 2, axis=(0, 1)))) if m else 0
     shapes = (2j * pole.imag)[None, :] * residues[:, :, i_ref].T  # (n_out, m)
     modes = ModalParameters(
-        fn_hz=fn, zeta=zeta, fn_std_hz=fn_std, zeta_std=zeta_std, shapes=shapes,
-        dofs=sub.response_dofs, configuration=sub.configuration,
+        fn_hz=fn,
+        zeta=zeta,
+        fn_std_hz=fn_std,
+        zeta_std=zeta_std,
+        shapes=shapes,
+        dofs=sub.response_dofs,
+        configuration=sub.configuration,
     )
     return IdentificationResult(
         modes=modes,
@@ -395,19 +408,27 @@ def reciprocal(frf: FRFSet) -> FRFSet:
 
     coh = None if frf.coherence is None else np.swapaxes(frf.coherence, 0, 1)
     return replace(
-        frf, H=np.swapaxes(frf.H, 0, 1), coherence=coh,
-        response_dofs=frf.reference_dofs, reference_dofs=frf.response_dofs,
+        frf,
+        H=np.swapaxes(frf.H, 0, 1),
+        coherence=coh,
+        response_dofs=frf.reference_dofs,
+        reference_dofs=frf.response_dofs,
     )
 
 
-def plot_fit_quality(ax: Axes, result: IdentificationResult, H: np.ndarray,
-                     output: int, reference: int = 0) -> Axes:
+def plot_fit_quality(
+    ax: Axes, result: IdentificationResult, H: np.ndarray, output: int, reference: int = 0
+) -> Axes:
     """Draw measured vs synthesised FRF ``(output, reference)`` with its FRAC and
     normalised error onto ``ax``. ``H`` is the measured (n_out, n_in, n_freq)
     array on ``result.freq_hz`` (e.g. ``frf.band(*result.settings.band_hz).H``)."""
     label = f"{result.modes.dofs[output].label()}" if result.modes.dofs else f"out {output}"
     return _lsfd.plot_fit(
-        ax, result.freq_hz, H[output, reference], result.H_fit[output, reference],
-        label=label, frac_value=float(result.frac[output, reference]),
+        ax,
+        result.freq_hz,
+        H[output, reference],
+        result.H_fit[output, reference],
+        label=label,
+        frac_value=float(result.frac[output, reference]),
         error_value=float(result.error[output, reference]),
     )
