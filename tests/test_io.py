@@ -83,6 +83,14 @@ def test_time_records_round_trip_through_uff(tmp_path):
         assert back.sample_rate_hz == rec.sample_rate_hz and back.trigger_s == rec.trigger_s
         assert back.response_dofs == rec.response_dofs and back.reference_dof == rec.reference_dof
         assert back.configuration == "genuine"
+    # FRF estimation works on the recorded (read back) time data as on the original
+    from ema_pipeline.acquisition import estimate_frf
+
+    kwargs = {"force_window_s": 0.1, "exp_window_tau_s": 1.6384}
+    h_orig, h_read = estimate_frf(rec, **kwargs), estimate_frf(back, **kwargs)
+    band = (h_orig.freq_hz > 5) & (h_orig.freq_hz < 900)
+    np.testing.assert_allclose(h_read.H[..., band], h_orig.H[..., band], rtol=1e-9)
+    assert h_read.reference_dofs == (rec.reference_dof,)
 
 
 def test_reads_the_measured_roving_hammer_file(real_uff):
