@@ -19,7 +19,7 @@ import h5py
 import numpy as np
 
 from ema_pipeline import io
-from ema_pipeline.data import DataError, FRFSet
+from ema_pipeline.data import DataError, FRFSet, IdentificationSettings
 
 
 @dataclass(frozen=True)
@@ -31,6 +31,19 @@ class IdentifyOptions:
     method: str = "plscf"
     expect_hz: tuple[float, ...] = ()
     exp_window_tau_s: float | None = None  # override the file's (foreign UFF files lack it)
+
+    @classmethod
+    def from_settings(
+        cls, settings: IdentificationSettings, exp_window_tau_s: float | None = None
+    ) -> IdentifyOptions:
+        """The options of an experiment file's ``[identification]`` table."""
+        return cls(
+            band_hz=settings.band_hz,
+            max_order=settings.max_order,
+            method=settings.method,
+            expect_hz=settings.expect_hz,
+            exp_window_tau_s=exp_window_tau_s,
+        )
 
 
 @dataclass
@@ -71,6 +84,19 @@ def load_frf(path: Path, options: IdentifyOptions) -> FRFSet:
     return frf
 
 
+def identify_frf(frf: FRFSet, options: IdentifyOptions):
+    """:func:`ema_pipeline.identification.identify` with these options."""
+    from ema_pipeline.identification import identify
+
+    return identify(
+        frf,
+        band_hz=options.band_hz,
+        max_order=options.max_order,
+        method=options.method,  # type: ignore[arg-type]
+        expect=list(options.expect_hz) or None,
+    )
+
+
 def completed_sha256(result_h5: Path) -> str | None:
     """The input hash recorded in a complete result file, else None."""
     if not io.results_complete(result_h5):
@@ -94,7 +120,7 @@ def identify_file(
     in ``out_dir`` is skipped. Problems with the file (unreadable, NaN, no modes)
     are returned as ``status="failed"`` with the reason, never raised.
     """
-    from ema_pipeline.identification import identify, modes_table
+    from ema_pipeline.identification import modes_table
 
     path, out_dir = Path(path), Path(out_dir)
     start = time.perf_counter()
@@ -109,13 +135,7 @@ def identify_file(
             return outcome
         frf = load_frf(path, options)
         outcome.configuration = frf.configuration
-        result = identify(
-            frf,
-            band_hz=options.band_hz,
-            max_order=options.max_order,
-            method=options.method,  # type: ignore[arg-type]
-            expect=list(options.expect_hz) or None,
-        )
+        result = identify_frf(frf, options)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_table(result)

@@ -37,7 +37,7 @@ from ema_pipeline.data import (
     FRFSet,
     ModalParameters,
 )
-from ema_pipeline.pipeline.single import IdentifyOptions, load_frf
+from ema_pipeline.pipeline.single import IdentifyOptions, identify_frf, load_frf
 
 Progress = Callable[[str], None]
 
@@ -90,23 +90,14 @@ def table1(measured: dict[str, ModalParameters]) -> pd.DataFrame:
 
 
 def _identify_all(exp: Experiment, result: StudyResult, say: Progress) -> None:
-    from ema_pipeline.identification import identify
-
-    settings = exp.identification
     for k, spec in enumerate(exp.configurations, start=1):
         path = io.experiment_file_path(exp, spec)
         start = time.perf_counter()
         say(f"[identify {k}/{len(exp.configurations)}] {spec.name}: {path}")
         try:
-            frf = load_frf(path, IdentifyOptions(exp_window_tau_s=spec.exp_window_tau_s))
-            frf = replace(frf, configuration=spec.name)
-            ident = identify(
-                frf,
-                band_hz=settings.band_hz,
-                max_order=settings.max_order,
-                method=settings.method,  # type: ignore[arg-type]
-                expect=list(settings.expect_hz) or None,
-            )
+            options = IdentifyOptions.from_settings(exp.identification, spec.exp_window_tau_s)
+            frf = replace(load_frf(path, options), configuration=spec.name)
+            ident = identify_frf(frf, options)
         except DataError as exc:
             result.problems.append(f"configuration {spec.name!r}: {exc}")
             say(f"    failed: {exc}")
