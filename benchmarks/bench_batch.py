@@ -51,12 +51,13 @@ FORMATS = (("h5", ".h5"), ("uff", ".uff"), ("uff-binary", ".uff"))
 
 def generate(folder: Path, n: int) -> None:
     """``n`` simulated files (distinct seeds), spread over 10 sub-folders."""
-    from ema_pipeline import acquisition, io
+    from ema_pipeline import io
+    from ema_pipeline.pipeline.simulate import simulate_paper_test
 
     for k in range(n):
         configuration = CONFIGURATIONS[k % len(CONFIGURATIONS)]
         fmt, suffix = FORMATS[(k // len(CONFIGURATIONS)) % len(FORMATS)]
-        frf = acquisition.simulate_impact_test(configuration, seed=1000 + k)
+        frf = simulate_paper_test(configuration, seed=1000 + k)
         path = folder / f"day{k % 10:02d}" / f"test{k:04d}_{configuration}{suffix}"
         path.parent.mkdir(parents=True, exist_ok=True)
         io.write_frf(frf.band(*FILE_BAND_HZ), path, fmt)

@@ -24,7 +24,6 @@ import warnings
 
 import numpy as np
 
-from ema_pipeline.acquisition import configuration_modes, simulate_impact_test
 from ema_pipeline.identification import identify
 from ema_pipeline.identification.plscf import (
     companion_poles,
@@ -32,6 +31,7 @@ from ema_pipeline.identification.plscf import (
     plscf_normal_matrix,
 )
 from ema_pipeline.identification.stabilization import pole_to_modal
+from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
 
 EXPECT = [18.0, 112.0, 327.0, 629.0]
 
@@ -98,8 +98,8 @@ def errors(truth, fn, zeta) -> str:
 
 
 def main() -> None:
-    truth = configuration_modes("genuine")
-    frf = simulate_impact_test("genuine", seed=0)
+    truth = paper_modes("genuine")
+    frf = simulate_paper_test("genuine", seed=0)
     print(f"FRFs: {frf.H.shape[0]} x {frf.H.shape[-1]} lines, "
           f"{frf.freq_hz[0]:g}-{frf.freq_hz[-1]:g} Hz, 40 dB SNR, 4 averages\n")
     rows = [

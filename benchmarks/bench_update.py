@@ -63,7 +63,7 @@ def main() -> None:
 
     # 2. the update as the pipeline runs it
     t0 = time.perf_counter()
-    res = fe.update_beam(beam, fx, n_repeats=5, seed=0, progress=False)
+    res = fe.update_beam(beam, fx, n_repeats=5, seed=0)
     wall = time.perf_counter() - t0
     nfev = sum(r.n_evaluations for r in res.runs)
     print("\n== model update: differential evolution x5, exact scaling")
@@ -102,7 +102,7 @@ def main() -> None:
     if not args.quick:
         pm_beam = Beam(point_masses=((beam.node_x_m(3), 0.0032), (beam.node_x_m(6), 0.0032)))
         t0 = time.perf_counter()
-        pm = fe.update_beam(pm_beam, fx, n_repeats=1, seed=0, progress=False)
+        pm = fe.update_beam(pm_beam, fx, n_repeats=1, seed=0)
         t_pm = time.perf_counter() - t0
         print("\n== point masses (2 x 3.2 g): batched full solves, 1 repeat")
         print(f"wall time                        {t_pm:8.3f} s   "

@@ -33,7 +33,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline import paper
 from ema_pipeline.data import (
     DOF,
     AcquisitionInfo,
@@ -325,28 +324,23 @@ class TestSetup:
 
 
 def configuration_modes(
-    configuration: str = "genuine",
+    configuration: str = "",
     *,
-    fd_hz: np.ndarray | None = None,
-    zeta: np.ndarray | None = None,
+    fd_hz: np.ndarray,
+    zeta: np.ndarray,
     n_modes_total: int = 8,
     high_mode_zeta: float = 0.004,
 ) -> ModalParameters:
-    """Modal parameters to simulate: Table 1 (or the given ones) plus modes above 1 kHz.
+    """Modal parameters to simulate: the measured modes plus modes above them.
 
-    The measured modes come from ``fd_hz``/``zeta`` or, by default, from Table 1
-    of the paper for ``configuration``; natural frequencies follow eq. (4).
-    Higher modes, up to ``n_modes_total``, continue the last measured one with
-    the Euler-Bernoulli ratios (beta_k / beta_n)^2 and damping ``high_mode_zeta``.
+    The measured modes are ``fd_hz`` (damped natural frequencies, Hz) and
+    ``zeta`` (damping ratios, not percent), e.g. a row of the paper's Table 1
+    (:data:`ema_pipeline.paper.TABLE1_FD_HZ`, looked up by
+    :func:`ema_pipeline.pipeline.simulate.paper_modes`); natural frequencies
+    follow eq. (4). Higher modes, up to ``n_modes_total``, continue the last
+    measured one with the Euler-Bernoulli ratios (beta_k / beta_n)^2 and damping
+    ``high_mode_zeta``. ``configuration`` names the result.
     """
-    if fd_hz is None or zeta is None:
-        if configuration not in paper.TABLE1_FD_HZ:
-            raise DataError(
-                f"no default modal parameters for configuration {configuration!r}; "
-                f"known: {', '.join(paper.CONFIGURATIONS)} (or give fd_hz and zeta)"
-            )
-        fd_hz = paper.TABLE1_FD_HZ[configuration] if fd_hz is None else fd_hz
-        zeta = paper.TABLE1_ZETA[configuration] if zeta is None else zeta
     measured = ModalParameters.from_damped(fd_hz, zeta)
     n_meas = measured.n_modes
     if n_modes_total <= n_meas:
@@ -448,7 +442,7 @@ def simulate_time_records(
 
 
 def simulate_impact_test(
-    modes: ModalParameters | str = "genuine",
+    modes: ModalParameters,
     setup: TestSetup = TestSetup(),
     *,
     snr_db: float | None = 40.0,
@@ -456,14 +450,11 @@ def simulate_impact_test(
 ) -> FRFSet:
     """A whole simulated impact test: time records, windows, H1 with coherence.
 
-    ``modes`` is a ModalParameters or a configuration name of Table 1
-    (``genuine``, ``larger_tank``, ``smaller_tank``), completed with modes above
-    1 kHz by :func:`configuration_modes`. See :func:`simulate_time_records`.
+    ``modes`` are the modal parameters to simulate, e.g. from
+    :func:`configuration_modes` (the paper's configurations by name:
+    :func:`ema_pipeline.pipeline.simulate.simulate_paper_test`). See
+    :func:`simulate_time_records`.
     """
-    if isinstance(modes, str):
-        modes = configuration_modes(
-            modes, n_modes_total=setup.n_modes_total, high_mode_zeta=setup.high_mode_zeta
-        )
     records = simulate_time_records(modes, setup, snr_db=snr_db, seed=seed)
     return estimate_frf(
         records,

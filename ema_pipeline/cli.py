@@ -32,6 +32,7 @@ def _floats(text: str) -> tuple[float, ...]:
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
     from ema_pipeline import acquisition, io, paper
+    from ema_pipeline.pipeline.simulate import paper_modes
 
     setup = acquisition.TestSetup()
     if args.fd_hz is None and args.configuration not in paper.CONFIGURATIONS:
@@ -43,13 +44,16 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         args.fd_hz is not None and len(args.fd_hz) != len(args.zeta_pct)
     ):
         raise ConfigError("--fd-hz and --zeta-pct go together, with one value per mode each")
-    modes = acquisition.configuration_modes(
-        args.configuration,
-        fd_hz=args.fd_hz,
-        zeta=None if args.zeta_pct is None else [z / 100 for z in args.zeta_pct],
-        n_modes_total=setup.n_modes_total,
-        high_mode_zeta=setup.high_mode_zeta,
-    )
+    if args.fd_hz is None:
+        modes = paper_modes(args.configuration, setup)
+    else:
+        modes = acquisition.configuration_modes(
+            args.configuration,
+            fd_hz=args.fd_hz,
+            zeta=[z / 100 for z in args.zeta_pct],
+            n_modes_total=setup.n_modes_total,
+            high_mode_zeta=setup.high_mode_zeta,
+        )
     snr = None if args.snr_db is not None and args.snr_db <= 0 else args.snr_db
     records = acquisition.simulate_time_records(
         modes, setup, snr_db=snr, seed=args.seed, configuration=args.configuration
@@ -153,7 +157,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 def _cmd_fe(args: argparse.Namespace) -> int:
     from ema_pipeline import added_mass, io
     from ema_pipeline.data import Beam
-    from ema_pipeline.pipeline import study
+    from ema_pipeline.pipeline import fe_stage, study
 
     experiment_path = args.experiment
     if experiment_path is None:
@@ -165,7 +169,7 @@ def _cmd_fe(args: argparse.Namespace) -> int:
     measured = added_mass.modal_parameters_from_table(
         table, genuine=genuine, source=str(args.table1)
     )
-    stage = added_mass.run_fe_stage(
+    stage = fe_stage.run_fe_stage(
         experiment.beam if experiment else Beam(),
         measured,
         genuine=genuine,
@@ -174,7 +178,7 @@ def _cmd_fe(args: argparse.Namespace) -> int:
         seed=experiment.seed if experiment else 0,
         progress=not args.quiet,
     )
-    for name, frame in added_mass.fe_stage_tables(stage).items():
+    for name, frame in fe_stage.fe_stage_tables(stage).items():
         path = io.write_csv(frame, args.out / f"{name}.csv")
         if not args.quiet:
             print(f"wrote {path}")

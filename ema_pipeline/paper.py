@@ -43,6 +43,15 @@ TABLE4_INITIAL = {
     "youngs_modulus_pa": 210e9,
     "density_kg_m3": 7800.0,
 }
+#: Table 4: the row names the paper prints, per update parameter (swapped
+#: against the geometry for b and h).
+TABLE4_LABELS = {
+    "thickness_m": "Width",
+    "width_m": "Height",
+    "length_m": "Length",
+    "youngs_modulus_pa": "Elastic modulus",
+    "density_kg_m3": "Density",
+}
 TABLE4_UPDATED = {
     "thickness_m": 0.009497,
     "width_m": 0.049740,

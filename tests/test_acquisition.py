@@ -9,7 +9,6 @@ from ema_pipeline import paper
 from ema_pipeline.acquisition import (
     TestSetup,
     cantilever_modes,
-    configuration_modes,
     estimate_frf,
     half_sine_spectrum,
     modal_frf,
@@ -17,6 +16,7 @@ from ema_pipeline.acquisition import (
     simulate_time_records,
 )
 from ema_pipeline.data import Beam, DataError, ModalParameters, TimeRecords
+from ema_pipeline.pipeline.simulate import paper_modes
 
 
 def test_analytic_cantilever_matches_table3_and_is_mass_normalised():
@@ -67,7 +67,7 @@ def test_noise_free_impact_test_equals_analytic_frf_with_window_decay(configurat
     """H1 of a noise-free test with an exponential window exp(-t/tau) equals the
     analytic FRF with every decay rate increased by 1/tau (issue 2 physics test)."""
     setup = TestSetup()
-    modes = configuration_modes(configuration)
+    modes = paper_modes(configuration)
     frf = simulate_impact_test(modes, setup, snr_db=None, seed=5)
     phi_out, phi_in = setup.shapes(modes.n_modes)
     ref = modal_frf(frf.freq_hz, modes, phi_out, phi_in, extra_decay=1 / setup.exp_window_tau_s)
@@ -87,7 +87,7 @@ def test_without_exponential_window_the_frf_is_the_structures_own():
     """Without the window, mode 1 leaks (it decays to only ~1 % in 8.19 s); with it
     the FRF is the shifted-pole one. Checks that the window is what makes it exact."""
     setup = TestSetup()
-    modes = configuration_modes("genuine")
+    modes = paper_modes("genuine")
     records = simulate_time_records(modes, setup, snr_db=None, seed=0)
     phi_out, phi_in = setup.shapes(modes.n_modes)
     plain = estimate_frf(records, force_window_s=setup.force_window_s)
@@ -98,7 +98,7 @@ def test_without_exponential_window_the_frf_is_the_structures_own():
 
 
 def test_simulation_is_deterministic_for_a_seed_and_noise_has_the_asked_snr():
-    modes = configuration_modes("genuine")
+    modes = paper_modes("genuine")
     a = simulate_time_records(modes, seed=11)
     b = simulate_time_records(modes, seed=11)
     c = simulate_time_records(modes, seed=12)
@@ -113,7 +113,7 @@ def test_simulation_is_deterministic_for_a_seed_and_noise_has_the_asked_snr():
 
 def test_noisy_test_h1_is_close_to_truth_near_resonances_and_coherence_drops_elsewhere():
     setup = TestSetup()
-    modes = configuration_modes("genuine")
+    modes = paper_modes("genuine")
     frf = simulate_impact_test(modes, setup, snr_db=40, seed=3)
     phi_out, phi_in = setup.shapes(modes.n_modes)
     ref = modal_frf(frf.freq_hz, modes, phi_out, phi_in, extra_decay=1 / setup.exp_window_tau_s)
@@ -125,7 +125,7 @@ def test_noisy_test_h1_is_close_to_truth_near_resonances_and_coherence_drops_els
 
 
 def test_h2_equals_h1_without_noise():
-    records = simulate_time_records(configuration_modes("genuine"), snr_db=None, seed=2)
+    records = simulate_time_records(paper_modes("genuine"), snr_db=None, seed=2)
     h1 = estimate_frf(records, exp_window_tau_s=1.6, force_window_s=0.1)
     h2 = estimate_frf(records, exp_window_tau_s=1.6, force_window_s=0.1, estimator="H2")
     band = (h1.freq_hz > 5) & (h1.freq_hz < 900)
@@ -133,7 +133,7 @@ def test_h2_equals_h1_without_noise():
 
 
 def test_bad_time_records_get_clear_errors():
-    good = simulate_time_records(configuration_modes("genuine"), snr_db=None, seed=0)
+    good = simulate_time_records(paper_modes("genuine"), snr_db=None, seed=0)
     with pytest.raises(DataError, match="all zero"):
         TimeRecords(np.zeros_like(good.force), good.response, 2000.0)
     with pytest.raises(DataError, match="differ in number"):

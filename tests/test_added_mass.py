@@ -10,6 +10,7 @@ import scipy.linalg
 from ema_pipeline import added_mass as am
 from ema_pipeline import fe, paper
 from ema_pipeline.data import Beam, DataError, ModalParameters
+from ema_pipeline.pipeline import fe_stage
 
 
 def _table1() -> pd.DataFrame:
@@ -26,8 +27,8 @@ def _measured() -> dict[str, ModalParameters]:
 
 
 @pytest.fixture(scope="module")
-def stage() -> am.FEStageResult:
-    return am.run_fe_stage(Beam(), _measured(), progress=False)
+def stage() -> fe_stage.FEStageResult:
+    return fe_stage.run_fe_stage(Beam(), _measured(), progress=False)
 
 
 # --- Table 1 input ------------------------------------------------------------
@@ -181,7 +182,7 @@ def test_too_many_modified_elements_is_an_error():
         am.local_added_mass(Beam(), meas["genuine"], meas["larger_tank"],
                             immersed_elements=(8, 9, 10))
     with pytest.raises(DataError, match="half the number of measured modes"):
-        am.run_fe_stage(Beam(), meas, immersed_elements=(8, 9, 10), progress=False)
+        fe_stage.run_fe_stage(Beam(), meas, immersed_elements=(8, 9, 10), progress=False)
     # two elements with four modes is allowed (2 * 2 <= 4)
     r = am.local_added_mass(Beam(), meas["genuine"], meas["larger_tank"],
                             immersed_elements=(9, 10))
@@ -209,7 +210,7 @@ def test_unknown_element_or_method():
 
 # --- the whole stage and its tables -----------------------------------------
 def test_fe_stage_tables_forms(stage):
-    tables = am.fe_stage_tables(stage)
+    tables = fe_stage.fe_stage_tables(stage)
     assert set(tables) == set(am.TABLE_COLUMNS)
     for name, cols in am.TABLE_COLUMNS.items():
         assert tuple(tables[name].columns[: len(cols)]) == cols, name
@@ -237,4 +238,4 @@ def test_fe_stage_requires_genuine():
     meas = _measured()
     del meas["genuine"]
     with pytest.raises(DataError, match="genuine"):
-        am.run_fe_stage(Beam(), meas, progress=False)
+        fe_stage.run_fe_stage(Beam(), meas, progress=False)

@@ -21,11 +21,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from ema_pipeline import acquisition, io, paper
+from ema_pipeline import io, paper
 from ema_pipeline.cli import main
 from ema_pipeline.data import ConfigError
 from ema_pipeline.pipeline import batch
 from ema_pipeline.pipeline.batch import BatchReport, run_batch
+from ema_pipeline.pipeline.simulate import simulate_paper_test
 from ema_pipeline.pipeline.single import IdentifyOptions
 
 FILE_BAND_HZ = (2.0, 400.0)
@@ -47,7 +48,7 @@ BAD_FILES = ("corrupt.uff", "day2/nan.h5", "truncated.uff")
 
 
 def _simulate(path: Path, configuration: str, seed: int, fmt: str) -> None:
-    frf = acquisition.simulate_impact_test(configuration, seed=seed).band(*FILE_BAND_HZ)
+    frf = simulate_paper_test(configuration, seed=seed).band(*FILE_BAND_HZ)
     path.parent.mkdir(parents=True, exist_ok=True)
     io.write_frf(frf, path, fmt)
 
@@ -312,7 +313,7 @@ def test_bad_arguments_and_lock(good_folder: Path, tmp_path: Path) -> None:
             run_batch(good_folder, out, progress=False)
     out = tmp_path / "locked"
     out.mkdir()
-    with batch._exclusive(out), pytest.raises(ConfigError, match="another batch"):
+    with batch.batch_lock(out), pytest.raises(ConfigError, match="another batch"):
         run_batch(good_folder, out, progress=False)
 
 
@@ -394,7 +395,7 @@ def test_worker_crash_is_isolated(good_folder: Path, tmp_path: Path) -> None:
         folder=folder, out=out, n_files=len(files), summary_csv=out / "summary.csv",
         failures_csv=out / "failures.csv",
     )  # fmt: skip
-    batch._run(tasks, report, lambda: batch._LocalBackend(2, _crash_on_name), progress=False)
+    batch.run_tasks(tasks, report, lambda: batch.LocalBackend(2, _crash_on_name), progress=False)
     assert (report.n_ok, report.n_errors) == (3, 1)
     failures = pd.read_csv(out / "failures.csv")
     assert list(failures["file"]) == ["crash.h5"]

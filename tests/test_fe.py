@@ -137,7 +137,7 @@ def test_serep_rejects_more_modes_than_masters():
 def test_update_reaches_paper_objective_fast():
     fx = _genuine_fn_hz()
     t0 = time.perf_counter()
-    res = fe.update_beam(Beam(), fx, n_repeats=5, seed=0, progress=False)
+    res = fe.update_beam(Beam(), fx, n_repeats=5, seed=0)
     wall = time.perf_counter() - t0
     assert wall < 10.0
     assert res.method == "scaling" and res.identifiable_exact
@@ -166,7 +166,7 @@ def test_update_with_point_masses_uses_full_solves():
     beam = Beam(n_elements=20, n_measurement_elements=10,
                 point_masses=((0.13, 0.0032), (0.325, 0.0032)))
     fx = _genuine_fn_hz()
-    res = fe.update_beam(beam, fx, n_repeats=1, progress=False, tol=1e-3)
+    res = fe.update_beam(beam, fx, n_repeats=1, tol=1e-3)
     assert res.method == "full solve" and not res.identifiable_exact
     full = fe.beam_frequencies(res.beam, 4)
     np.testing.assert_allclose(res.fn_updated_hz, full, rtol=1e-8)
@@ -175,6 +175,6 @@ def test_update_with_point_masses_uses_full_solves():
 
 def test_update_rejects_bad_input():
     with pytest.raises(DataError):
-        fe.update_beam(Beam(), np.array([-1.0, 100.0]), progress=False)
+        fe.update_beam(Beam(), np.array([-1.0, 100.0]))
     with pytest.raises(DataError, match="unknown update parameter"):
-        fe.update_beam(Beam(), _genuine_fn_hz(), bounds_rel={"poisson": 0.1}, progress=False)
+        fe.update_beam(Beam(), _genuine_fn_hz(), bounds_rel={"poisson": 0.1})

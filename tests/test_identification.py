@@ -15,9 +15,7 @@ from ema_pipeline import paper  # noqa: E402
 from ema_pipeline.acquisition import (  # noqa: E402
     cantilever_beta_l,
     cantilever_modes,
-    configuration_modes,
     modal_frf,
-    simulate_impact_test,
 )
 from ema_pipeline.data import (  # noqa: E402
     DOF,
@@ -36,6 +34,7 @@ from ema_pipeline.identification import (  # noqa: E402
     reciprocal,
 )
 from ema_pipeline.identification.plscf import _lag_sums  # noqa: E402
+from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test  # noqa: E402
 
 FREQ = np.fft.rfftfreq(16384, 1 / 2000)  # 8193 lines, 0-1000 Hz
 TAU = 8.192 / 5
@@ -241,10 +240,10 @@ def test_bad_settings_rejected(small_frf):
 def test_simulated_impact_tests_20_seeds(configuration):
     """4 averages, 40 dB SNR, exponential window: accuracy, no spurious modes,
     and standard deviations that hold the truth within 2 sigma."""
-    truth = configuration_modes(configuration)
+    truth = paper_modes(configuration)
     inside = []
     for seed in range(20):
-        frf = simulate_impact_test(configuration, seed=seed)
+        frf = simulate_paper_test(configuration, seed=seed)
         res = identify(frf)
         assert res.modes.n_modes == 4, (seed, res.fn_hz)
         np.testing.assert_allclose(res.fn_hz, truth.fn_hz[:4], rtol=5e-4)  # 0.05 %
@@ -255,22 +254,22 @@ def test_simulated_impact_tests_20_seeds(configuration):
 
 
 def test_coherence_weighting_runs():
-    frf = simulate_impact_test("genuine", seed=7)
+    frf = simulate_paper_test("genuine", seed=7)
     res = identify(frf, weighting="coherence")
-    truth = configuration_modes("genuine")
+    truth = paper_modes("genuine")
     np.testing.assert_allclose(res.fn_hz, truth.fn_hz[:4], rtol=5e-4)
 
 
 # ----------------------------------------------------------------- sdypy-EMA
 def test_sdypy_backend_agrees():
-    truth = configuration_modes("genuine")
-    clean = simulate_impact_test("genuine", snr_db=None, seed=0)
+    truth = paper_modes("genuine")
+    clean = simulate_paper_test("genuine", snr_db=None, seed=0)
     ours = identify(clean)
     ref = identify(clean, method="sdypy-lscf", max_order=60)
     assert ref.settings.method == "sdypy-lscf"
     np.testing.assert_allclose(ref.fn_hz, ours.fn_hz, rtol=5e-5)
     np.testing.assert_allclose(ref.zeta, ours.zeta, rtol=2e-2)
-    noisy = simulate_impact_test("genuine", seed=0)
+    noisy = simulate_paper_test("genuine", seed=0)
     ours = identify(noisy)
     ref = identify(noisy, method="sdypy-lscf", max_order=60, expect=[18, 112, 327, 629])
     # modes 2-4 agree within 0.05 %; sdypy-EMA's LSCF (unweighted accelerance)

@@ -11,17 +11,14 @@ import pytest
 import pyuff
 
 from ema_pipeline import io
-from ema_pipeline.acquisition import (
-    configuration_modes,
-    simulate_impact_test,
-    simulate_time_records,
-)
+from ema_pipeline.acquisition import simulate_time_records
 from ema_pipeline.data import DOF, DataError, FRFSet
+from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
 
 
 @pytest.fixture(scope="module")
 def frf() -> FRFSet:
-    return simulate_impact_test("larger_tank", seed=7)
+    return simulate_paper_test("larger_tank", seed=7)
 
 
 def _assert_same(a: FRFSet, b: FRFSet, rtol: float) -> None:
@@ -73,7 +70,7 @@ def test_plain_pyuff_reads_our_simulated_file(tmp_path):
 
 
 def test_time_records_round_trip_through_uff(tmp_path):
-    rec = simulate_time_records(configuration_modes("genuine"), seed=4, configuration="genuine")
+    rec = simulate_time_records(paper_modes("genuine"), seed=4, configuration="genuine")
     for binary in (False, True):
         path = io.write_time_uff(rec, tmp_path / f"t{binary}.uff", binary=binary)
         back = io.read_time_uff(path)

@@ -60,7 +60,6 @@ from ema_pipeline.fe.serep import (
 from ema_pipeline.fe.update import (
     DEFAULT_BOUNDS_REL,
     IDENTIFIABLE_NAME,
-    PAPER_PARAMETER_LABELS,
     PARAMETER_NAMES,
     PARAMETER_UNITS,
     FrequencyEvaluator,
@@ -77,7 +76,6 @@ __all__ = [
     "DEFAULT_BOUNDS_REL",
     "PARAMETER_NAMES",
     "PARAMETER_UNITS",
-    "PAPER_PARAMETER_LABELS",
     "IDENTIFIABLE_NAME",
     "FEModel",
     "FEModes",

@@ -4,14 +4,13 @@ scaling of a uniform beam (see the package docstring)."""
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.linalg
 import scipy.sparse
 from scipy.optimize import differential_evolution
-from tqdm.auto import tqdm
 
 from ema_pipeline.data import Beam, DataError
 from ema_pipeline.fe.beam import (
@@ -39,14 +38,6 @@ PARAMETER_UNITS: dict[str, str] = {
     "length_m": "m",
     "youngs_modulus_pa": "Pa",
     "density_kg_m3": "kg/m^3",
-}
-#: Row names the paper's Table 4 prints (swapped against the geometry for b and h).
-PAPER_PARAMETER_LABELS: dict[str, str] = {
-    "thickness_m": "Width",
-    "width_m": "Height",
-    "length_m": "Length",
-    "youngs_modulus_pa": "Elastic modulus",
-    "density_kg_m3": "Density",
 }
 #: Default update bounds, relative: geometry +-5 %, material +-8 % (section 4.2.1).
 DEFAULT_BOUNDS_REL: dict[str, float] = {
@@ -300,10 +291,10 @@ def update_beam(
     fn_measured_hz: np.ndarray,
     *,
     mode_numbers: Sequence[int] | np.ndarray | None = None,
-    bounds_rel: dict[str, float] | None = None,
+    bounds_rel: Mapping[str, float] | None = None,
     n_repeats: int = 5,
     seed: int = 0,
-    progress: bool = True,
+    progress: Callable[[int, int], None] | None = None,
     popsize: int = 15,
     maxiter: int = 1000,
     tol: float = 1e-6,
@@ -331,7 +322,9 @@ def update_beam(
     fn_measured_hz : (p,) measured UNDAMPED natural frequencies, fn = fd/sqrt(1-zeta^2)
         (eq. 4); NaN entries (modes not measured) are left out.
     mode_numbers : FE mode numbers matching them (default 1..p).
-    progress : show a tqdm progress bar over the runs.
+    progress : called as ``progress(done, n_repeats)`` before the first run
+        (done = 0) and after every run, e.g. to advance a progress bar
+        (:func:`ema_pipeline.pipeline.fe_stage.update_progress_bar`); None: silent.
     """
     fx = np.atleast_1d(np.asarray(fn_measured_hz, dtype=float))
     if fx.ndim != 1 or fx.size == 0:
@@ -372,41 +365,37 @@ def update_beam(
 
     t0 = time.perf_counter()
     runs: list[UpdateRun] = []
-    with tqdm(
-        total=n_repeats,
-        desc="model update (differential evolution)",
-        disable=not progress,
-        leave=False,
-    ) as bar:
-        for k in range(n_repeats):
-            counter[0] = 0
-            res = differential_evolution(
-                objective,
-                list(zip(lower, upper, strict=True)),
-                popsize=popsize,
-                maxiter=maxiter,
-                tol=tol,
-                rng=np.random.default_rng(seed + k),
-                polish=polish,
-                vectorized=True,
-                updating="deferred",
+    if progress is not None:
+        progress(0, n_repeats)
+    for k in range(n_repeats):
+        counter[0] = 0
+        res = differential_evolution(
+            objective,
+            list(zip(lower, upper, strict=True)),
+            popsize=popsize,
+            maxiter=maxiter,
+            tol=tol,
+            rng=np.random.default_rng(seed + k),
+            polish=polish,
+            vectorized=True,
+            updating="deferred",
+        )
+        xb = np.clip(res.x, lower, upper)
+        n_eval = counter[0]
+        runs.append(
+            UpdateRun(
+                seed=seed + k,
+                parameters=xb,
+                objective=float(objective(xb)),
+                fn_hz=evaluator(xb[None, :])[0],
+                n_evaluations=int(n_eval),
+                n_generations=int(res.nit),
+                success=bool(res.success),
+                message=str(res.message),
             )
-            xb = np.clip(res.x, lower, upper)
-            n_eval = counter[0]
-            runs.append(
-                UpdateRun(
-                    seed=seed + k,
-                    parameters=xb,
-                    objective=float(objective(xb)),
-                    fn_hz=evaluator(xb[None, :])[0],
-                    n_evaluations=int(n_eval),
-                    n_generations=int(res.nit),
-                    success=bool(res.success),
-                    message=str(res.message),
-                )
-            )
-            bar.set_postfix(best=f"{min(r.objective for r in runs):.5f}")
-            bar.update(1)
+        )
+        if progress is not None:
+            progress(k + 1, n_repeats)
     wall = time.perf_counter() - t0
     objectives = np.array([r.objective for r in runs])
     best = int(np.argmin(objectives))

@@ -19,8 +19,8 @@ from pathlib import Path
 from ema_pipeline.data import DataError, FRFSet
 from ema_pipeline.io.experiment import experiment_file_path, read_experiment
 from ema_pipeline.io.files import (
-    _check_readable,
     atomic_path,
+    check_readable,
     read_csv,
     sha256_file,
     write_bytes,
@@ -32,10 +32,12 @@ from ema_pipeline.io.hdf5 import (
     SCHEMA_FRF,
     SCHEMA_RESULTS,
     SCHEMA_VERSION,
+    completed_result_sha256,
     read_frf_from_results,
     read_frf_group,
     read_frf_h5,
     read_results_h5,
+    result_details,
     results_complete,
     table_from_results,
     write_frf_group,
@@ -59,7 +61,7 @@ def frf_format(path: str | os.PathLike[str]) -> str:
         return "uff"
     if suffix in HDF5_SUFFIXES:
         return "h5"
-    _check_readable(path, "an FRF file")
+    check_readable(path, "an FRF file")
     with open(path, "rb") as fh:
         head = fh.read(8)
     if head.startswith(b"\x89HDF"):
@@ -121,6 +123,8 @@ __all__ = [
     "SCHEMA_VERSION",
     "UFF_SUFFIXES",
     "atomic_path",
+    "check_readable",
+    "completed_result_sha256",
     "experiment_file_path",
     "find_frf_files",
     "frf_format",
@@ -134,6 +138,7 @@ __all__ = [
     "read_frf_uff",
     "read_results_h5",
     "read_time_uff",
+    "result_details",
     "results_complete",
     "sha256_file",
     "table_from_results",

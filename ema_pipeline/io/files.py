@@ -89,7 +89,9 @@ def read_csv(path: str | os.PathLike[str], required: tuple[str, ...] = ()) -> pd
     return table
 
 
-def _check_readable(path: Path, kind: str) -> None:
+def check_readable(path: Path, kind: str) -> None:
+    """Raise a DataError naming ``path`` when it is missing or empty (``kind``: what
+    the file should be, for the message)."""
     if not path.is_file():
         raise DataError(f"{path}: no such file")
     if path.stat().st_size == 0:

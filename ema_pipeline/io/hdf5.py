@@ -29,7 +29,7 @@ import pandas as pd
 
 from ema_pipeline import __version__
 from ema_pipeline.data import DOF, AcquisitionInfo, DataError, FRFSet, Provenance
-from ema_pipeline.io.files import _check_readable, atomic_path, sha256_file
+from ema_pipeline.io.files import atomic_path, check_readable, sha256_file
 
 SCHEMA_FRF = "ema-pipeline/frf"
 SCHEMA_RESULTS = "ema-pipeline/results"
@@ -123,7 +123,7 @@ def write_frf_h5(frf: FRFSet, path: str | os.PathLike[str]) -> Path:
 
 
 def _open_h5(path: Path) -> h5py.File:
-    _check_readable(path, "an HDF5 file")
+    check_readable(path, "an HDF5 file")
     try:
         return h5py.File(path, "r")
     except OSError as exc:
@@ -275,6 +275,53 @@ def results_complete(path: str | os.PathLike[str]) -> bool:
             return bool(_attr(h5, "complete", False))
     except (OSError, KeyError):
         return False
+
+
+def completed_result_sha256(path: str | os.PathLike[str]) -> str | None:
+    """The input hash (root attribute ``input_sha256``) of a complete results file.
+
+    None when ``path`` is missing, unreadable, not complete (an interrupted
+    write) or has no recorded hash. Used to skip inputs whose result exists.
+    """
+    if not results_complete(path):
+        return None
+    try:
+        with h5py.File(path, "r") as h5:
+            value = _attr(h5, "input_sha256")
+    except OSError:
+        return None
+    return None if value is None else str(value)
+
+
+def result_details(path: str | os.PathLike[str]) -> dict[str, Any]:
+    """What a one-file identification result (``<stem>_result.h5``) says about it.
+
+    Returns
+    -------
+    dict with ``configuration`` (str, "" when not stored) and, when stored,
+    ``fn_hz`` (natural frequencies, Hz, from the ``modes`` table) and ``frac``,
+    ``error`` (per-mode fit quality arrays of the ``identification`` section).
+
+    Raises
+    ------
+    DataError : the file cannot be read or its sections are malformed.
+    """
+    path = Path(path)
+    details: dict[str, Any] = {}
+    try:
+        with h5py.File(path, "r") as h5:
+            details["configuration"] = (
+                str(_attr(h5["frf"], "configuration", "")) if "frf" in h5 else ""
+            )
+            if "modes" in h5 and "fn_hz" in h5["modes"]:
+                details["fn_hz"] = np.asarray(h5["modes"]["fn_hz"][()], dtype=float)
+            ident = h5["identification"] if "identification" in h5 else None
+            if ident is not None and "frac" in ident and "error" in ident:
+                details["frac"] = np.asarray(ident["frac"][()])
+                details["error"] = np.asarray(ident["error"][()])
+    except (OSError, KeyError, ValueError, TypeError) as exc:
+        raise DataError(f"{path}: cannot read the result details ({exc})") from exc
+    return details
 
 
 def table_from_results(tree: Mapping[str, Any]) -> pd.DataFrame:

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ema_pipeline.data import DOF, AcquisitionInfo, DataError, FRFSet, Provenance, TimeRecords
-from ema_pipeline.io.files import _check_readable, atomic_path, sha256_file
+from ema_pipeline.io.files import atomic_path, check_readable, sha256_file
 
 UFF_SUFFIXES = {".uff", ".unv", ".58"}
 
@@ -85,7 +85,7 @@ def _read_uff_sets(path: Path) -> list[dict[str, Any]]:
     """All dataset-58 records of a UFF file, with clear errors."""
     import pyuff
 
-    _check_readable(path, "a Universal File (dataset 58)")
+    check_readable(path, "a Universal File (dataset 58)")
     try:
         uff = pyuff.UFF(str(path))
         types = list(uff.get_set_types())

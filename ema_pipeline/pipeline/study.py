@@ -132,7 +132,8 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress) -> None:
 
 
 def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars: bool) -> None:
-    from ema_pipeline import added_mass, fe
+    from ema_pipeline import fe
+    from ema_pipeline.pipeline.fe_stage import fe_stage_tables, run_fe_stage
 
     genuine = exp.genuine_name
     # The genuine state defines the mode numbers and must be complete; a modified
@@ -156,7 +157,7 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
         )
         return
     try:
-        stage = added_mass.run_fe_stage(
+        stage = run_fe_stage(
             exp.beam,
             usable,
             genuine=genuine,
@@ -170,7 +171,7 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
         say(f"    failed: {exc}")
         return
     result.fe = stage
-    result.tables.update(added_mass.fe_stage_tables(stage))
+    result.tables.update(fe_stage_tables(stage))
     upd = stage.update
     spread = ", ".join(
         f"{name} {lo:.6g}..{hi:.6g}"

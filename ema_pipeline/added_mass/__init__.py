@@ -1,0 +1,63 @@
+"""Added mass stage: modal added mass, eq. (10), and local added mass, eq. (14)-(20).
+
+Modules:
+
+* :mod:`.modal` - eq. (10) per mode (:func:`modal_added_mass`) and the pairing
+  of modes between configurations (:func:`pair_modes`).
+* :mod:`.local` - the local added mass of the immersed element(s) by least
+  squares on the SEREP-reduced FE model (:func:`local_added_mass`, methods
+  ``"block"`` and ``"projected"``).
+* :mod:`.tables` - Tables 1-6 as DataFrames (:func:`modal_parameters_from_table`
+  reads the Table 1 form; :data:`TABLE_COLUMNS`).
+
+The whole FE stage (model update, SEREP, Tables 2-6) is orchestrated by
+:mod:`ema_pipeline.pipeline.fe_stage`.
+"""
+
+from ema_pipeline.added_mass.local import (
+    METHODS,
+    LocalAddedMassResult,
+    Method,
+    local_added_mass,
+    local_added_mass_factors,
+)
+from ema_pipeline.added_mass.modal import (
+    AddedMassResult,
+    mac_matrix,
+    modal_added_mass,
+    modal_added_mass_all,
+    pair_modes,
+    replace_configuration,
+    require_genuine,
+)
+from ema_pipeline.added_mass.tables import (
+    TABLE4_PARAMETER_NAMES,
+    TABLE_COLUMNS,
+    fe_frequency_table,
+    local_added_mass_table,
+    modal_added_mass_table,
+    modal_parameters_from_table,
+    updated_parameters_table,
+)
+
+__all__ = [
+    "METHODS",
+    "TABLE4_PARAMETER_NAMES",
+    "TABLE_COLUMNS",
+    "AddedMassResult",
+    "LocalAddedMassResult",
+    "Method",
+    "fe_frequency_table",
+    "local_added_mass",
+    "local_added_mass_factors",
+    "local_added_mass_table",
+    "mac_matrix",
+    "modal_added_mass",
+    "modal_added_mass_all",
+    "modal_added_mass_table",
+    "modal_parameters_from_table",
+    "pair_modes",
+    "replace_configuration",
+    "require_genuine",
+    "updated_parameters_table",
+]

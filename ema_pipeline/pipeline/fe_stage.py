@@ -1,0 +1,179 @@
+"""The FE stage of the study (paper Tables 2-6) from measured modal parameters.
+
+Orchestration only: the numerics are :mod:`ema_pipeline.added_mass` (eq. 10,
+eq. 14-20, the tables) and :mod:`ema_pipeline.fe` (beam FE, SEREP, model update);
+this module runs them in order, shows the model update's progress bar and
+assembles the tables (:func:`fe_stage_tables`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from tqdm.auto import tqdm
+
+from ema_pipeline import fe, paper
+from ema_pipeline.added_mass import (
+    METHODS,
+    AddedMassResult,
+    LocalAddedMassResult,
+    fe_frequency_table,
+    local_added_mass,
+    local_added_mass_table,
+    modal_added_mass_all,
+    modal_added_mass_table,
+    replace_configuration,
+    require_genuine,
+    updated_parameters_table,
+)
+from ema_pipeline.data import Beam, DataError, ModalParameters
+
+__all__ = ["FEStageResult", "fe_stage_tables", "run_fe_stage", "update_progress_bar"]
+
+
+@contextmanager
+def update_progress_bar(enabled: bool = True) -> Iterator[Callable[[int, int], None] | None]:
+    """A tqdm bar over the model update's runs, as the ``progress`` callback of
+    :func:`ema_pipeline.fe.update_beam` (None when not ``enabled``)."""
+    if not enabled:
+        yield None
+        return
+    bars: list[tqdm] = []  # created at the first call, when the total is known
+
+    def advance(done: int, total: int) -> None:
+        if not bars:
+            desc = "model update (differential evolution)"
+            bars.append(tqdm(total=total, desc=desc, leave=False))
+        bars[0].update(done - bars[0].n)
+
+    try:
+        yield advance
+    finally:
+        for bar in bars:
+            bar.close()
+
+
+@dataclass(frozen=True)
+class FEStageResult:
+    """Everything the FE stage produces (paper Tables 2-6).
+
+    Attributes
+    ----------
+    beam_initial, beam_updated : the Table 3 model and the updated one.
+    genuine : name of the genuine configuration in ``measured``.
+    measured : measured modal parameters per configuration.
+    fn_initial_hz : Table 3, the initial FE frequencies (as many as genuine modes).
+    update : Table 4 (:class:`ema_pipeline.fe.UpdateResult`, all runs,
+        identifiable combination and its value, parameter spread).
+    fn_updated_hz : Table 5.
+    reduced : SEREP model of the updated beam (10 masters, 10 modes in the paper).
+    modal_added_mass : Table 2, per modified configuration.
+    local_added_mass : Table 6, one entry per configuration and method.
+    """
+
+    beam_initial: Beam
+    beam_updated: Beam
+    genuine: str
+    measured: dict[str, ModalParameters]
+    fn_initial_hz: np.ndarray
+    update: fe.UpdateResult
+    fn_updated_hz: np.ndarray
+    reduced: fe.SerepModel
+    modal_added_mass: dict[str, AddedMassResult]
+    local_added_mass: tuple[LocalAddedMassResult, ...]
+    messages: tuple[str, ...] = ()
+
+
+def run_fe_stage(
+    beam: Beam,
+    measured: Mapping[str, ModalParameters],
+    *,
+    immersed_elements: Sequence[int] = (10,),
+    genuine: str = "genuine",
+    methods: Sequence[str] = METHODS,
+    n_repeats: int = 5,
+    seed: int = 0,
+    progress: bool = True,
+) -> FEStageResult:
+    """Modal added mass, FE model, model update, SEREP and local added mass.
+
+    1. Table 2: eq. (10) for every modified configuration.
+    2. Table 3: FE frequencies of ``beam`` (as many modes as genuine measured).
+    3. Table 4: :func:`ema_pipeline.fe.update_beam` on the genuine undamped
+       frequencies, eq. (26), differential evolution repeated ``n_repeats`` times.
+    4. Table 5: FE frequencies of the updated beam.
+    5. Table 6: :func:`local_added_mass` per modified configuration and method,
+       on the SEREP-reduced updated model.
+
+    ``measured`` maps configuration names to modal parameters (see
+    :func:`modal_parameters_from_table`); ``measured[genuine]`` must have every
+    mode (it defines the FE mode numbers 1..p).
+    """
+    require_genuine(measured, genuine)
+    for m in methods:
+        if m not in METHODS:
+            raise DataError(f"unknown local added mass method {m!r}; use {METHODS}")
+    gen = replace_configuration(measured[genuine], genuine)
+    p = gen.n_modes
+    if p < 1:
+        raise DataError(f"configuration {genuine!r} has no modes")
+    n_mod = len(measured) - 1
+    if n_mod and 2 * len(tuple(immersed_elements)) > p:
+        raise DataError(
+            f"{len(tuple(immersed_elements))} immersed element(s) need at least "
+            f"{2 * len(tuple(immersed_elements))} measured modes, got {p}: the number of "
+            "modified elements must not exceed half the number of measured modes"
+        )
+    modal = modal_added_mass_all(measured, genuine)
+    fn_init = fe.beam_frequencies(beam, p)
+    with update_progress_bar(progress) as bar:
+        upd = fe.update_beam(beam, gen.fn_hz, n_repeats=n_repeats, seed=seed, progress=bar)
+    n_red = max(p, beam.n_measurement_elements)
+    modes_upd, reduced = fe.reduce_beam(upd.beam, n_red)
+    local: list[LocalAddedMassResult] = []
+    for name, pair in modal.items():
+        mod = replace_configuration(measured[name], name)
+        for m in methods:
+            local.append(
+                local_added_mass(upd.beam, gen, mod, immersed_elements=immersed_elements,
+                                 method=m, reduced=reduced, pairing=pair)  # type: ignore[arg-type]
+            )
+    msgs = tuple(msg for res in modal.values() for msg in res.messages)
+    return FEStageResult(
+        beam_initial=beam,
+        beam_updated=upd.beam,
+        genuine=genuine,
+        measured=dict(measured),
+        fn_initial_hz=fn_init,
+        update=upd,
+        fn_updated_hz=modes_upd.fn_hz[:p],
+        reduced=reduced,
+        modal_added_mass=modal,
+        local_added_mass=tuple(local),
+        messages=msgs,
+    )
+
+
+def fe_stage_tables(result: FEStageResult) -> dict[str, pd.DataFrame]:
+    """Tables 2-6 as DataFrames in the DESIGN.md CSV forms (ratios as ratios).
+
+    Keys are the CSV file stems (``table2_modal_added_mass`` ...); the required
+    columns come first (:data:`ema_pipeline.added_mass.TABLE_COLUMNS`), extra
+    columns after them: Table 2 std, frequencies, ``paired``; Table 4 the spread
+    over the runs (``run_min, run_max, run_std``), the paper's row label and a
+    last row with the identifiable combination h*sqrt(E/rho)/L^2
+    (``identifiable`` True); Table 5 the measured frequency and relative
+    deviation; Table 6 the element number and the number of modes used.
+    """
+    fx = result.measured[result.genuine].fn_hz
+    return {
+        "table2_modal_added_mass": modal_added_mass_table(result.modal_added_mass),
+        "table3_fe_initial": fe_frequency_table(result.fn_initial_hz),
+        "table4_updated_parameters": updated_parameters_table(result.update, paper.TABLE4_LABELS),
+        "table5_fe_updated": fe_frequency_table(result.fn_updated_hz, fx),
+        "table6_local_added_mass": local_added_mass_table(result.local_added_mass),
+    }
