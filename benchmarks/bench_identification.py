@@ -24,7 +24,7 @@ import warnings
 
 import numpy as np
 
-from ema_pipeline.identification import identify
+from ema_pipeline.identification import IdentificationOptions, identify
 from ema_pipeline.identification.plscf import (
     companion_poles,
     plscf_denominators,
@@ -57,7 +57,7 @@ def run_sdypy(frf, pol_order_high: int = 100) -> tuple[np.ndarray, np.ndarray]:
 
 
 def run_ours(frf, max_order: int | None = None) -> tuple[np.ndarray, np.ndarray]:
-    res = identify(frf, max_order=max_order)
+    res = identify(frf, IdentificationOptions(max_order=max_order))
     return res.fn_hz, res.zeta
 
 

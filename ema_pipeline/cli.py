@@ -10,8 +10,12 @@ import argparse
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ema_pipeline.data import ConfigError, DataError, EMAError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ema_pipeline.identification.options import IdentificationOptions
 
 EXIT_OK, EXIT_INPUT, EXIT_USAGE = 0, 1, 2
 
@@ -74,14 +78,15 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _identify_options(args: argparse.Namespace):
-    from ema_pipeline.pipeline.single import IdentifyOptions
+def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
+    """The ``identify`` / ``batch`` arguments as one options object."""
+    from ema_pipeline.identification.options import IdentificationOptions
 
     if args.band is not None and not args.band[0] < args.band[1]:
         raise ConfigError(f"--band needs LO_HZ < HI_HZ, got {args.band[0]} {args.band[1]}")
     if args.max_order is not None and args.max_order < 2:
         raise ConfigError(f"--max-order must be at least 2, got {args.max_order}")
-    return IdentifyOptions(
+    return IdentificationOptions(
         band_hz=None if args.band is None else (args.band[0], args.band[1]),
         max_order=args.max_order,
         method=args.method,

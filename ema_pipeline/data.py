@@ -10,9 +10,12 @@ inside numpy.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ema_pipeline.identification.options import IdentificationOptions
 
 Quantity = Literal["accelerance", "mobility", "receptance"]
 
@@ -23,7 +26,7 @@ QUANTITY_UNITS: dict[str, str] = {
     "receptance": "m/N",
 }
 #: Power of (j*omega) that turns receptance into the quantity.
-_QUANTITY_ORDER: dict[str, int] = {"receptance": 0, "mobility": 1, "accelerance": 2}
+QUANTITY_POWER: dict[str, int] = {"receptance": 0, "mobility": 1, "accelerance": 2}
 
 
 class EMAError(Exception):
@@ -39,6 +42,35 @@ class DataError(EMAError, ValueError):
 
     The message names the source (file) when known.
     """
+
+
+def quantity_power(quantity: str) -> int:
+    """Power q of (j*omega) that turns receptance into ``quantity``: 0 receptance,
+    1 mobility, 2 accelerance (H_quantity = (j omega)^q H_receptance).
+
+    In pole-residue form the same power multiplies the residue: the residue of
+    the quantity is lambda_r^q times that of the receptance.
+    """
+    try:
+        return QUANTITY_POWER[quantity]
+    except KeyError:
+        raise DataError(
+            f"unknown FRF quantity {quantity!r}; expected one of {sorted(QUANTITY_POWER)}"
+        ) from None
+
+
+def quantity_factor(quantity_from: str, quantity_to: str, freq_hz: np.ndarray) -> np.ndarray:
+    """Factor (j omega)^(q_to - q_from) per line that converts an FRF of
+    ``quantity_from`` into ``quantity_to`` (omega = 2 pi ``freq_hz``).
+
+    Accelerance = j omega mobility = (j omega)^2 receptance. Where the factor is
+    not finite (negative powers at 0 Hz) it is 0.
+    """
+    power = quantity_power(quantity_to) - quantity_power(quantity_from)
+    jw = 2j * np.pi * np.asarray(freq_hz, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        factor = jw**power
+    return np.where(np.isfinite(factor), factor, 0.0)
 
 
 @dataclass(frozen=True)
@@ -209,13 +241,9 @@ class FRFSet:
         """
         if quantity not in QUANTITY_UNITS:
             raise DataError(f"unknown FRF quantity {quantity!r}")
-        power = _QUANTITY_ORDER[quantity] - _QUANTITY_ORDER[self.quantity]
-        if power == 0:
+        if quantity == self.quantity:
             return replace(self)
-        jw = 2j * np.pi * self.freq_hz
-        with np.errstate(divide="ignore", invalid="ignore"):
-            factor = jw**power
-        factor = np.where(np.isfinite(factor), factor, 0.0)
+        factor = quantity_factor(self.quantity, quantity, self.freq_hz)
         return replace(self, H=self.H * factor, quantity=quantity)
 
     def reciprocal(self) -> FRFSet:
@@ -417,34 +445,27 @@ class ConfigurationSpec:
 
 
 @dataclass(frozen=True)
-class IdentificationSettings:
-    """Settings of the identification stage for a whole experiment."""
-
-    band_hz: tuple[float, float] | None = None
-    max_order: int | None = None
-    method: str = "plscf"
-    expect_hz: tuple[float, ...] = ()
-
-
-@dataclass(frozen=True)
 class Experiment:
     """Everything ``ema-pipeline run`` needs, as described by ``experiment.toml``.
 
     ``configurations[0]`` is the genuine (reference) state unless ``genuine``
     names another one. ``immersed_elements`` are 1-based elements of the
     measurement mesh (element k joins nodes k and k+1; element 10 is the tip).
-    ``n_modes`` is the number of modes the FE stage uses.
+    ``n_modes`` is the number of modes the FE stage uses. ``identification``
+    holds the options of the ``[identification]`` table
+    (:class:`ema_pipeline.identification.options.IdentificationOptions`, built
+    by :func:`ema_pipeline.io.read_experiment`).
     """
 
     name: str
     beam: Beam
     configurations: tuple[ConfigurationSpec, ...]
+    identification: IdentificationOptions
     base_dir: str = "."
     genuine: str = ""
     response_nodes: tuple[int, ...] = (3, 6)
     hammer_node: int = 8
     direction: int = 3
-    identification: IdentificationSettings = IdentificationSettings()
     immersed_elements: tuple[int, ...] = (10,)
     n_modes: int = 4
     update_repeats: int = 5

@@ -12,9 +12,9 @@ from __future__ import annotations
 
 import base64
 import html
-import io as _bytes_io
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from io import BytesIO
 from typing import Any
 
 import numpy as np
@@ -23,6 +23,7 @@ from matplotlib.figure import Figure
 
 from ema_pipeline import paper
 from ema_pipeline.data import FRFSet
+from ema_pipeline.plots import plot_fit_quality, plot_stabilization
 
 #: Titles of the six tables, as in the paper.
 TABLE_TITLES = {
@@ -140,7 +141,7 @@ def compare_with_paper(name: str, table: pd.DataFrame) -> pd.DataFrame:
 
 
 def _png(fig: Figure) -> bytes:
-    buf = _bytes_io.BytesIO()
+    buf = BytesIO()
     fig.savefig(buf, format="png", dpi=110, bbox_inches="tight", metadata={"Software": None})
     return buf.getvalue()
 
@@ -176,8 +177,6 @@ def figure_frf_overlay(
 
 def figure_stabilization(result: Any, frf: FRFSet, title: str) -> bytes:
     """Stabilization diagram over the FRF sum, selected modes marked."""
-    from ema_pipeline.identification.stabilization import plot_stabilization
-
     fig = Figure(figsize=(8.0, 4.6), layout="constrained")
     ax = fig.add_subplot()
     lo, hi = result.settings.band_hz
@@ -195,8 +194,6 @@ def figure_stabilization(result: Any, frf: FRFSet, title: str) -> bytes:
 
 def figure_fit_quality(result: Any, frf: FRFSet, title: str) -> bytes:
     """Measured against synthesised FRFs (LSFD), one panel per response."""
-    from ema_pipeline.identification import plot_fit_quality
-
     lo, hi = result.settings.band_hz
     H = frf.band(lo, hi).H
     fig = Figure(figsize=(8.0, 3.2 * H.shape[0]), layout="constrained")

@@ -29,12 +29,10 @@ from ema_pipeline.identification import (  # noqa: E402
     IdentificationResult,
     identify,
     modes_table,
-    plot_fit_quality,
-    plot_stabilization,
-    reciprocal,
 )
-from ema_pipeline.identification.plscf import _lag_sums  # noqa: E402
+from ema_pipeline.identification.plscf import lag_sums  # noqa: E402
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test  # noqa: E402
+from ema_pipeline.plots import plot_fit_quality, plot_stabilization  # noqa: E402
 
 FREQ = np.fft.rfftfreq(16384, 1 / 2000)  # 8193 lines, 0-1000 Hz
 TAU = 8.192 / 5
@@ -149,11 +147,11 @@ def test_lag_sums_fft_equals_direct():
     f = np.arange(40, 400) * 0.5
     C = rng.standard_normal((3, f.size)) + 1j * rng.standard_normal((3, f.size))
     dt = 1 / (2 * f[-1])
-    g_fft = _lag_sums(f, C, dt, 20)
+    g_fft = lag_sums(f, C, dt, 20)
     lags = np.arange(-20, 21)
     g_dir = C @ np.exp(1j * 2 * np.pi * dt * np.outer(f, lags))
     np.testing.assert_allclose(g_fft, g_dir, rtol=1e-10, atol=1e-9)
-    g_off = _lag_sums(f + 0.1, C, 1 / (2 * (f[-1] + 0.1)), 20)  # off the FFT grid
+    g_off = lag_sums(f + 0.1, C, 1 / (2 * (f[-1] + 0.1)), 20)  # off the FFT grid
     g_dir2 = C @ np.exp(1j * 2 * np.pi / (2 * (f[-1] + 0.1)) * np.outer(f + 0.1, lags))
     np.testing.assert_allclose(g_off, g_dir2, rtol=1e-10, atol=1e-9)
 
@@ -184,12 +182,12 @@ def test_exponential_window_correction():
 
 def test_expect_picks_nearest_clusters():
     frf, modes = beam_frf(tau=TAU, noise_rel=1e-3, seed=4)
-    res = identify(frf, expect=[18, 112, 327, 629])
+    res = identify(frf, expect_hz=[18, 112, 327, 629])
     np.testing.assert_allclose(res.fn_hz, modes.fn_hz[:4], rtol=1e-4)
-    res2 = identify(frf, expect=[112, 629])
+    res2 = identify(frf, expect_hz=[112, 629])
     np.testing.assert_allclose(res2.fn_hz, modes.fn_hz[[1, 3]], rtol=1e-4)
     with pytest.raises(DataError, match="no stable pole cluster"):
-        identify(frf, expect=[500])
+        identify(frf, expect_hz=[500])
 
 
 # ------------------------------------------------------------------ bad input
@@ -231,7 +229,7 @@ def test_bad_settings_rejected(small_frf):
     with pytest.raises(DataError, match="has no coherence"):
         identify(small_frf, weighting="coherence")
     with pytest.raises(DataError, match="must lie inside the band"):
-        identify(small_frf, expect=[2000])
+        identify(small_frf, expect_hz=[2000])
 
 
 # ------------------------------------------------------ simulated impact tests
@@ -271,7 +269,7 @@ def test_sdypy_backend_agrees():
     np.testing.assert_allclose(ref.zeta, ours.zeta, rtol=2e-2)
     noisy = simulate_paper_test("genuine", seed=0)
     ours = identify(noisy)
-    ref = identify(noisy, method="sdypy-lscf", max_order=60, expect=[18, 112, 327, 629])
+    ref = identify(noisy, method="sdypy-lscf", max_order=60, expect_hz=[18, 112, 327, 629])
     # modes 2-4 agree within 0.05 %; sdypy-EMA's LSCF (unweighted accelerance)
     # places the windowed 18 Hz mode 0.05-0.09 % low, ours is closer to the truth
     np.testing.assert_allclose(ref.fn_hz[1:], ours.fn_hz[1:], rtol=5e-4)
@@ -290,7 +288,7 @@ def test_real_roving_hammer_data(real_uff):
 
     frf = read_frf(real_uff)
     assert frf.n_out == 1 and frf.n_in == 30
-    res = identify(reciprocal(frf), band_hz=(5, 790))
+    res = identify(frf.reciprocal(), band_hz=(5, 790))
     dist = np.abs(res.fn_hz[:, None] - PUBLISHED_HZ[None, :])
     matched = np.sum(dist.min(axis=0) < 1.0)
     extra = np.sum(dist.min(axis=1) >= 1.0)

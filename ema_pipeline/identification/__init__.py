@@ -18,65 +18,67 @@ reference, ``method="sdypy-lscf"``, and test against):
   participation vectors), automatic pole selection without a GUI or typed-in
   frequencies, standard deviations of f and zeta, correction of the
   exponential window's added damping, and clear errors on bad input.
+
+Modules: ``options`` (:class:`IdentificationOptions`), ``core`` (:func:`identify`
+and the method table :data:`METHODS`), ``plscf_backend`` / ``sdypy_backend``
+(the methods), ``common`` (band checks and the shared finish), ``plscf``,
+``stabilization``, ``selection``, ``refine`` (pole refinement), ``uncertainty``
+(noise and covariance model, ``STD_CALIBRATION``), ``lsfd`` (residues and fit
+indicators), ``result``. The MAC lives in :mod:`ema_pipeline.modal`, the
+diagrams in :mod:`ema_pipeline.plots`.
 """
 
-from ema_pipeline.identification.core import (
-    STD_CALIBRATION,
-    IdentificationResult,
-    IdentificationSettings,
-    default_max_order,
-    identify,
-    modes_table,
-    plot_fit_quality,
-    reciprocal,
-)
+from ema_pipeline.identification.common import default_max_order
+from ema_pipeline.identification.core import METHODS, identify
 from ema_pipeline.identification.lsfd import (  # the module stays ``identification.lsfd``
     frac,
-    mac,
-    modal_std,
     mpc,
     normalised_error,
     real_normalised,
-    refine_poles,
 )
+from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf import PoleSet, plscf, plscf_normal_matrix
+from ema_pipeline.identification.refine import refine_poles
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    modes_table,
+)
 from ema_pipeline.identification.selection import SelectedPoles, cluster_poles, select_poles
 from ema_pipeline.identification.stabilization import (
     STABLE_DAMP,
     STABLE_FREQ,
     STABLE_VECTOR,
     StabilizationData,
-    plot_stabilization,
     pole_to_modal,
     stabilization,
 )
+from ema_pipeline.identification.uncertainty import STD_CALIBRATION, modal_std
 
 __all__ = [
+    "METHODS",
     "STABLE_DAMP",
     "STABLE_FREQ",
     "STABLE_VECTOR",
     "STD_CALIBRATION",
+    "IdentificationOptions",
     "IdentificationResult",
-    "IdentificationSettings",
     "PoleSet",
+    "ResolvedSettings",
     "SelectedPoles",
     "StabilizationData",
     "cluster_poles",
     "default_max_order",
     "frac",
     "identify",
-    "mac",
     "modal_std",
     "modes_table",
     "mpc",
     "normalised_error",
-    "plot_fit_quality",
-    "plot_stabilization",
     "plscf",
     "plscf_normal_matrix",
     "pole_to_modal",
     "real_normalised",
-    "reciprocal",
     "refine_poles",
     "select_poles",
     "stabilization",

@@ -77,7 +77,7 @@ class PoleSet:
     dt: float
 
 
-def _lag_sums(freq_hz: np.ndarray, C: np.ndarray, dt: float, p: int) -> np.ndarray:
+def lag_sums(freq_hz: np.ndarray, C: np.ndarray, dt: float, p: int) -> np.ndarray:
     """g[..., p + m] = sum_k C[..., k] exp(1j * 2 pi f_k dt m) for m = -p..p.
 
     Uses one inverse FFT per channel when f_k * 2 dt * L is an integer grid
@@ -137,16 +137,16 @@ def plscf_normal_matrix(
     w2o = w2 if per_output else w2[None, :]
 
     # S: lag sums of w^2 H_ob   -> (n_out, n_in, 2p+1)
-    s = _lag_sums(freq_hz, w2o[:, None, :] * H, dt, p)
+    s = lag_sums(freq_hz, w2o[:, None, :] * H, dt, p)
     S = -np.real(s[:, :, idx])  # (n_out, n_in, q, q) [o, b, j, l]
     S = S.transpose(0, 2, 3, 1).reshape(n_out, q, q * n_in)  # [o, j, (l, b)]
     # T summed over outputs (the Toeplitz structure is linear): (n_in, n_in, 2p+1)
     HH = np.einsum("oak,obk->abk", np.conj(H) * w2o[:, None, :], H)
-    t = _lag_sums(freq_hz, HH, dt, p)
+    t = lag_sums(freq_hz, HH, dt, p)
     T = np.real(t[:, :, idx])  # [a, b, j, l]
     T = T.transpose(2, 0, 3, 1).reshape(q * n_in, q * n_in)
     # R and the Schur complement
-    r = _lag_sums(freq_hz, w2o.astype(complex), dt, p)  # (n_out or 1, 2p+1)
+    r = lag_sums(freq_hz, w2o.astype(complex), dt, p)  # (n_out or 1, 2p+1)
     R = np.real(r[:, idx])  # (n_out or 1, q, q)
     if per_output:
         X = np.stack([linalg.solve_triangular(np.linalg.cholesky(R[o]), S[o], lower=True)

@@ -2,7 +2,7 @@
 
 Only sdypy-EMA's public API is used: ``EMA.Model(...)``, ``get_poles``,
 ``select_closest_poles`` and ``get_constants``. sdypy-EMA picks poles near
-given frequencies only, so the frequencies come from ``expect`` or, without
+given frequencies only, so the frequencies come from ``expect_hz`` or, without
 it, from this package's automatic pLSCF selection (documented behaviour: the
 two backends then agree on *which* modes, and sdypy-EMA estimates them
 independently). No uncertainty: standard deviations are NaN.
@@ -23,47 +23,40 @@ from dataclasses import replace
 import numpy as np
 
 from ema_pipeline.data import DataError, FRFSet
-from ema_pipeline.identification import lsfd as _lsfd
+from ema_pipeline.identification.common import finish_identification, resolve_band
+from ema_pipeline.identification.lsfd import frac, normalised_error
+from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.plscf_backend import identify_plscf
+from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
 from ema_pipeline.identification.stabilization import StabilizationData
 
 
-def identify_sdypy(
-    frf: FRFSet,
-    *,
-    band_hz: tuple[float, float],
-    max_order: int | None = None,
-    expect: np.ndarray | None = None,
-    lower_residual: bool = True,
-    upper_residual: bool = True,
-) -> object:
-    """Identify with sdypy-EMA; returns an :class:`IdentificationResult`.
+def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
+    """Identify with sdypy-EMA (the ``"sdypy-lscf"`` backend).
 
-    ``max_order`` is sdypy-EMA's ``pol_order_high`` (default 100, its own
-    default; its LSCF then solves polynomial orders 2, 4, ..., 2 * max_order).
-    Poles are window-corrected like the pLSCF ones. The synthesised FRFs (and
-    FRAC, error) are sdypy-EMA's LSFD reconstruction; residues, shapes, MAC and
-    MPC come from this package's LSFD at sdypy-EMA's poles (same model).
+    ``options.max_order`` is sdypy-EMA's ``pol_order_high`` (default 100, its
+    own default; its LSCF then solves polynomial orders 2, 4, ..., 2 * max_order).
+    Only ``band_hz``, ``max_order``, ``expect_hz`` and the residual switches
+    apply; weighting, tolerances and refinement are pLSCF's. Poles are
+    window-corrected like the pLSCF ones. The synthesised FRFs (and FRAC,
+    error) are sdypy-EMA's LSFD reconstruction; residues, shapes, MAC and MPC
+    come from this package's LSFD at sdypy-EMA's poles (same model).
+    Called by :func:`ema_pipeline.identification.identify`, which checks the
+    input first.
     """
     from sdypy import EMA
 
-    from ema_pipeline.identification.core import (
-        IdentificationSettings,
-        _resolve_band,
-        finish_identification,
-    )
-
-    lo, hi = _resolve_band(frf, band_hz)
+    lower_residual, upper_residual = options.lower_residual, options.upper_residual
+    lo, hi = resolve_band(frf, options.band_hz)
     decay = float(frf.acquisition.window_decay_rate)
-    p = 100 if max_order is None else int(max_order)
-    if expect is None:
-        from ema_pipeline.identification.core import identify
-
-        auto = identify(frf, band_hz=(lo, hi), refine=False)
+    p = 100 if options.max_order is None else int(options.max_order)
+    if not options.expect_hz:
+        auto = identify_plscf(frf, IdentificationOptions(band_hz=(lo, hi), refine=False))
         guesses = auto.modes.fd_hz
         if guesses.size == 0:
             raise DataError("sdypy-lscf: the automatic selection found no mode to look for")
     else:
-        guesses = np.sort(np.asarray(expect, dtype=float))
+        guesses = np.sort(np.asarray(options.expect_hz, dtype=float))
     n_out, n_in, n_freq = frf.H.shape
     # sdypy-EMA cuts the axis at the line nearest ``upper`` (exclusive): pass the
     # axis up to one line above the band top.
@@ -100,13 +93,13 @@ def identify_sdypy(
         order=empty.astype(int), freq_hz=empty, zeta=empty, flags=empty.astype(np.uint8),
         pole=empty.astype(complex), cluster=empty.astype(int),
     )
-    settings = IdentificationSettings(
+    settings = ResolvedSettings(
         method="sdypy-lscf", band_hz=(lo, hi), max_order=p,
         orders=np.arange(2, 2 * p + 1, 2), dt_s=float(model.sampling_time),
         weighting="none", window_decay_rate=decay, tol_freq=0.001, tol_zeta=0.05,
         tol_mac=float("nan"), min_fraction=float("nan"), refine=False,
         lower_residual=lower_residual, upper_residual=upper_residual,
-        expect_hz=None if expect is None else guesses, uncertainty="none (NaN)",
+        expect_hz=guesses if options.expect_hz else None, uncertainty="none (NaN)",
     )
     result = finish_identification(
         sub, poles, decay=decay, refine=False, lower_residual=lower_residual,
@@ -117,6 +110,5 @@ def identify_sdypy(
     idx = np.clip(np.searchsorted(f_sd, sub.freq_hz - 1e-9), 0, f_sd.size - 1)
     H_fit = np.asarray(H_sdypy)[:, idx].reshape(n_out, n_in, -1)
     return replace(
-        result, H_fit=H_fit, frac=_lsfd.frac(sub.H, H_fit),
-        error=_lsfd.normalised_error(sub.H, H_fit),
+        result, H_fit=H_fit, frac=frac(sub.H, H_fit), error=normalised_error(sub.H, H_fit),
     )

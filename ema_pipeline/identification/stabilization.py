@@ -1,16 +1,16 @@
-"""Stabilization data (pole stability between model orders) and its diagram."""
+"""Stabilization data: pole stability between model orders.
+
+The diagram is drawn by :func:`ema_pipeline.plots.plot_stabilization`.
+"""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ema_pipeline.identification.plscf import PoleSet
-
-if TYPE_CHECKING:  # pragma: no cover
-    from matplotlib.axes import Axes
+from ema_pipeline.modal import mac_pairs
 
 #: Bits of :attr:`StabilizationData.flags`.
 STABLE_FREQ = 1
@@ -102,10 +102,7 @@ def stabilization(
         ok_z = np.abs(zeta[cur] - z0) < tol_zeta * np.abs(z0)
         l1 = poles.participation[cur]
         l0 = poles.participation[prev][j]
-        mac = np.abs(np.sum(l1.conj() * l0, axis=1)) ** 2 / (
-            np.sum(np.abs(l1) ** 2, axis=1) * np.sum(np.abs(l0) ** 2, axis=1)
-        )
-        ok_v = 1 - mac < tol_mac
+        ok_v = 1 - mac_pairs(l1.T, l0.T) < tol_mac
         flags[cur] = (
             ok_f * STABLE_FREQ + (ok_f & ok_z) * STABLE_DAMP + (ok_f & ok_v) * STABLE_VECTOR
         ).astype(np.uint8)
@@ -120,43 +117,3 @@ def stabilization(
         tol_zeta=tol_zeta,
         tol_mac=tol_mac,
     )
-
-
-def plot_stabilization(
-    ax: Axes,
-    stab: StabilizationData,
-    *,
-    freq_hz: np.ndarray | None = None,
-    frf_sum: np.ndarray | None = None,
-    selected_hz: np.ndarray | None = None,
-) -> Axes:
-    """Draw a stabilization diagram onto ``ax``.
-
-    Markers: ``o`` stable in frequency, damping and vector; ``v`` stable in
-    frequency and damping; ``.`` frequency only; ``x`` unstable (grey).
-    Cluster members are drawn in colour. With ``freq_hz`` and ``frf_sum`` (e.g.
-    the sum of |H| over all FRFs) the FRF sum is drawn on a twin log axis;
-    ``selected_hz`` draws vertical lines at the selected modes.
-    """
-    f, n, fl = stab.freq_hz, stab.order, stab.flags
-    groups = [
-        (fl & STABLE_ALL == STABLE_ALL, "o", "tab:green", "stable f, zeta, vector"),
-        ((fl & STABLE_DAMP > 0) & (fl & STABLE_ALL != STABLE_ALL), "v", "tab:blue",
-         "stable f, zeta"),
-        ((fl & STABLE_FREQ > 0) & (fl & STABLE_DAMP == 0), ".", "tab:orange", "stable f"),
-        (fl & STABLE_FREQ == 0, "x", "0.7", "new / unstable"),
-    ]
-    for mask, marker, color, label in groups:
-        if np.any(mask):
-            ax.plot(f[mask], n[mask], marker, color=color, ms=3, ls="none", label=label)
-    if selected_hz is not None:
-        for fs in np.atleast_1d(selected_hz):
-            ax.axvline(fs, color="tab:red", lw=0.8, alpha=0.7)
-    ax.set_xlabel("frequency / Hz")
-    ax.set_ylabel("model order")
-    if freq_hz is not None and frf_sum is not None:
-        ax2 = ax.twinx()
-        ax2.semilogy(freq_hz, frf_sum, color="k", lw=0.8)
-        ax2.set_ylabel("sum |H|")
-    ax.legend(loc="upper left", fontsize="small")
-    return ax

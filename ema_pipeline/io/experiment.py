@@ -11,13 +11,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ema_pipeline.data import (
-    Beam,
-    ConfigurationSpec,
-    DataError,
-    Experiment,
-    IdentificationSettings,
-)
+from ema_pipeline.data import Beam, ConfigurationSpec, DataError, Experiment
+from ema_pipeline.identification.options import IdentificationOptions
 
 
 def _get(table: Mapping[str, Any], key: str, kind: type, path: Path, default: Any = ...) -> Any:
@@ -80,9 +75,7 @@ def read_experiment(path: str | os.PathLike[str]) -> Experiment:
     genuine = str(doc.get("experiment", {}).get("genuine", names[0]))
     if genuine not in names:
         raise DataError(f"{path}: genuine configuration {genuine!r} is not among {names}")
-    band = ident.get("band_hz")
-    if band is not None and (len(band) != 2 or not float(band[0]) < float(band[1])):
-        raise DataError(f"{path}: identification.band_hz must be [low, high], got {band}")
+    identification = read_identification_options(ident, path)
     n_nodes = beam.n_measurement_elements + 1
     immersed = tuple(int(e) for e in fe.get("immersed_elements", [beam.n_measurement_elements]))
     for e in immersed:
@@ -95,7 +88,6 @@ def read_experiment(path: str | os.PathLike[str]) -> Experiment:
     for node in (*response_nodes, hammer):
         if not 1 <= node <= n_nodes:
             raise DataError(f"{path}: sensor node {node} does not exist (1..{n_nodes})")
-    max_order = ident.get("max_order")
     return Experiment(
         name=str(doc.get("experiment", {}).get("name", path.stem)),
         beam=beam,
@@ -105,16 +97,40 @@ def read_experiment(path: str | os.PathLike[str]) -> Experiment:
         response_nodes=response_nodes,
         hammer_node=hammer,
         direction=int(sensors.get("direction", 3)),
-        identification=IdentificationSettings(
-            band_hz=None if band is None else (float(band[0]), float(band[1])),
-            max_order=None if max_order is None else int(max_order),
-            method=str(ident.get("method", "plscf")),
-            expect_hz=tuple(float(f) for f in ident.get("expect_hz", [])),
-        ),
+        identification=identification,
         immersed_elements=immersed,
         n_modes=int(fe.get("n_modes", 4)),
         update_repeats=int(fe.get("update_repeats", 5)),
         seed=int(fe.get("seed", 0)),
+    )
+
+
+def read_identification_options(
+    table: Mapping[str, Any], path: Path
+) -> IdentificationOptions:
+    """The ``[identification]`` table as :class:`IdentificationOptions`.
+
+    Keys: ``band_hz`` = [low, high], ``max_order``, ``method``, ``expect_hz`` =
+    [f1, ...], ``weighting``, ``tol_freq``, ``tol_zeta``, ``tol_mac``,
+    ``min_fraction``, ``refine``, ``lower_residual``, ``upper_residual``; each
+    missing key keeps the option's default. (The exponential window's time
+    constant is per configuration: ``[[configurations]] exp_window_tau_s``.)
+    """
+    default = IdentificationOptions()
+    band = table.get("band_hz")
+    if band is not None and (len(band) != 2 or not float(band[0]) < float(band[1])):
+        raise DataError(f"{path}: identification.band_hz must be [low, high], got {band}")
+    max_order = table.get("max_order")
+    floats = ("tol_freq", "tol_zeta", "tol_mac", "min_fraction")
+    flags = ("refine", "lower_residual", "upper_residual")
+    return IdentificationOptions(
+        band_hz=None if band is None else (float(band[0]), float(band[1])),
+        max_order=None if max_order is None else int(max_order),
+        method=str(table.get("method", default.method)),  # type: ignore[arg-type]
+        expect_hz=tuple(float(f) for f in table.get("expect_hz", [])),
+        weighting=_get(table, "weighting", str, path, default.weighting),
+        **{key: _get(table, key, float, path, getattr(default, key)) for key in floats},
+        **{key: _get(table, key, bool, path, getattr(default, key)) for key in flags},
     )
 
 

@@ -12,38 +12,24 @@ result implies the CSV is there too.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import h5py
 import numpy as np
 
 from ema_pipeline import io
-from ema_pipeline.data import DataError, FRFSet, IdentificationSettings
+from ema_pipeline.data import DataError, FRFSet
+from ema_pipeline.identification import (
+    IdentificationOptions,
+    IdentificationResult,
+    identify,
+    modes_table,
+)
 
-
-@dataclass(frozen=True)
-class IdentifyOptions:
-    """Settings passed to :func:`ema_pipeline.identification.identify`."""
-
-    band_hz: tuple[float, float] | None = None
-    max_order: int | None = None
-    method: str = "plscf"
-    expect_hz: tuple[float, ...] = ()
-    exp_window_tau_s: float | None = None  # override the file's (foreign UFF files lack it)
-
-    @classmethod
-    def from_settings(
-        cls, settings: IdentificationSettings, exp_window_tau_s: float | None = None
-    ) -> IdentifyOptions:
-        """The options of an experiment file's ``[identification]`` table."""
-        return cls(
-            band_hz=settings.band_hz,
-            max_order=settings.max_order,
-            method=settings.method,
-            expect_hz=settings.expect_hz,
-            exp_window_tau_s=exp_window_tau_s,
-        )
+#: Transitional alias: ``pipeline.batch`` still imports the old name; switch it
+#: to :class:`IdentificationOptions` and delete this line.
+IdentifyOptions = IdentificationOptions
 
 
 @dataclass
@@ -71,30 +57,19 @@ def output_paths(path: Path, out_dir: Path) -> tuple[Path, Path]:
     return out_dir / f"{stem}_modes.csv", out_dir / f"{stem}_result.h5"
 
 
-def load_frf(path: Path, options: IdentifyOptions) -> FRFSet:
-    """Read an FRF file, apply the window override, and make roving-hammer sets
-    (one response, several references) single-reference by reciprocity."""
-    frf = io.read_frf(path)
-    if options.exp_window_tau_s is not None:
-        frf = replace(
-            frf, acquisition=replace(frf.acquisition, exp_window_tau_s=options.exp_window_tau_s)
-        )
+def load_frf(path: Path, options: IdentificationOptions) -> FRFSet:
+    """Read an FRF file, apply the window override (``options.exp_window_tau_s``),
+    and make roving-hammer sets (one response, several references)
+    single-reference by reciprocity."""
+    frf = options.apply_window(io.read_frf(path))
     if frf.n_out == 1 and frf.n_in > 1:
         frf = frf.reciprocal()
     return frf
 
 
-def identify_frf(frf: FRFSet, options: IdentifyOptions):
+def identify_frf(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
     """:func:`ema_pipeline.identification.identify` with these options."""
-    from ema_pipeline.identification import identify
-
-    return identify(
-        frf,
-        band_hz=options.band_hz,
-        max_order=options.max_order,
-        method=options.method,  # type: ignore[arg-type]
-        expect=list(options.expect_hz) or None,
-    )
+    return identify(frf, options)
 
 
 def completed_sha256(result_h5: Path) -> str | None:
@@ -109,7 +84,7 @@ def completed_sha256(result_h5: Path) -> str | None:
 def identify_file(
     path: str | Path,
     out_dir: str | Path,
-    options: IdentifyOptions = IdentifyOptions(),
+    options: IdentificationOptions | None = None,
     *,
     force: bool = True,
     sha256: str | None = None,
@@ -120,8 +95,7 @@ def identify_file(
     in ``out_dir`` is skipped. Problems with the file (unreadable, NaN, no modes)
     are returned as ``status="failed"`` with the reason, never raised.
     """
-    from ema_pipeline.identification import modes_table
-
+    options = IdentificationOptions() if options is None else options
     path, out_dir = Path(path), Path(out_dir)
     start = time.perf_counter()
     outcome = FileOutcome(path=path)

@@ -37,7 +37,7 @@ from ema_pipeline.data import (
     FRFSet,
     ModalParameters,
 )
-from ema_pipeline.pipeline.single import IdentifyOptions, identify_frf, load_frf
+from ema_pipeline.pipeline.single import identify_frf, load_frf
 
 Progress = Callable[[str], None]
 
@@ -95,7 +95,7 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress) -> None:
         start = time.perf_counter()
         say(f"[identify {k}/{len(exp.configurations)}] {spec.name}: {path}")
         try:
-            options = IdentifyOptions.from_settings(exp.identification, spec.exp_window_tau_s)
+            options = replace(exp.identification, exp_window_tau_s=spec.exp_window_tau_s)
             frf = replace(load_frf(path, options), configuration=spec.name)
             ident = identify_frf(frf, options)
         except DataError as exc:

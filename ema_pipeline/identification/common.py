@@ -1,0 +1,159 @@
+"""Steps every identification backend shares: band and input checks, and the
+common finish (screening, refinement with covariance, LSFD, window correction,
+indicators). The backends (:mod:`~ema_pipeline.identification.plscf_backend`,
+:mod:`~ema_pipeline.identification.sdypy_backend`) import from here and never
+from :mod:`~ema_pipeline.identification.core`, which dispatches to them."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ema_pipeline.data import DataError, FRFSet, ModalParameters, quantity_power
+from ema_pipeline.identification.lsfd import frac, lsfd, mpc, normalised_error, real_normalised
+from ema_pipeline.identification.refine import pole_significance, refine_poles
+from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
+from ema_pipeline.identification.selection import SelectedPoles
+from ema_pipeline.identification.stabilization import StabilizationData, pole_to_modal
+from ema_pipeline.identification.uncertainty import (
+    MAX_REL_SIGMA_STD,
+    STD_CALIBRATION,
+    modal_std,
+)
+from ema_pipeline.modal import mac
+
+
+def source_prefix(frf: FRFSet) -> str:
+    """``"<path>: "`` for error messages, or ``""`` when the FRF set has no source file."""
+    return f"{frf.source.path}: " if frf.source.path else ""
+
+
+def resolve_band(frf: FRFSet, band_hz: tuple[float, float] | None) -> tuple[float, float]:
+    """The band (lo, hi) in Hz: ``band_hz`` checked against the axis, or by default
+    from the 6th line (skipping 0 Hz and the first lines) to the last line."""
+    f = frf.freq_hz
+    if band_hz is None:
+        return float(f[min(5, f.size - 2)]), float(f[-1])
+    lo, hi = (float(b) for b in band_hz)
+    if not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
+        raise DataError(f"band {band_hz} Hz is not an interval lo < hi")
+    if lo < f[0] - 1e-9 or hi > f[-1] + 1e-9:
+        raise DataError(
+            f"band [{lo:g}, {hi:g}] Hz lies outside the frequency axis [{f[0]:g}, {f[-1]:g}] Hz"
+        )
+    return lo, hi
+
+
+def check_band_data(sub: FRFSet, max_order: int, where: str) -> None:
+    """Raise DataError when the band ``sub`` has too few lines for ``max_order``
+    or an all-zero channel; ``where`` prefixes the message (the source file)."""
+    n_lines = sub.freq_hz.size
+    if max_order < 1:
+        raise DataError(f"max_order must be >= 1, got {max_order}")
+    need = 2 * (max_order + 1)
+    if n_lines < need:
+        raise DataError(
+            f"{where}the band has {n_lines} frequency lines, too few for model order "
+            f"{max_order} (need at least {need}); lower max_order or widen the band"
+        )
+    zero = ~np.any(sub.H != 0, axis=-1)
+    if zero.any():
+        o, i = np.argwhere(zero)[0]
+        raise DataError(
+            f"{where}FRF channel response {sub.response_dofs[o].label()} / reference "
+            f"{sub.reference_dofs[i].label()} is all zero in the band; remove the channel"
+        )
+
+
+def default_max_order(n_in: int, n_lines: int) -> int:
+    """Default highest polynomial order: 40 matrix coefficients for one reference
+    (80 poles), fewer per extra reference, never more than the lines allow."""
+    p = {1: 64, 2: 40, 3: 30}.get(n_in, 24)
+    return int(min(p, n_lines // 2 - 1))
+
+
+def finish_identification(
+    sub: FRFSet,
+    pole_id: np.ndarray,
+    *,
+    decay: float,
+    refine: bool,
+    lower_residual: bool,
+    upper_residual: bool,
+    stab: StabilizationData,
+    selected: SelectedPoles | None,
+    settings: ResolvedSettings,
+    screen: bool = False,
+) -> IdentificationResult:
+    """LSFD, optional refinement with covariance, window correction, indicators.
+
+    ``sub`` is the FRF set cut to the band, ``pole_id`` the identified poles
+    (before window correction), ``decay`` the window's decay rate 1/tau (1/s).
+    With ``screen`` (automatic selection) poles whose decay rate the data do
+    not determine (calibrated std(sigma)/sigma >= ``MAX_REL_SIGMA_STD``) are
+    dropped as computational before refinement.
+    """
+    freq = sub.freq_hz
+    n_out, n_in, n_freq = sub.H.shape
+    Hc = sub.H.reshape(n_out * n_in, n_freq)
+    m = pole_id.size
+    fn_std = np.full(m, np.nan)
+    zeta_std = np.full(m, np.nan)
+    if m and refine and screen:
+        rel = STD_CALIBRATION * pole_significance(freq, Hc, pole_id)
+        keep = rel < MAX_REL_SIGMA_STD
+        pole_id = pole_id[keep]
+        if selected is not None:
+            selected = SelectedPoles(**{k: v[keep] for k, v in selected.__dict__.items()})
+        m = pole_id.size
+        fn_std = fn_std[keep]
+        zeta_std = zeta_std[keep]
+    if m and refine:
+        ref = refine_poles(freq, Hc, pole_id)
+        pole_id = ref.pole
+        fn_std, zeta_std = modal_std(pole_id + decay, ref.cov)
+        fn_std, zeta_std = STD_CALIBRATION * fn_std, STD_CALIBRATION * zeta_std
+    elif m and selected is not None:
+        fn_std, zeta_std = selected.scatter_fn_hz, selected.scatter_zeta
+    pole = pole_id + decay
+    fn, fd, zeta = pole_to_modal(pole)
+    if m:
+        fit = lsfd(freq, Hc, pole_id, sub.quantity, lower=lower_residual, upper=upper_residual)
+        q = quantity_power(sub.quantity)
+        residues = (fit.a / pole[:, None] ** q).reshape(m, n_out, n_in)
+        H_fit = fit.H_fit.reshape(n_out, n_in, n_freq)
+        low = fit.lower.reshape(n_out, n_in)
+        up = fit.upper.reshape(n_out, n_in)
+    else:
+        residues = np.zeros((0, n_out, n_in), dtype=complex)
+        H_fit = np.zeros_like(sub.H)
+        low = np.zeros((n_out, n_in), dtype=complex)
+        up = np.zeros((n_out, n_in), dtype=complex)
+    i_ref = int(np.argmax(np.sum(np.abs(residues) ** 2, axis=(0, 1)))) if m else 0
+    shapes = (2j * pole.imag)[None, :] * residues[:, :, i_ref].T  # (n_out, m)
+    modes = ModalParameters(
+        fn_hz=fn,
+        zeta=zeta,
+        fn_std_hz=fn_std,
+        zeta_std=zeta_std,
+        shapes=shapes,
+        dofs=sub.response_dofs,
+        configuration=sub.configuration,
+    )
+    return IdentificationResult(
+        modes=modes,
+        pole=pole,
+        residues=residues,
+        lower_residual=low,
+        upper_residual=up,
+        shapes_real=real_normalised(shapes),
+        shape_reference=i_ref,
+        mac=mac(shapes),
+        mpc=mpc(shapes),
+        freq_hz=freq,
+        H_fit=H_fit,
+        frac=frac(sub.H, H_fit),
+        error=normalised_error(sub.H, H_fit),
+        stabilization=stab,
+        selected=selected,
+        settings=settings,
+    )

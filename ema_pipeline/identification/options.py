@@ -1,0 +1,83 @@
+"""The options of the identification stage, defined once.
+
+:class:`IdentificationOptions` is what the experiment file's
+``[identification]`` table (:func:`ema_pipeline.io.read_experiment`), the
+command line (``ema-pipeline identify`` / ``batch``) and library callers build,
+and what :func:`ema_pipeline.identification.identify` takes whole. This module
+imports only from :mod:`ema_pipeline.data`, so the data containers can refer to
+it without an import cycle.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from typing import Literal
+
+import numpy as np
+
+from ema_pipeline.data import FRFSet
+
+Method = Literal["plscf", "sdypy-lscf"]
+Weighting = Literal["none", "coherence"]
+
+
+@dataclass(frozen=True)
+class IdentificationOptions:
+    """Options of :func:`ema_pipeline.identification.identify` (``None`` = the method's default).
+
+    Attributes
+    ----------
+    band_hz : (lo, hi) band in Hz; default: from the 6th line (skipping 0 Hz
+        and the first lines) to the last line.
+    max_order : highest pLSCF denominator order p (p * n_in poles); default
+        :func:`ema_pipeline.identification.default_max_order`. For
+        ``"sdypy-lscf"`` sdypy-EMA's ``pol_order_high`` (default 100).
+    method : a name in :data:`ema_pipeline.identification.METHODS`:
+        ``"plscf"`` (this package) or ``"sdypy-lscf"`` (sdypy-EMA).
+    expect_hz : approximate natural frequencies in Hz; the nearest stable pole
+        cluster is taken for each (one mode per entry) instead of the automatic
+        choice. Empty: automatic selection.
+    exp_window_tau_s : time constant (s) of the exponential window, overriding
+        the one stored with the FRFs (foreign UFF files lack it); ``None`` keeps
+        the FRF set's.
+    weighting : "none" (each output scaled by its RMS in the band) or
+        "coherence" (additionally every line weighted by the coherence).
+    tol_freq, tol_zeta, tol_mac : stabilization tolerances (relative frequency,
+        relative damping, 1 - MAC of participation vectors).
+    min_fraction : a cluster must hold poles of at least this fraction of the
+        computed orders to count as a physical mode.
+    refine : refine the selected poles by variable-projection nonlinear least
+        squares (:func:`ema_pipeline.identification.refine.refine_poles`), which
+        also gives their covariance.
+    lower_residual, upper_residual : residual terms in LSFD.
+    """
+
+    band_hz: tuple[float, float] | None = None
+    max_order: int | None = None
+    method: Method = "plscf"
+    expect_hz: tuple[float, ...] = ()
+    exp_window_tau_s: float | None = None
+    weighting: Weighting = "none"
+    tol_freq: float = 0.01
+    tol_zeta: float = 0.05
+    tol_mac: float = 0.02
+    min_fraction: float = 0.3
+    refine: bool = True
+    lower_residual: bool = True
+    upper_residual: bool = True
+
+    def __post_init__(self) -> None:
+        # normalise sequences so that options compare and hash by value
+        if self.band_hz is not None:
+            object.__setattr__(self, "band_hz", tuple(float(b) for b in self.band_hz))
+        expect = () if self.expect_hz is None else np.atleast_1d(self.expect_hz)
+        object.__setattr__(self, "expect_hz", tuple(float(f) for f in expect))
+
+    def apply_window(self, frf: FRFSet) -> FRFSet:
+        """``frf`` with ``exp_window_tau_s`` recorded in its acquisition info
+        (unchanged when the option is ``None``)."""
+        if self.exp_window_tau_s is None:
+            return frf
+        return replace(
+            frf, acquisition=replace(frf.acquisition, exp_window_tau_s=self.exp_window_tau_s)
+        )

@@ -1,0 +1,113 @@
+"""What :func:`ema_pipeline.identification.identify` returns: the result and the
+resolved record of the settings it used."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ema_pipeline.data import ModalParameters
+from ema_pipeline.identification.selection import SelectedPoles
+from ema_pipeline.identification.stabilization import StabilizationData
+
+
+@dataclass(frozen=True)
+class ResolvedSettings:
+    """Everything :func:`identify` used, resolved (no ``None`` left but ``expect_hz``).
+
+    The record stored with a result: the :class:`IdentificationOptions` after
+    the defaults of the method and the data were applied (band, order, the
+    orders computed, the z-domain sampling time, the window's decay rate).
+    """
+
+    method: str
+    band_hz: tuple[float, float]
+    max_order: int
+    orders: np.ndarray
+    dt_s: float
+    weighting: str
+    window_decay_rate: float
+    tol_freq: float
+    tol_zeta: float
+    tol_mac: float
+    min_fraction: float
+    refine: bool
+    lower_residual: bool
+    upper_residual: bool
+    expect_hz: np.ndarray | None
+    uncertainty: str
+
+
+@dataclass(frozen=True)
+class IdentificationResult:
+    """Modal parameters identified from one FRF set, with everything to judge them.
+
+    Attributes
+    ----------
+    modes : ModalParameters
+        f_n, zeta (window-corrected, structural), their standard deviations,
+        complex mode shapes (modal constants 2j omega_d A_r at the response DOFs
+        for the reference ``shape_reference``), configuration.
+    pole : (n_modes,) complex  window-corrected poles lambda_r (rad/s).
+    residues : (n_modes, n_out, n_in) complex  receptance residues A_r.
+    lower_residual, upper_residual : (n_out, n_in) complex residual terms (in the
+        FRF's quantity; see :mod:`ema_pipeline.identification.lsfd`).
+    shapes_real : (n_out, n_modes) real-normalised shapes (largest component +1).
+    shape_reference : int  index of the reference used for ``modes.shapes``.
+    mac : (n_modes, n_modes) auto-MAC of the shapes.
+    mpc : (n_modes,) modal phase collinearity (1 = real mode).
+    freq_hz : (n_freq,) the band's lines.   H_fit : (n_out, n_in, n_freq) synthesis.
+    frac, error : (n_out, n_in) FRAC and normalised error ||H - H_fit|| / ||H|| per FRF.
+    stabilization : StabilizationData (empty arrays for the sdypy backend).
+    selected : SelectedPoles (cluster bookkeeping; ``None`` for the sdypy backend).
+    settings : ResolvedSettings
+    """
+
+    modes: ModalParameters
+    pole: np.ndarray
+    residues: np.ndarray
+    lower_residual: np.ndarray
+    upper_residual: np.ndarray
+    shapes_real: np.ndarray
+    shape_reference: int
+    mac: np.ndarray
+    mpc: np.ndarray
+    freq_hz: np.ndarray
+    H_fit: np.ndarray
+    frac: np.ndarray
+    error: np.ndarray
+    stabilization: StabilizationData
+    selected: SelectedPoles | None
+    settings: ResolvedSettings
+    extras: dict[str, float] = field(default_factory=dict)
+
+    @property
+    def fn_hz(self) -> np.ndarray:
+        return self.modes.fn_hz
+
+    @property
+    def fd_hz(self) -> np.ndarray:
+        return self.modes.fd_hz
+
+    @property
+    def zeta(self) -> np.ndarray:
+        return self.modes.zeta
+
+
+def modes_table(result: IdentificationResult) -> pd.DataFrame:
+    """One row per mode, ascending frequency:
+    ``mode, fn_hz, fd_hz, zeta_pct, fn_std_hz, zeta_std_pct`` (zeta in percent)."""
+    m = result.modes
+    order = np.argsort(m.fn_hz)
+    return pd.DataFrame(
+        {
+            "mode": np.arange(1, m.n_modes + 1),
+            "fn_hz": m.fn_hz[order],
+            "fd_hz": m.fd_hz[order],
+            "zeta_pct": 100 * m.zeta[order],
+            "fn_std_hz": m.fn_std_hz[order],
+            "zeta_std_pct": 100 * m.zeta_std[order],
+        }
+    )

@@ -1,0 +1,70 @@
+"""Small modal numerics shared by the stages: the one home of the MAC.
+
+Identification (auto-MAC of the identified shapes, stability of participation
+vectors between model orders) and the added-mass stage (pairing of modes
+between configurations) call these instead of writing the formula again.
+
+Why written here: the MAC is one line of numpy; no library we depend on
+exposes it for complex shapes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ema_pipeline.data import DataError
+
+__all__ = ["mac", "mac_pairs"]
+
+
+def mac(phi_a: np.ndarray, phi_b: np.ndarray | None = None) -> np.ndarray:
+    """Modal assurance criterion of every pair of columns.
+
+    MAC_ij = |a_i^H b_j|^2 / ((a_i^H a_i)(b_j^H b_j)); 0 where a shape is all zero.
+
+    Parameters
+    ----------
+    phi_a : (n_dof, n_a) real or complex mode shapes (one per column).
+    phi_b : (n_dof, n_b) shapes at the same DOFs; default ``phi_a`` (auto-MAC).
+
+    Returns
+    -------
+    (n_a, n_b) array of values in [0, 1].
+
+    Raises
+    ------
+    DataError
+        If the shapes are not 2-D arrays with the same number of DOFs.
+    """
+    a = np.asarray(phi_a)
+    b = a if phi_b is None else np.asarray(phi_b)
+    if a.ndim != 2 or b.ndim != 2 or a.shape[0] != b.shape[0]:
+        raise DataError(f"mode shapes {a.shape} and {b.shape} are not at the same DOFs")
+    num = np.abs(a.conj().T @ b) ** 2
+    den = np.real(np.sum(a.conj() * a, axis=0))[:, None] * np.real(
+        np.sum(b.conj() * b, axis=0)
+    )[None, :]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(den > 0, num / den, 0.0)
+
+
+def mac_pairs(phi_a: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
+    """MAC of corresponding columns only: the diagonal of ``mac(phi_a, phi_b)``.
+
+    Parameters
+    ----------
+    phi_a, phi_b : (n_dof, n) shapes or vectors (one per column), same shape.
+
+    Returns
+    -------
+    (n,) MAC of column k of ``phi_a`` with column k of ``phi_b``; 0 where a
+    column is all zero.
+    """
+    a = np.asarray(phi_a)
+    b = np.asarray(phi_b)
+    if a.shape != b.shape or a.ndim != 2:
+        raise DataError(f"vectors {a.shape} and {b.shape} do not pair column by column")
+    num = np.abs(np.sum(a.conj() * b, axis=0)) ** 2
+    den = np.sum(np.abs(a) ** 2, axis=0) * np.sum(np.abs(b) ** 2, axis=0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(den > 0, num / den, 0.0)
