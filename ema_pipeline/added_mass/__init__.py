@@ -23,7 +23,6 @@ from ema_pipeline.added_mass.local import (
 )
 from ema_pipeline.added_mass.modal import (
     AddedMassResult,
-    mac_matrix,
     modal_added_mass,
     modal_added_mass_all,
     pair_modes,
@@ -51,7 +50,6 @@ __all__ = [
     "local_added_mass",
     "local_added_mass_factors",
     "local_added_mass_table",
-    "mac_matrix",
     "modal_added_mass",
     "modal_added_mass_all",
     "modal_added_mass_table",

@@ -3,7 +3,7 @@
 * :func:`modal_added_mass` - the ratio m_ar / m_r of every mode from the natural
   frequencies and damping ratios of the genuine and one modified configuration
   (eq. 10 with eq. 4), with the modes paired robustly (frequency, and MAC
-  (:func:`mac_matrix`) when both configurations carry mode shapes);
+  (:func:`ema_pipeline.modal.mac`) when both configurations carry mode shapes);
   a mode missing in one configuration is reported as missing, never paired
   with a wrong partner.
 * :func:`pair_modes` - that pairing, by
@@ -21,31 +21,16 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ema_pipeline.data import DataError, ModalParameters
+from ema_pipeline.modal import mac as mac_of
 
 __all__ = [
     "AddedMassResult",
-    "mac_matrix",
     "modal_added_mass",
     "modal_added_mass_all",
     "pair_modes",
     "replace_configuration",
     "require_genuine",
 ]
-
-
-def mac_matrix(shapes_a: np.ndarray, shapes_b: np.ndarray) -> np.ndarray:
-    """Modal assurance criterion |a^H b|^2 / ((a^H a)(b^H b)) for all column pairs.
-
-    shapes_a (n_dof, n_a), shapes_b (n_dof, n_b), real or complex -> (n_a, n_b) in [0, 1].
-    """
-    a = np.asarray(shapes_a)
-    b = np.asarray(shapes_b)
-    if a.ndim != 2 or b.ndim != 2 or a.shape[0] != b.shape[0]:
-        raise DataError(f"mode shapes {a.shape} and {b.shape} are not at the same DOFs")
-    num = np.abs(a.conj().T @ b) ** 2
-    den = np.real(np.sum(a.conj() * a, axis=0))[:, None] * np.real(np.sum(b.conj() * b, axis=0))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(den > 0, num / den, 0.0)
 
 
 def pair_modes(
@@ -86,7 +71,7 @@ def pair_modes(
     cost = dist / rel_tol
     mac = None
     if shapes_a is not None and shapes_b is not None:
-        mac = mac_matrix(shapes_a, shapes_b)
+        mac = mac_of(shapes_a, shapes_b)
         if mac.shape != dist.shape:
             raise DataError(
                 f"{mac.shape[0]} / {mac.shape[1]} mode shapes for {fa.size} / {fb.size} frequencies"
