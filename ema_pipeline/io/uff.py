@@ -90,6 +90,7 @@ _FUNCTION_NAMES = {
     8: "cross correlation", 9: "PSD", 10: "ESD", 12: "spectrum",
     18: "mode indicator function",
 }
+_FORCE_DIMS = Unit(1.0, (0, 0, -1), "1/N")  # dividing by it multiplies by N
 _ENTITY_DOF = re.compile(r"^\W*(\d+)\W*?([+-]?)([XYZ])([+-]?)\W*$", re.IGNORECASE)
 
 
@@ -193,35 +194,46 @@ def ordinate_unit(path: Path, rec: Record58) -> Unit:
     if num is None:
         num = type_unit(num_ax.data_type, num_ax.length_exp, num_ax.force_exp, rec.units,
                         rec.rsp_dir)
-    if not is_blank_label(den_ax.units):
-        den = _label_unit(path, rec, den_ax.units, "ordinate denominator, record 10")
-    else:
-        den = type_unit(den_ax.data_type, den_ax.length_exp, den_ax.force_exp, rec.units,
-                        rec.ref_dir)
     if num is None:
         raise DataError(
             f"{path}: record {rec.record}: cannot tell the quantity ({rec.at}: ordinate data "
             f"type {num_ax.data_type}, units {num_ax.units!r}); expected acceleration, "
             "velocity or displacement (per force)"
         )
-    if den is None:
-        den = type_unit(0, 0, 0, rec.units)  # dimensionless
-    unit = num / den if den is not None else num
-    if unit.quantity is None and den_ax.data_type == 0 and is_blank_label(den_ax.units):
-        per_force = num / type_unit(13, 0, 1, rec.units)  # type: ignore[operator]
-        if rec.func_type == _UFF_FUNC_FRF and per_force.quantity is not None:
-            log.info("%s: record %d: no denominator unit; force in %s assumed",
-                     path, rec.record, rec.units.description)
-            unit = per_force
+    if num.quantity is not None:
+        # a combined label (g/N, (m/s)/N) already holds the denominator
+        unit = num
+        if not is_blank_label(den_ax.units):
+            log.info("%s: record %d: combined units label %r; denominator label %r ignored",
+                     path, rec.record, num_ax.units, den_ax.units)
+    else:
+        if not is_blank_label(den_ax.units):
+            den = _label_unit(path, rec, den_ax.units, "ordinate denominator, record 10")
+        else:
+            den = type_unit(den_ax.data_type, den_ax.length_exp, den_ax.force_exp, rec.units,
+                            rec.ref_dir)
+        if den is None:
+            den = type_unit(0, 0, 0, rec.units)  # dimensionless
+        unit = num / den  # type: ignore[operator]
+        if unit.quantity is None and den_ax.data_type == 0 and is_blank_label(den_ax.units):
+            per_force = num / type_unit(13, 0, 1, rec.units)  # type: ignore[operator]
+            if rec.func_type == _UFF_FUNC_FRF and per_force.quantity is not None:
+                log.info("%s: record %d: no denominator unit; force in %s assumed",
+                         path, rec.record, rec.units.description)
+                unit = per_force
     if from_type is not None and not is_blank_label(num_ax.units):
-        if from_type.dims != num.dims:
+        label_dims = num.dims if num.quantity is None else (num / _FORCE_DIMS).dims
+        if from_type.dims != label_dims:
             log.warning(
                 "%s: record %d: units label %r disagrees with ordinate data type %d; "
                 "the label is used", path, rec.record, num_ax.units, num_ax.data_type)
-        elif not rec.units.is_si and not np.isclose(from_type.factor, num.factor, rtol=1e-6):
-            log.warning(
-                "%s: record %d: units label %r disagrees with dataset 164 (%s); "
-                "the label is used", path, rec.record, num_ax.units, rec.units.description)
+        elif not rec.units.is_si:
+            factor = num.factor if num.quantity is None else (num / _FORCE_DIMS).factor
+            if not np.isclose(from_type.factor, factor, rtol=1e-6):
+                log.warning(
+                    "%s: record %d: units label %r disagrees with dataset 164 (%s); "
+                    "the label is used", path, rec.record, num_ax.units,
+                    rec.units.description)
     return unit
 
 
