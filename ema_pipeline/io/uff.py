@@ -151,6 +151,15 @@ def _metadata_from_id(rec: Record58) -> dict[str, str]:
     for text in rec.ids[3:5]:
         if text.startswith("ema-pipeline"):
             meta.update(re.findall(r"(\w+)=(\S+)", text))
+    # "none" means not known, as an absent key; unreadable numbers are dropped
+    meta = {k: v for k, v in meta.items() if v != "none"}
+    for key in ("fs", "ns", "navg", "tau", "trig", "nrec"):
+        if key in meta:
+            try:
+                (float if key in ("fs", "tau", "trig") else int)(meta[key])
+            except ValueError:
+                log.warning("record %d: ID-line value %s=%r ignored", rec.record, key, meta[key])
+                del meta[key]
     return meta
 
 
@@ -390,8 +399,11 @@ def _uff_axis(path: Path, records: list[Record58], meta: Mapping[str, str]) -> n
             f"{path}: record {records[0].record} ({records[0].at}): the abscissa values are "
             "not strictly increasing"
         )
-    if "fs" in meta and "ns" in meta:
+    if meta.get("fs", "none") != "none" and meta.get("ns", "none") != "none":
         exact = np.fft.rfftfreq(int(meta["ns"]), 1.0 / float(meta["fs"]))
+        if exact.size != x0.size:  # a band of the full axis
+            k0 = int(round(x0[0] / (exact[1] - exact[0])))
+            exact = exact[k0 : k0 + x0.size]
         if exact.size == x0.size and np.allclose(exact, x0, rtol=1e-4, atol=1e-3):
             return exact
     return x0
