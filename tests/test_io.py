@@ -94,8 +94,15 @@ def test_reads_the_measured_roving_hammer_file(real_uff):
     frf = io.read_frf(real_uff)
     assert frf.H.shape == (1, 30, 1025)
     assert frf.quantity == "accelerance" and frf.df_hz == 1.0
-    assert frf.response_dofs == (DOF(3, -3),)
+    # stored as -Z response / -Z references: one DOF per node, +Z, and the two sign
+    # flips cancel, so the values are those pyuff reads
+    assert frf.response_dofs == (DOF(3, 3),)
     assert len(set(frf.reference_dofs)) == 30
+    assert all(d.direction == 3 for d in frf.reference_dofs)
+    first = pyuff.UFF(str(real_uff)).read_sets(0)
+    assert (first["rsp_dir"], first["ref_dir"]) == (-3, -3)
+    k = frf.reference_dofs.index(DOF(int(first["ref_node"]), 3))
+    np.testing.assert_allclose(frf.H[0, k], first["data"], rtol=1e-12)
     assert frf.reciprocal().H.shape == (30, 1, 1025)
     assert len(frf.source.sha256) == 64
 

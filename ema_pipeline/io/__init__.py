@@ -8,7 +8,9 @@ half-written result. Everything it reads is checked, and problems are raised as
 :class:`~ema_pipeline.data.DataError` naming the file.
 
 Modules: :mod:`.files` (hashes, atomic writes, CSV), :mod:`.hdf5` (FRF files
-and results stores), :mod:`.uff` (dataset 58), :mod:`.experiment` (TOML).
+and results stores), :mod:`.uff` (dataset 58 in and out, modes out as datasets
+164/15/82/55), :mod:`.uff_format` (the dataset parser), :mod:`.uff_units` (unit
+labels, dataset 164: the one home of unit factors), :mod:`.experiment` (TOML).
 """
 
 from __future__ import annotations
@@ -45,16 +47,33 @@ from ema_pipeline.io.hdf5 import (
     write_results_h5,
 )
 from ema_pipeline.io.uff import (
+    MIN_FRF_LINES,
     UFF_SUFFIXES,
+    axis_is_uniform,
     read_frf_uff,
     read_time_uff,
+    read_uff,
     write_frf_uff,
+    write_modes_uff,
     write_time_uff,
 )
+from ema_pipeline.io.uff_units import parse_unit_label
+
+#: Suffixes whose format is told by the file's first bytes (UFF or HDF5).
+SNIFFED_SUFFIXES = {".frf"}
+#: Every suffix ``batch`` takes as an FRF file (compared in lower case).
+FRF_SUFFIXES = UFF_SUFFIXES | HDF5_SUFFIXES | SNIFFED_SUFFIXES
 
 
 def frf_format(path: str | os.PathLike[str]) -> str:
-    """``"uff"`` or ``"h5"`` from the file name, else from the first bytes."""
+    """``"uff"`` or ``"h5"`` from the file name (any letter case), else from the
+    first bytes.
+
+    Examples
+    --------
+    >>> frf_format("test.UFF"), frf_format("a.Unv"), frf_format("b.ufb"), frf_format("c.H5")
+    ('uff', 'uff', 'uff', 'h5')
+    """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix in UFF_SUFFIXES:
@@ -66,17 +85,27 @@ def frf_format(path: str | os.PathLike[str]) -> str:
         head = fh.read(8)
     if head.startswith(b"\x89HDF"):
         return "h5"
-    if head.strip().startswith(b"-1"):
+    if head.lstrip().startswith(b"-1"):
         return "uff"
     raise DataError(f"{path}: unknown FRF file format (expected UFF dataset 58 or HDF5)")
 
 
-def read_frf(path: str | os.PathLike[str]) -> FRFSet:
-    """Read an FRF file: UFF dataset 58 (ASCII or binary) or the project's HDF5."""
+def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
+    """Read an FRF file: UFF dataset 58 (ASCII or binary) or the project's HDF5.
+
+    ``min_lines``: refuse FRFs with fewer frequency lines; pass
+    :data:`MIN_FRF_LINES` when the FRFs are to be identified.
+    """
     path = Path(path)
     if frf_format(path) == "uff":
-        return read_frf_uff(path)
-    return read_frf_h5(path)
+        return read_frf_uff(path, min_lines=min_lines)
+    frf = read_frf_h5(path)
+    if frf.freq_hz.size < min_lines:
+        raise DataError(
+            f"{path}: the FRFs have {frf.freq_hz.size} frequency lines; at least {min_lines} "
+            "are needed for identification"
+        )
+    return frf
 
 
 def write_frf(
@@ -104,31 +133,39 @@ def frf_format_for_writing(path: str | os.PathLike[str]) -> str:
 
 
 def find_frf_files(folder: str | os.PathLike[str]) -> list[Path]:
-    """Every UFF and HDF5 file under ``folder`` (recursively), sorted."""
+    """Every FRF file under ``folder`` (recursively), sorted.
+
+    Suffixes, in any letter case (:data:`FRF_SUFFIXES`): .uff .unv .ufb .58
+    .bunv .buf .uf (UFF), .h5 .hdf5 .hdf (HDF5) and .frf (either; told by
+    content).
+    """
     folder = Path(folder)
     if not folder.is_dir():
         raise DataError(f"{folder}: no such folder")
-    suffixes = UFF_SUFFIXES | HDF5_SUFFIXES
     return sorted(
         p
         for p in folder.rglob("*")
-        if p.is_file() and p.suffix.lower() in suffixes and not p.name.startswith(".")
+        if p.is_file() and p.suffix.lower() in FRF_SUFFIXES and not p.name.startswith(".")
     )
 
 
 __all__ = [
+    "FRF_SUFFIXES",
     "HDF5_SUFFIXES",
+    "MIN_FRF_LINES",
     "SCHEMA_FRF",
     "SCHEMA_RESULTS",
     "SCHEMA_VERSION",
     "UFF_SUFFIXES",
     "atomic_path",
+    "axis_is_uniform",
     "check_readable",
     "completed_result_sha256",
     "experiment_file_path",
     "find_frf_files",
     "frf_format",
     "frf_format_for_writing",
+    "parse_unit_label",
     "read_csv",
     "read_experiment",
     "read_frf",
@@ -138,6 +175,7 @@ __all__ = [
     "read_frf_uff",
     "read_results_h5",
     "read_time_uff",
+    "read_uff",
     "result_details",
     "results_complete",
     "sha256_file",
@@ -148,6 +186,7 @@ __all__ = [
     "write_frf_group",
     "write_frf_h5",
     "write_frf_uff",
+    "write_modes_uff",
     "write_results_h5",
     "write_text",
     "write_time_uff",

@@ -1,23 +1,57 @@
-"""Universal File Format dataset 58, ASCII and binary, through pyuff.
+"""Universal File Format: FRFs and time records (dataset 58 / 58b) in, FRFs,
+time records and identified modes out.
 
-FRF records (function type 4) are grouped into one FRF matrix by response and
-reference node/direction; coherence records (type 6) are attached when present;
-time records (type 1) hold raw impacts. Units are converted to SI.
+Reading uses our own parser (:mod:`.uff_format`, which says why not pyuff's)
+and unit rules (:mod:`.uff_units`); writing uses pyuff.
 
-pyuff is lenient where we must not be, so this module adds three checks: a
-truncated file (pyuff silently drops a cut-off last record; every dataset ends
-with a ``-1`` delimiter line), the text ``nan``/``inf`` in an ASCII file
-(pyuff reads it as 0), and the abscissa increment, which the UFF header stores
-in an E13.5 field (df = 2000/16384 Hz becomes 0.12207): our writer also stores
-the exact sample rate and record length in ID line 4 (``ema-pipeline fs=...
-ns=...``) and our reader rebuilds the exact axis from it when present.
+Reading rules
+-------------
+* Datasets 58 and 58b hold the functions; 164 sets the unit system of the
+  datasets that follow it (up to the next 164; SI before the first); 151 is
+  kept as header text. Every other dataset (15, 18, 55, 82, 2411, 2412, 2414,
+  1858, ...) is skipped; :func:`read_uff` lists them and the logger
+  ``ema_pipeline.io.uff`` reports them at INFO level (for ``--verbose``).
+* FRF records (function type 4) are grouped into one FRF matrix by response and
+  reference DOF; coherence records (type 6) are attached when every FRF has one.
+* Direction sign: a DOF is (node, |direction|). A record measured in -X is
+  multiplied by -1 (and again for a -X reference), so +X and -X of one node
+  are ONE DOF and the values are those of the +X direction.
+* When a node number is 0 and the entity name holds a DOF (``1+Z``, ``.1.Z-``),
+  the DOF is taken from the name.
+* Units, most specific first:
+
+  1. the units labels of records 9 and 10 (``g/N``, ``(m/s)/N``, ``m/s^2``
+     with ``N``, ``in/s^2/lbf``, ...): a label says what the numbers are, and
+     the specification gives labels precedence ("If fields 5 and 6 are
+     supplied, they take precedence");
+  2. where a label is NONE or blank: the specific data type (8, 11, 12
+     numerator; 13 or 9 denominator) with the unit exponents of the UFF table
+     (the record's exponent fields for data types 0 and 1) in the unit system
+     of the dataset 164 in force.
+
+  **When a label and dataset 164 disagree, the label wins**; a warning is
+  logged. When the label's quantity and the specific data type disagree, the
+  label wins as well (warning logged). An unknown label is an error, never a
+  silent SI.
+* Uneven abscissa (spacing flag 0): the values are kept as stored. The FRFSet
+  then has a non-uniform axis (:func:`axis_is_uniform` tells);
+  identification needs equally spaced lines and must refuse it with a message
+  to resample.
+* Too few lines: ``min_lines`` (default 2) refuses FRFs with fewer lines;
+  callers that identify pass :data:`MIN_FRF_LINES`.
+
+Our own files also store the exact sample rate and record length in ID line 4
+(``ema-pipeline fs=... ns=...``; the UFF header keeps the abscissa increment in
+an E13.5 field only, df = 2000/16384 Hz becomes 0.12207) and the record count
+in ID line 5, so a file cut at a record boundary is seen as truncated.
 """
 
 from __future__ import annotations
 
+import logging
 import os
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -25,217 +59,292 @@ import numpy as np
 
 from ema_pipeline.data import DOF, AcquisitionInfo, DataError, FRFSet, Provenance, TimeRecords
 from ema_pipeline.io.files import atomic_path, check_readable, sha256_file
+from ema_pipeline.io.uff_format import Record58, UffContents, read_uff_file
+from ema_pipeline.io.uff_units import (
+    FORCE_TYPES,
+    QUANTITY_TYPE,
+    TYPE_QUANTITY,
+    Unit,
+    is_blank_label,
+    parse_unit_label,
+    type_unit,
+)
 
-UFF_SUFFIXES = {".uff", ".unv", ".58"}
+log = logging.getLogger("ema_pipeline.io.uff")
 
-# UFF "specific data type" codes (record 8-10 field 1).
-_UFF_TYPE_QUANTITY = {8: "receptance", 11: "mobility", 12: "accelerance"}
-_UFF_QUANTITY_TYPE = {v: k for k, v in _UFF_TYPE_QUANTITY.items()}
+#: File name suffixes read as Universal Files (compared in lower case).
+UFF_SUFFIXES = {".uff", ".unv", ".ufb", ".58", ".bunv", ".buf", ".uf"}
+
+#: Fewest frequency lines an FRF must have for identification: the default band
+#: skips the first 5 lines, and pLSCF needs 2 (p + 1) lines for model order p;
+#: below about 32 lines the stabilization diagram has too few orders to find a
+#: mode (measured: a single-mode FRF is found from 32 lines, not from 24).
+MIN_FRF_LINES = 32
+
+_UFF_QUANTITY_TYPE = QUANTITY_TYPE
 _UFF_FORCE = 13
 _UFF_FUNC_TIME, _UFF_FUNC_FRF, _UFF_FUNC_COHERENCE = 1, 4, 6
-
-# Unit labels understood for each quantity, with the factor to SI.
-_G = 9.80665
-_NUMERATOR_UNITS = {
-    "accelerance": {
-        "m/s^2": 1.0,
-        "m/s2": 1.0,
-        "m/s**2": 1.0,
-        "m/s²": 1.0,
-        "g": _G,
-        "mm/s^2": 1e-3,
-        "mm/s2": 1e-3,
-    },
-    "mobility": {"m/s": 1.0, "mm/s": 1e-3},
-    "receptance": {"m": 1.0, "mm": 1e-3, "um": 1e-6},
+_FUNCTION_NAMES = {
+    0: "general", 1: "time response", 2: "auto spectrum", 3: "cross spectrum",
+    4: "FRF", 5: "transmissibility", 6: "coherence", 7: "auto correlation",
+    8: "cross correlation", 9: "PSD", 10: "ESD", 12: "spectrum",
+    18: "mode indicator function",
 }
-_FORCE_UNITS = {"n": 1.0, "kn": 1e3, "lbf": 4.4482216152605}
-_BLANK_UNITS = {"", "none"}
+_FORCE_DIMS = Unit(1.0, (0, 0, -1), "1/N")  # dividing by it multiplies by N
+_ENTITY_DOF = re.compile(r"^\W*(\d+)\W*?([+-]?)([XYZ])([+-]?)\W*$", re.IGNORECASE)
 
 
-def _check_uff_complete(path: Path, n_sets: int) -> None:
-    """Detect a truncated UFF file, which pyuff silently reads up to the last whole set.
+def axis_is_uniform(freq_hz: np.ndarray, rtol: float = 1e-6) -> bool:
+    """True when the lines are equally spaced (within ``rtol`` of the mean step).
 
-    Every dataset ends with a ``-1`` delimiter line, so a complete file ends with
-    one; in an ASCII file there are exactly two delimiter lines per dataset.
+    Examples
+    --------
+    >>> axis_is_uniform(np.arange(5.0)), axis_is_uniform(np.array([1.0, 2.0, 4.0]))
+    (True, False)
     """
-    with open(path, "rb") as fh:
-        fh.seek(max(0, path.stat().st_size - 64))
-        tail = fh.read()
-    if not tail.rstrip().endswith(b"-1"):
-        raise DataError(
-            f"{path}: truncated Universal File: the last dataset has no closing -1 delimiter"
-        )
-    raw = path.read_bytes()
-    if b"\x00" not in raw[:4096] and not re.search(rb"(?m)^\s*-1\s*\r?\n\s*58b", raw):
-        delims = [m.start() for m in re.finditer(rb"(?m)^\s*-1\s*$", raw)]
-        if len(delims) != 2 * n_sets:
-            raise DataError(
-                f"{path}: truncated or corrupt Universal File: {len(delims)} delimiter lines "
-                f"for {n_sets} complete datasets"
-            )
-        # pyuff reads the text 'nan'/'inf' of an ASCII file as 0: catch it here.
-        bad = re.search(rb"(?i)[-+]?\b(nan|inf(inity)?)\b", raw)
-        if bad:
-            record = sum(1 for d in delims if d < bad.start()) // 2 + 1
-            raise DataError(f"{path}: record {record} contains NaN/inf values")
+    f = np.asarray(freq_hz, dtype=float)
+    if f.size < 3:
+        return True
+    step = np.diff(f)
+    return bool(np.all(np.abs(step - step.mean()) <= rtol * abs(step.mean())))
 
 
-def _read_uff_sets(path: Path) -> list[dict[str, Any]]:
-    """All dataset-58 records of a UFF file, with clear errors."""
-    import pyuff
+def read_uff(path: str | os.PathLike[str]) -> UffContents:
+    """All dataset-58 records of a Universal File, as stored, with the unit system
+    in force for each, the dataset-151 header and the datasets skipped.
 
+    Raises DataError (naming the file, record and reason) for any unreadable
+    file; nothing else escapes.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "nodes.unv"
+    >>> node = "         1         0         0         0 0.0 0.0 0.0"
+    >>> _ = p.write_text(f"    -1\\n    15\\n{node}\\n    -1\\n")
+    >>> read_uff(p).skipped
+    {15: 1}
+    """
+    path = Path(path)
     check_readable(path, "a Universal File (dataset 58)")
     try:
-        uff = pyuff.UFF(str(path))
-        types = list(uff.get_set_types())
-    except Exception as exc:  # pyuff raises bare Exceptions on malformed files
+        return read_uff_file(path)
+    except DataError:
+        raise
+    except (ValueError, IndexError, TypeError, OverflowError, KeyError) as exc:
         raise DataError(f"{path}: not a readable Universal File ({exc})") from exc
-    if not types:
+
+
+def _read_58(path: Path) -> tuple[UffContents, list[Record58]]:
+    contents = read_uff(path)
+    if not contents.dataset_numbers:
         raise DataError(f"{path}: no UFF datasets found (not a Universal File, or empty)")
-    _check_uff_complete(path, len(types))
-    idx = [k for k, t in enumerate(types) if int(t) == 58]
-    if not idx:
-        found = ", ".join(sorted({str(int(t)) for t in types}))
+    if not contents.records:
+        found = ", ".join(str(n) for n in sorted(set(contents.dataset_numbers)))
         raise DataError(f"{path}: no dataset 58 (function at nodal DOF) in file; found {found}")
-    try:
-        sets = uff.read_sets(idx)
-    except Exception as exc:
-        raise DataError(f"{path}: dataset 58 records are truncated or corrupt ({exc})") from exc
-    sets = [sets] if isinstance(sets, dict) else list(sets)
-    for k, s in enumerate(sets):
-        n_expected = int(s.get("num_pts", -1))
-        data = np.asarray(s.get("data", ()))
-        if n_expected >= 0 and data.size != n_expected:
-            raise DataError(
-                f"{path}: record {k + 1} is truncated: {data.size} of {n_expected} values"
-            )
-    return sets
+    return contents, contents.records
 
 
-def _metadata_from_id(record: Mapping[str, Any]) -> dict[str, str]:
+def _metadata_from_id(rec: Record58) -> dict[str, str]:
     """key=value pairs our writer puts in ID lines 4 and 5 (empty for foreign files)."""
     meta: dict[str, str] = {}
-    for key in ("id4", "id5"):
-        text = str(record.get(key, ""))
+    for text in rec.ids[3:5]:
         if text.startswith("ema-pipeline"):
             meta.update(re.findall(r"(\w+)=(\S+)", text))
+    # "none" means not known, as an absent key; unreadable numbers are dropped
+    meta = {k: v for k, v in meta.items() if v != "none"}
+    for key in ("fs", "ns", "navg", "tau", "trig", "nrec"):
+        if key in meta:
+            try:
+                (float if key in ("fs", "tau", "trig") else int)(meta[key])
+            except ValueError:
+                log.warning("record %d: ID-line value %s=%r ignored", rec.record, key, meta[key])
+                del meta[key]
     return meta
 
 
-def _unit_factor(path: Path, quantity: str, record: Mapping[str, Any], k: int) -> float:
-    num = str(record.get("ordinate_axis_units_lab", "")).strip().lower()
-    den = str(record.get("orddenom_axis_units_lab", "")).strip().lower()
-    table = {u.lower(): f for u, f in _NUMERATOR_UNITS[quantity].items()}
-    if num in _BLANK_UNITS:
-        f_num = 1.0  # SI assumed where the file names no unit
-    elif num in table:
-        f_num = table[num]
-    else:
+def _dof(node: int, direction: int, name: str) -> tuple[DOF, int]:
+    """(DOF with a non-negative direction, sign of the stored direction)."""
+    if node == 0 and direction == 0:
+        m = _ENTITY_DOF.match(name)
+        if m:
+            sign = -1 if "-" in (m.group(2) + m.group(4)) else 1
+            return DOF(int(m.group(1)), "XYZ".index(m.group(3).upper()) + 1), sign
+    return DOF(node, abs(direction)), (-1 if direction < 0 else 1)
+
+
+def _record_dofs(rec: Record58) -> tuple[DOF, DOF, int]:
+    rsp, s1 = _dof(rec.rsp_node, rec.rsp_dir, rec.rsp_name)
+    ref, s2 = _dof(rec.ref_node, rec.ref_dir, rec.ref_name)
+    return rsp, ref, s1 * s2
+
+
+def _label_unit(path: Path, rec: Record58, label: str, what: str) -> Unit:
+    try:
+        return parse_unit_label(label)
+    except ValueError as exc:
         raise DataError(
-            f"{path}: record {k + 1} has unknown units {num!r} for {quantity}; "
-            f"known: {', '.join(_NUMERATOR_UNITS[quantity])}"
-        )
-    if den in _BLANK_UNITS:
-        f_den = 1.0
-    elif den in _FORCE_UNITS:
-        f_den = _FORCE_UNITS[den]
-    else:
+            f"{path}: record {rec.record} has unknown units {label!r} ({what}, {rec.at}: "
+            f"{exc}); known: m, mm, in, ft, g, s, N, kN, lbf and combinations such as "
+            "m/s^2/N, g/N, (m/s)/N, in/s^2/lbf"
+        ) from None
+
+
+def ordinate_unit(path: Path, rec: Record58) -> Unit:
+    """Unit of the ordinate (numerator / denominator) of a record, SI factor
+    included, by the rules of the module docstring."""
+    num_ax, den_ax = rec.numerator, rec.denominator
+    from_type = None
+    if num_ax.data_type in TYPE_QUANTITY or num_ax.data_type in FORCE_TYPES:
+        from_type = type_unit(num_ax.data_type, num_ax.length_exp, num_ax.force_exp,
+                              rec.units, rec.rsp_dir)
+    num = (from_type if is_blank_label(num_ax.units)
+           else _label_unit(path, rec, num_ax.units, "ordinate, record 9"))
+    if num is None:
+        num = type_unit(num_ax.data_type, num_ax.length_exp, num_ax.force_exp, rec.units,
+                        rec.rsp_dir)
+    if num is None:
         raise DataError(
-            f"{path}: record {k + 1} has unknown force units {den!r}; known: N, kN, lbf"
+            f"{path}: record {rec.record}: cannot tell the quantity ({rec.at}: ordinate data "
+            f"type {num_ax.data_type}, units {num_ax.units!r}); expected acceleration, "
+            "velocity or displacement (per force)"
         )
-    return f_num / f_den
+    if num.quantity is not None:
+        # a combined label (g/N, (m/s)/N) already holds the denominator
+        unit = num
+        if not is_blank_label(den_ax.units):
+            log.info("%s: record %d: combined units label %r; denominator label %r ignored",
+                     path, rec.record, num_ax.units, den_ax.units)
+    else:
+        if not is_blank_label(den_ax.units):
+            den = _label_unit(path, rec, den_ax.units, "ordinate denominator, record 10")
+        else:
+            den = type_unit(den_ax.data_type, den_ax.length_exp, den_ax.force_exp, rec.units,
+                            rec.ref_dir)
+        if den is None:
+            den = type_unit(0, 0, 0, rec.units)  # dimensionless
+        unit = num / den  # type: ignore[operator]
+        if unit.quantity is None and den_ax.data_type == 0 and is_blank_label(den_ax.units):
+            per_force = num / type_unit(13, 0, 1, rec.units)  # type: ignore[operator]
+            if rec.func_type == _UFF_FUNC_FRF and per_force.quantity is not None:
+                log.info("%s: record %d: no denominator unit; force in %s assumed",
+                         path, rec.record, rec.units.description)
+                unit = per_force
+    if from_type is not None and not is_blank_label(num_ax.units):
+        label_dims = num.dims if num.quantity is None else (num / _FORCE_DIMS).dims
+        if from_type.dims != label_dims:
+            log.warning(
+                "%s: record %d: units label %r disagrees with ordinate data type %d; "
+                "the label is used", path, rec.record, num_ax.units, num_ax.data_type)
+        elif not rec.units.is_si:
+            factor = num.factor if num.quantity is None else (num / _FORCE_DIMS).factor
+            if not np.isclose(from_type.factor, factor, rtol=1e-6):
+                log.warning(
+                    "%s: record %d: units label %r disagrees with dataset 164 (%s); "
+                    "the label is used", path, rec.record, num_ax.units,
+                    rec.units.description)
+    return unit
 
 
-def _uff_quantity(path: Path, record: Mapping[str, Any], k: int) -> str:
-    code = int(record.get("ordinate_spec_data_type", 0) or 0)
-    if code in _UFF_TYPE_QUANTITY:
-        return _UFF_TYPE_QUANTITY[code]
-    label = str(record.get("ordinate_axis_units_lab", "")).strip().lower()
-    for quantity, units in _NUMERATOR_UNITS.items():
-        if label in {u.lower() for u in units}:
-            return quantity
-    raise DataError(
-        f"{path}: record {k + 1}: cannot tell the FRF quantity (ordinate data type {code}, "
-        f"units {label!r}); expected acceleration, velocity or displacement per force"
-    )
+def _frf_quantity_and_factor(path: Path, rec: Record58) -> tuple[str, float]:
+    unit = ordinate_unit(path, rec)
+    if unit.quantity is None:
+        raise DataError(
+            f"{path}: record {rec.record}: units {rec.numerator.units!r} / "
+            f"{rec.denominator.units!r} ({rec.at}) are not acceleration, velocity or "
+            "displacement per force"
+        )
+    return unit.quantity, unit.factor
 
 
-def _uff_axis(path: Path, records: list[dict[str, Any]], meta: dict[str, str]) -> np.ndarray:
-    x0 = np.asarray(records[0]["x"], dtype=float)
-    for k, rec in enumerate(records[1:], start=2):
-        x = np.asarray(rec["x"], dtype=float)
-        if x.shape != x0.shape or not np.allclose(x, x0, rtol=1e-9, atol=1e-12):
-            raise DataError(
-                f"{path}: records have different frequency axes (record 1: {x0.size} lines "
-                f"{x0[0]:.6g}-{x0[-1]:.6g} Hz; record {k}: {x.size} lines "
-                f"{x[0]:.6g}-{x[-1]:.6g} Hz)"
-            )
-    if "fs" in meta and "ns" in meta:
-        exact = np.fft.rfftfreq(int(meta["ns"]), 1.0 / float(meta["fs"]))
-        if exact.size == x0.size and np.allclose(exact, x0, rtol=1e-4, atol=1e-3):
-            return exact
-    return x0
+def _function_summary(records: Sequence[Record58]) -> str:
+    types = sorted({r.func_type for r in records})
+    return ", ".join(f"{t} ({_FUNCTION_NAMES.get(t, 'other')})" for t in types)
 
 
-def read_frf_uff(path: str | os.PathLike[str]) -> FRFSet:
-    """Read FRFs (dataset 58, function type 4) from a UFF file, ASCII or binary.
+def read_frf_uff(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
+    """Read FRFs (dataset 58 / 58b, function type 4) from a Universal File.
 
-    Records are grouped into one FRF matrix by response and reference
-    node/direction; coherence records (function type 6) of the same DOFs are
-    attached when present. Units are converted to SI.
+    Parameters
+    ----------
+    path : file name (.uff, .unv, .ufb, any case).
+    min_lines : refuse FRFs with fewer frequency lines (pass
+        :data:`MIN_FRF_LINES` before identification).
+
+    Returns
+    -------
+    FRFSet
+        SI units, +direction DOFs (see the module docstring for the rules).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from ema_pipeline.acquisition import simulate_impact_test
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "g.uff"
+    >>> _ = write_frf_uff(simulate_impact_test("genuine", seed=1), p)
+    >>> read_frf_uff(p).H.shape
+    (2, 1, 8193)
     """
     path = Path(path)
-    sets = _read_uff_sets(path)
-    frf_recs = [s for s in sets if int(s.get("func_type", 0)) == _UFF_FUNC_FRF]
+    contents, sets = _read_58(path)
+    frf_recs = [r for r in sets if r.func_type == _UFF_FUNC_FRF]
     if not frf_recs:
-        found = sorted({int(s.get("func_type", 0)) for s in sets})
+        hint = ""
+        if any(r.func_type == _UFF_FUNC_TIME for r in sets):
+            hint = ("; this is a file of time records: read it with read_time_uff and "
+                    "estimate FRFs (ema_pipeline.acquisition.estimate_frf) first")
         raise DataError(
             f"{path}: dataset 58 records hold no FRFs (function type 4); function types "
-            f"found: {found}"
+            f"found: {_function_summary(sets)}{hint}"
         )
-    coh_recs = [s for s in sets if int(s.get("func_type", 0)) == _UFF_FUNC_COHERENCE]
+    coh_recs = [r for r in sets if r.func_type == _UFF_FUNC_COHERENCE]
     meta = _metadata_from_id(frf_recs[0])
     _check_record_count(path, meta, len(sets))
     freq = _uff_axis(path, frf_recs, meta)
-
-    def dofs(rec: Mapping[str, Any]) -> tuple[DOF, DOF]:
-        return DOF(int(rec["rsp_node"]), int(rec["rsp_dir"])), DOF(
-            int(rec["ref_node"]), int(rec["ref_dir"])
+    if freq.size < min_lines:
+        rec = frf_recs[0]
+        raise DataError(
+            f"{path}: record {rec.record} ({rec.at}) has {freq.size} frequency lines; "
+            f"at least {min_lines} are needed for identification (measure a longer record "
+            "or a finer frequency resolution)"
         )
 
     responses: list[DOF] = []
     references: list[DOF] = []
+    keyed = []
     for rec in frf_recs:
-        rsp, ref = dofs(rec)
+        rsp, ref, sign = _record_dofs(rec)
+        keyed.append((rec, rsp, ref, sign))
         if rsp not in responses:
             responses.append(rsp)
         if ref not in references:
             references.append(ref)
     H = np.full((len(responses), len(references), freq.size), np.nan + 0j)
-    filled = np.zeros(H.shape[:2], dtype=bool)
+    filled = np.zeros(H.shape[:2], dtype=int)
     quantities = set()
-    for k, rec in enumerate(frf_recs):
-        rsp, ref = dofs(rec)
+    for rec, rsp, ref, sign in keyed:
         o, i = responses.index(rsp), references.index(ref)
         if filled[o, i]:
+            other = frf_recs[filled[o, i] - 1].record
             raise DataError(
-                f"{path}: two FRF records for response {rsp.label()} / reference {ref.label()}"
+                f"{path}: records {other} and {rec.record} are both FRFs of response "
+                f"{rsp.label()} / reference {ref.label()} (+ and - directions of a node are "
+                "one DOF)"
             )
-        quantity = _uff_quantity(path, rec, k)
+        quantity, factor = _frf_quantity_and_factor(path, rec)
         quantities.add(quantity)
-        data = np.asarray(rec["data"])
+        data = np.asarray(rec.data)
         if not np.all(np.isfinite(data)):
             raise DataError(
-                f"{path}: record {k + 1} (response {rsp.label()}, reference {ref.label()}) "
-                "contains NaN/inf values"
+                f"{path}: record {rec.record} contains NaN/inf values ({rec.at}; response "
+                f"{rsp.label()}, reference {ref.label()})"
             )
-        H[o, i] = data * _unit_factor(path, quantity, rec, k)
-        filled[o, i] = True
+        H[o, i] = data * (sign * factor)
+        filled[o, i] = frf_recs.index(rec) + 1
     if len(quantities) > 1:
         raise DataError(f"{path}: records mix FRF quantities {sorted(quantities)}")
     if not filled.all():
-        o, i = np.argwhere(~filled)[0]
+        o, i = np.argwhere(filled == 0)[0]
         raise DataError(
             f"{path}: incomplete FRF matrix: no record for response "
             f"{responses[o].label()} / reference {references[i].label()}"
@@ -245,14 +354,12 @@ def read_frf_uff(path: str | os.PathLike[str]) -> FRFSet:
         coherence = np.zeros(H.shape)
         have = np.zeros(H.shape[:2], dtype=bool)
         for rec in coh_recs:
-            rsp, ref = dofs(rec)
-            if rsp in responses and ref in references:
+            rsp, ref, _ = _record_dofs(rec)
+            if rsp in responses and ref in references and rec.data.size == freq.size:
                 o, i = responses.index(rsp), references.index(ref)
-                values = np.real(np.asarray(rec["data"]))
-                if values.size == freq.size:
-                    coherence[o, i] = values
-                    have[o, i] = True
-        coherence = coherence if have.all() else None
+                coherence[o, i] = np.real(rec.data)
+                have[o, i] = True
+        coherence = coherence if have.all() and np.all(np.isfinite(coherence)) else None
     info = AcquisitionInfo()
     if meta:
         info = AcquisitionInfo(
@@ -275,6 +382,31 @@ def read_frf_uff(path: str | os.PathLike[str]) -> FRFSet:
         configuration="" if meta.get("cfg", "none") == "none" else meta["cfg"],
         source=Provenance(path=str(path), sha256=sha256_file(path)),
     )
+
+
+def _uff_axis(path: Path, records: list[Record58], meta: Mapping[str, str]) -> np.ndarray:
+    x0 = records[0].x
+    for rec in records[1:]:
+        x = rec.x
+        if x.shape != x0.shape or not np.allclose(x, x0, rtol=1e-6, atol=1e-9):
+            raise DataError(
+                f"{path}: records have different frequency axes (record {records[0].record}: "
+                f"{x0.size} lines {x0[0]:.6g}-{x0[-1]:.6g} Hz; record {rec.record}: {x.size} "
+                f"lines {x[0]:.6g}-{x[-1]:.6g} Hz)"
+            )
+    if x0.size > 1 and not np.all(np.diff(x0) > 0):
+        raise DataError(
+            f"{path}: record {records[0].record} ({records[0].at}): the abscissa values are "
+            "not strictly increasing"
+        )
+    if meta.get("fs", "none") != "none" and meta.get("ns", "none") != "none":
+        exact = np.fft.rfftfreq(int(meta["ns"]), 1.0 / float(meta["fs"]))
+        if exact.size != x0.size:  # a band of the full axis
+            k0 = int(round(x0[0] / (exact[1] - exact[0])))
+            exact = exact[k0 : k0 + x0.size]
+        if exact.size == x0.size and np.allclose(exact, x0, rtol=1e-4, atol=1e-3):
+            return exact
+    return x0
 
 
 def _check_record_count(path: Path, meta: Mapping[str, str], n_found: int) -> None:
@@ -367,7 +499,20 @@ def write_frf_uff(
     ``coherence=True`` (and coherence in the set), a function-type-6 coherence
     record after each. ID line 4 carries the exact sample rate, record length,
     averages and window time constant; ID line 5 the configuration name.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from ema_pipeline.acquisition import simulate_impact_test
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "g.uff"
+    >>> write_frf_uff(simulate_impact_test("genuine", seed=1), p).name
+    'g.uff'
     """
+    return _write_uff(_frf_records(frf, binary=binary, coherence=coherence), path)
+
+
+def _frf_records(frf: FRFSet, *, binary: bool, coherence: bool) -> list[dict[str, Any]]:
+    """pyuff dataset-58 dicts of an FRFSet (see :func:`write_frf_uff`)."""
     numerator = {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}[frf.quantity]
     per_pair = 2 if coherence and frf.coherence is not None else 1
     id4, id5 = _id_lines(frf.acquisition, frf.configuration, per_pair * frf.n_out * frf.n_in)
@@ -418,6 +563,135 @@ def write_frf_uff(
                         ids=ids,
                     )
                 )
+    return records
+
+
+def write_modes_uff(
+    path: str | os.PathLike[str],
+    fn_hz: np.ndarray,
+    zeta: np.ndarray,
+    shapes: np.ndarray,
+    dofs: Sequence[DOF],
+    *,
+    node_coordinates: Mapping[int, Sequence[float]] | None = None,
+    trace_lines: Sequence[Sequence[int]] | None = None,
+    frf_fit: FRFSet | None = None,
+    description: str = "",
+) -> Path:
+    """Write identified modes as a Universal File, atomically.
+
+    Datasets, in this order: 164 (units: SI, metre and newton); 15 (node
+    coordinates, m) and 82 (trace lines) when ``node_coordinates`` is given;
+    one 55 per mode (analysis type 2 "normal mode": natural frequency in Hz,
+    viscous damping ratio, modal mass 0 = not known, and the complex shape at
+    every node, data type 5, X/Y/Z translations; rotations too when a DOF has
+    direction 4-6); and with ``frf_fit`` the synthesised FRFs as dataset 58
+    records, which :func:`read_frf_uff` reads back.
+
+    Parameters
+    ----------
+    path : target file.
+    fn_hz : (n_modes,) undamped natural frequencies, Hz.
+    zeta : (n_modes,) damping ratios (not percent).
+    shapes : (n_dof, n_modes) complex mode shapes at ``dofs``.
+    dofs : n_dof DOFs; a negative direction stores the negated value in the
+        positive direction.
+    node_coordinates : {node: (x, y, z)} in metres (optional).
+    trace_lines : node sequences drawn as lines (dataset 82); default: one line
+        through the nodes of ``node_coordinates`` in their order.
+    frf_fit : synthesised FRFs to add as dataset 58 (optional).
+    description : text for ID line 1 of every mode.
+
+    Returns
+    -------
+    Path of the file.
+
+    Notes
+    -----
+    Dataset 55 stores numbers as E13.5 (6 significant digits); ID line 4 of
+    each mode also holds ``fn=`` and ``zeta=`` at full precision.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "modes.uff"
+    >>> shapes = np.array([[1.0 + 0j, 0.5], [0.4, -1.0]])
+    >>> write_modes_uff(p, [10.0, 40.0], [0.01, 0.02], shapes, [DOF(1, 3), DOF(2, 3)]).name
+    'modes.uff'
+    """
+    import pyuff
+
+    fn = np.atleast_1d(np.asarray(fn_hz, dtype=float))
+    z = np.atleast_1d(np.asarray(zeta, dtype=float))
+    phi = np.asarray(shapes, dtype=complex)
+    dofs = tuple(dofs)
+    if phi.ndim == 1:
+        phi = phi[:, None]
+    if fn.shape != z.shape or fn.ndim != 1:
+        raise DataError(f"{path}: fn_hz {fn.shape} and zeta {z.shape} must be equal 1-D arrays")
+    if phi.shape != (len(dofs), fn.size):
+        raise DataError(
+            f"{path}: shapes have shape {phi.shape}, expected (n_dof, n_modes) = "
+            f"({len(dofs)}, {fn.size})"
+        )
+    if not (np.all(np.isfinite(fn)) and np.all(np.isfinite(z)) and np.all(np.isfinite(phi))):
+        raise DataError(f"{path}: modal parameters contain NaN/inf values")
+    bad = [d.label() for d in dofs if not 1 <= abs(d.direction) <= 6]
+    if bad:
+        raise DataError(f"{path}: DOFs {bad} have no direction 1-6 (X, Y, Z, RX, RY, RZ)")
+    nodes = list(dict.fromkeys(d.node for d in dofs))
+    n_per_node = 6 if any(abs(d.direction) > 3 for d in dofs) else 3
+    values = np.zeros((len(nodes), n_per_node, fn.size), dtype=complex)
+    seen: set[tuple[int, int]] = set()
+    for k, d in enumerate(dofs):
+        key = (d.node, abs(d.direction))
+        if key in seen:
+            raise DataError(f"{path}: DOF {d.label()} appears twice (+ and - are one DOF)")
+        seen.add(key)
+        values[nodes.index(d.node), abs(d.direction) - 1] = phi[k] * np.sign(d.direction)
+    records: list[dict[str, Any]] = [
+        pyuff.prepare_164(
+            units_code=1, units_description="SI: Meter (newton)", temp_mode=2,
+            length=1.0, force=1.0, temp=1.0, temp_offset=273.15,
+        )
+    ]
+    if node_coordinates:
+        coord_nodes = list(node_coordinates)
+        xyz = np.array([list(node_coordinates[n]) for n in coord_nodes], dtype=float)
+        if xyz.ndim != 2 or xyz.shape[1] != 3 or not np.all(np.isfinite(xyz)):
+            raise DataError(f"{path}: node coordinates must be finite (x, y, z) triples in m")
+        ones = [0] * len(coord_nodes)
+        records.append(
+            pyuff.prepare_15(
+                node_nums=coord_nodes, def_cs=ones, disp_cs=ones, color=[1] * len(coord_nodes),
+                x=xyz[:, 0], y=xyz[:, 1], z=xyz[:, 2],
+            )
+        )
+        lines = [coord_nodes] if trace_lines is None else [list(t) for t in trace_lines]
+        for k, line in enumerate(lines, start=1):
+            if len(line) >= 2:
+                records.append(
+                    pyuff.prepare_82(trace_num=k, n_nodes=len(line), color=1,
+                                     id=f"trace {k}", nodes=np.asarray(line, dtype=int))
+                )
+    for m in range(fn.size):
+        r = {f"r{c + 1}": values[:, c, m] for c in range(n_per_node)}
+        records.append(
+            pyuff.prepare_55(
+                id1=(description or "ema-pipeline identified modes")[:80],
+                id2=f"mode {m + 1}: fn = {fn[m]:.6g} Hz, zeta = {z[m]:.6g}",
+                id3="complex mode shape, SI units",
+                id4=f"ema-pipeline fn={float(fn[m])!r} zeta={float(z[m])!r}"[:80],
+                id5="NONE",
+                model_type=1, analysis_type=2, data_ch=2 if n_per_node == 3 else 3,
+                spec_data_type=8, data_type=5, n_data_per_node=n_per_node,
+                load_case=1, mode_n=m + 1, freq=float(fn[m]), modal_m=0.0,
+                modal_damp_vis=float(z[m]), modal_damp_his=0.0,
+                node_nums=np.asarray(nodes, dtype=int), **r,
+            )
+        )
+    if frf_fit is not None:
+        records.extend(_frf_records(frf_fit, binary=False, coherence=False))
     return _write_uff(records, path)
 
 
@@ -480,45 +754,69 @@ def write_time_uff(
 
 
 def read_time_uff(path: str | os.PathLike[str]) -> TimeRecords:
-    """Read raw impact records (dataset 58, function type 1) from a UFF file.
+    """Read raw impact records (dataset 58 / 58b, function type 1) from a UFF file.
 
-    Force records are those with ordinate data type 13; the others are
-    responses. Records are grouped into impacts by load case number (or, when
-    all are 0, by order: one force record followed by its responses).
+    Force records are those whose ordinate is a force (data type 13 or 9, or a
+    force unit label); the others are responses, which must be accelerations.
+    Records are grouped into impacts by load case number (or, when all are 0,
+    by order: one force record followed by its responses). Units are converted
+    to SI and a negative direction flips the sign, as for FRFs.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from ema_pipeline.acquisition import configuration_modes, simulate_time_records
+    >>> rec = simulate_time_records(configuration_modes("genuine"), seed=1)
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "t.uff"
+    >>> read_time_uff(write_time_uff(rec, p)).response.shape == rec.response.shape
+    True
     """
     path = Path(path)
-    sets = [s for s in _read_uff_sets(path) if int(s.get("func_type", 0)) == _UFF_FUNC_TIME]
+    _, all_sets = _read_58(path)
+    sets = [s for s in all_sets if s.func_type == _UFF_FUNC_TIME]
     if not sets:
-        raise DataError(f"{path}: no time-response records (dataset 58, function type 1)")
+        raise DataError(
+            f"{path}: no time-response records (dataset 58, function type 1); function "
+            f"types found: {_function_summary(all_sets)}"
+        )
     meta = _metadata_from_id(sets[0])
     _check_record_count(path, meta, len(sets))
     impacts: dict[int, dict[str, Any]] = {}
     current = 0
-    for k, rec in enumerate(sets):
-        is_force = int(rec.get("ordinate_spec_data_type", 0)) == _UFF_FORCE
-        case = int(rec.get("load_case_id", 0) or 0)
-        if case == 0:
+    for rec in sets:
+        unit = ordinate_unit(path, rec)
+        is_force = unit.signal == "force"
+        case = rec.load_case
+        if case == 0 or not any(r.load_case for r in sets):
             current += int(is_force)
             case = current
         impact = impacts.setdefault(case, {"force": None, "responses": {}})
-        data = np.real(np.asarray(rec["data"], dtype=complex)).astype(float)
+        dof, sign = _dof(rec.rsp_node, rec.rsp_dir, rec.rsp_name)
+        data = np.real(rec.data).astype(float) * (sign * unit.factor)
+        if not np.all(np.isfinite(data)):
+            raise DataError(f"{path}: record {rec.record} contains NaN/inf values ({rec.at})")
         if is_force:
             if impact["force"] is not None:
                 raise DataError(f"{path}: impact {case} has two force records")
             impact["force"] = data
-            impact["ref"] = DOF(int(rec["rsp_node"]), int(rec["rsp_dir"]))
+            impact["ref"] = dof
         else:
-            quantity = _uff_quantity(path, rec, k)
-            if quantity != "accelerance":
-                raise DataError(f"{path}: record {k + 1}: time responses must be accelerations")
-            scale = _unit_factor(path, quantity, {**rec, "orddenom_axis_units_lab": ""}, k)
-            impact["responses"][DOF(int(rec["rsp_node"]), int(rec["rsp_dir"]))] = data * scale
+            if unit.signal != "acceleration":
+                raise DataError(
+                    f"{path}: record {rec.record} ({rec.at}): time responses must be "
+                    f"accelerations (with one force record per impact); units "
+                    f"{rec.numerator.units!r}, data type {rec.numerator.data_type}"
+                )
+            impact["responses"][dof] = data
     dofs = None
     force, response = [], []
     for case in sorted(impacts):
         impact = impacts[case]
         if impact["force"] is None:
-            raise DataError(f"{path}: impact {case} has no force record")
+            raise DataError(
+                f"{path}: impact {case} has no force record (ordinate data type 13 or a "
+                "force unit); ema-pipeline needs the hammer force with the responses"
+            )
         these = tuple(impact["responses"])
         if dofs is None:
             dofs = these
@@ -529,7 +827,7 @@ def read_time_uff(path: str | os.PathLike[str]) -> TimeRecords:
     lengths = {f.size for f in force} | {r.size for rs in response for r in rs}
     if len(lengths) != 1:
         raise DataError(f"{path}: time records have different lengths {sorted(lengths)}")
-    x = np.asarray(sets[0]["x"], dtype=float)
+    x = sets[0].x
     fs = float(meta["fs"]) if "fs" in meta else 1.0 / float(x[1] - x[0])
     return TimeRecords(
         force=np.array(force),
