@@ -8,7 +8,7 @@ import pytest
 import pyuff
 
 from ema_pipeline import io
-from ema_pipeline.acquisition import simulate_impact_test
+from ema_pipeline.pipeline.simulate import simulate_paper_test
 from ema_pipeline.data import DOF, DataError
 
 FN = np.array([17.212, 68.84, 118.878])
@@ -24,7 +24,7 @@ def test_modes_round_trip_through_pyuff(tmp_path):
     dofs = [DOF(1, 3), DOF(2, 3), DOF(3, -3), DOF(3, 1)]
     shapes = _shapes(len(dofs))
     coords = {1: (0.0, 0.0, 0.0), 2: (0.05, 0.0, 0.0), 3: (0.10, 0.0, 0.0)}
-    fit = simulate_impact_test("genuine", seed=2).band(0, 200)
+    fit = simulate_paper_test("genuine", seed=2).band(0, 200)
     path = io.write_modes_uff(tmp_path / "modes.uff", FN, ZETA, shapes, dofs,
                               node_coordinates=coords, frf_fit=fit)
     assert not list(tmp_path.glob(".*.tmp"))
