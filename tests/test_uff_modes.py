@@ -8,8 +8,8 @@ import pytest
 import pyuff
 
 from ema_pipeline import io
-from ema_pipeline.pipeline.simulate import simulate_paper_test
 from ema_pipeline.data import DOF, DataError
+from ema_pipeline.pipeline.simulate import simulate_paper_test
 
 FN = np.array([17.212, 68.84, 118.878])
 ZETA = np.array([0.0123, 0.0045, 0.00321])
