@@ -66,13 +66,13 @@ def generate(folder: Path, n: int) -> None:
 def measure(folder: Path, out: Path, workers: int) -> dict[str, Any]:
     """Run the batch in this process; report timing and peak memory (used in
     the child process started by :func:`run_measured`)."""
+    from ema_pipeline.identification.options import IdentificationOptions
     from ema_pipeline.pipeline.batch import run_batch
-    from ema_pipeline.pipeline.single import IdentifyOptions
 
     report = run_batch(
         folder,
         out,
-        options=IdentifyOptions(band_hz=IDENT_BAND_HZ),
+        options=IdentificationOptions(band_hz=IDENT_BAND_HZ),
         workers=workers,
         scheduler=None,
         force=False,

@@ -42,6 +42,7 @@ from ema_pipeline.data import (
     ModalParameters,
     Quantity,
     TimeRecords,
+    quantity_power,
 )
 
 # beta_n * L of a clamped-free Euler-Bernoulli beam: roots of cos(x)cosh(x) = -1.
@@ -121,7 +122,7 @@ def modal_frf(
     -------
     H : (n_out, n_in, n_freq) complex.
     """
-    power = {"receptance": 0, "mobility": 1, "accelerance": 2}[quantity]
+    power = quantity_power(quantity)
     wn = 2 * np.pi * modes.fn_hz
     sigma = modes.zeta * wn
     wd = wn * np.sqrt(1 - modes.zeta**2)

@@ -29,6 +29,13 @@ QUANTITY_UNITS: dict[str, str] = {
 QUANTITY_POWER: dict[str, int] = {"receptance": 0, "mobility": 1, "accelerance": 2}
 
 
+#: Fewest frequency lines an FRF must have for identification: the default band
+#: skips the first 5 lines, and pLSCF needs 2 (p + 1) lines for model order p;
+#: below about 32 lines the stabilization diagram has too few orders to find a
+#: mode (measured: a single-mode FRF is found from 32 lines, not from 24).
+MIN_FRF_LINES: int = 32
+
+
 class EMAError(Exception):
     """Base class of the errors ema-pipeline raises on bad input or settings."""
 
@@ -71,6 +78,31 @@ def quantity_factor(quantity_from: str, quantity_to: str, freq_hz: np.ndarray) -
     with np.errstate(divide="ignore", invalid="ignore"):
         factor = jw**power
     return np.where(np.isfinite(factor), factor, 0.0)
+
+
+def axis_is_uniform(freq_hz: np.ndarray, rtol: float = 1e-6) -> bool:
+    """True when the lines of ``freq_hz`` are equally spaced (within ``rtol`` of the
+    mean step); identification needs a uniform axis.
+
+    Parameters
+    ----------
+    freq_hz : (n_freq,) frequency axis in Hz.
+    rtol : tolerance on each step relative to the mean step.
+
+    Returns
+    -------
+    bool (True for fewer than 3 lines).
+
+    Examples
+    --------
+    >>> axis_is_uniform(np.arange(5.0)), axis_is_uniform(np.array([1.0, 2.0, 4.0]))
+    (True, False)
+    """
+    f = np.asarray(freq_hz, dtype=float)
+    if f.size < 3:
+        return True
+    step = np.diff(f)
+    return bool(np.all(np.abs(step - step.mean()) <= rtol * abs(step.mean())))
 
 
 @dataclass(frozen=True)

@@ -24,13 +24,13 @@ import pytest
 from ema_pipeline import io, paper
 from ema_pipeline.cli import main
 from ema_pipeline.data import ConfigError
+from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.pipeline import batch
 from ema_pipeline.pipeline.batch import BatchReport, run_batch
 from ema_pipeline.pipeline.simulate import simulate_paper_test
-from ema_pipeline.pipeline.single import IdentifyOptions
 
 FILE_BAND_HZ = (2.0, 400.0)
-OPTIONS = IdentifyOptions(band_hz=(5.0, 395.0))
+OPTIONS = IdentificationOptions(band_hz=(5.0, 395.0))
 CLI_BAND = ["--band", "5", "395"]
 N_MODES = 3  # Table 1 modes below 395 Hz
 

@@ -11,7 +11,9 @@ import pytest
 
 matplotlib.use("Agg")
 
-from ema_pipeline import paper  # noqa: E402
+from conftest import REPO  # noqa: E402
+
+from ema_pipeline import io, paper  # noqa: E402
 from ema_pipeline.acquisition import (  # noqa: E402
     cantilever_beta_l,
     cantilever_modes,
@@ -19,11 +21,13 @@ from ema_pipeline.acquisition import (  # noqa: E402
 )
 from ema_pipeline.data import (  # noqa: E402
     DOF,
+    MIN_FRF_LINES,
     AcquisitionInfo,
     Beam,
     DataError,
     FRFSet,
     ModalParameters,
+    Provenance,
 )
 from ema_pipeline.identification import (  # noqa: E402
     IdentificationResult,
@@ -214,6 +218,36 @@ def test_band_outside_axis_rejected(small_frf):
 def test_too_few_lines_for_order(small_frf):
     with pytest.raises(DataError, match=r"too few for model order 80 \(need at least 162\)"):
         identify(small_frf, band_hz=(100, 110), max_order=80)
+
+
+UFF_FILES = REPO / "tests" / "data" / "uff"
+
+
+def test_band_below_min_lines_rejected_before_numerics(small_frf):
+    # 0.122 Hz lines: (100, 102) Hz holds 16 lines, fewer than MIN_FRF_LINES
+    named = replace(small_frf, source=Provenance(path="beam.uff"))
+    with pytest.raises(DataError, match=rf"^beam.uff: the band has 16 frequency lines; "
+                                        rf"identification needs at least {MIN_FRF_LINES}"):
+        identify(named, band_hz=(100, 102))
+    frf = io.read_frf(UFF_FILES / "short_10_lines.uff")  # a valid file with 10 lines
+    with pytest.raises(DataError, match=r"short_10_lines.uff: the band has 5 frequency lines"):
+        identify(frf)
+
+
+def test_non_uniform_axis_rejected_before_numerics(small_frf):
+    frf = io.read_frf(UFF_FILES / "nonuniform.uff")  # 40 lines, geometric spacing
+    assert frf.freq_hz.size >= MIN_FRF_LINES
+    with pytest.raises(DataError, match=r"nonuniform.uff: frequency lines are not equally spaced "
+                                        r"\(UFF abscissa spacing 0\); pLSCF needs a uniform "
+                                        r"axis: resample the FRFs first"):
+        identify(frf)
+    # one line missing inside the band is enough
+    keep = np.ones(small_frf.freq_hz.size, bool)
+    keep[1000] = False
+    gap = replace(small_frf, freq_hz=small_frf.freq_hz[keep], H=small_frf.H[..., keep])
+    with pytest.raises(DataError, match="not equally spaced"):
+        identify(gap, band_hz=(100, 150))
+    identify(gap, band_hz=(130, 150), max_order=4, refine=False)  # a uniform part is fine
 
 
 def test_all_zero_channel_rejected(small_frf):

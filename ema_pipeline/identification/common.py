@@ -8,7 +8,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.data import DataError, FRFSet, ModalParameters, quantity_power
+from ema_pipeline.data import (
+    MIN_FRF_LINES,
+    DataError,
+    FRFSet,
+    ModalParameters,
+    axis_is_uniform,
+    quantity_power,
+)
 from ema_pipeline.identification.lsfd import frac, lsfd, mpc, normalised_error, real_normalised
 from ema_pipeline.identification.refine import pole_significance, refine_poles
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
@@ -44,9 +51,43 @@ def resolve_band(frf: FRFSet, band_hz: tuple[float, float] | None) -> tuple[floa
 
 
 def check_band_data(sub: FRFSet, max_order: int, where: str) -> None:
-    """Raise DataError when the band ``sub`` has too few lines for ``max_order``
-    or an all-zero channel; ``where`` prefixes the message (the source file)."""
+    """Refuse, before any numerics, a band that identification cannot use.
+
+    Parameters
+    ----------
+    sub : the FRF set cut to the band.
+    max_order : the highest model order that will be computed.
+    where : prefix of the messages (the source file, see :func:`source_prefix`).
+
+    Raises
+    ------
+    DataError
+        fewer than :data:`ema_pipeline.data.MIN_FRF_LINES` lines in the band,
+        unequally spaced lines, too few lines for ``max_order`` (pLSCF needs
+        2 (p + 1)), or a channel that is all zero in the band.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import FRFSet
+    >>> f = np.linspace(10.0, 100.0, 40)
+    >>> frf = FRFSet(freq_hz=f, H=np.ones((1, 1, 40), complex))
+    >>> check_band_data(frf, 10, "")
+    >>> check_band_data(frf, 30, "a.uff: ")
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: a.uff: the band has 40 frequency lines, too few ...
+    """
     n_lines = sub.freq_hz.size
+    if n_lines < MIN_FRF_LINES:
+        raise DataError(
+            f"{where}the band has {n_lines} frequency lines; identification needs at least "
+            f"{MIN_FRF_LINES}: widen the band or measure with a finer frequency resolution"
+        )
+    if not axis_is_uniform(sub.freq_hz):
+        raise DataError(
+            f"{where}frequency lines are not equally spaced (UFF abscissa spacing 0); "
+            "pLSCF needs a uniform axis: resample the FRFs first"
+        )
     if max_order < 1:
         raise DataError(f"max_order must be >= 1, got {max_order}")
     need = 2 * (max_order + 1)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ema_pipeline.data import DataError, FRFSet
+from ema_pipeline.data import MIN_FRF_LINES, DataError, FRFSet, axis_is_uniform
 from ema_pipeline.io.experiment import experiment_file_path, read_experiment
 from ema_pipeline.io.files import (
     atomic_path,
@@ -47,9 +47,7 @@ from ema_pipeline.io.hdf5 import (
     write_results_h5,
 )
 from ema_pipeline.io.uff import (
-    MIN_FRF_LINES,
     UFF_SUFFIXES,
-    axis_is_uniform,
     read_frf_uff,
     read_time_uff,
     read_uff,
@@ -94,7 +92,7 @@ def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     """Read an FRF file: UFF dataset 58 (ASCII or binary) or the project's HDF5.
 
     ``min_lines``: refuse FRFs with fewer frequency lines; pass
-    :data:`MIN_FRF_LINES` when the FRFs are to be identified.
+    :data:`ema_pipeline.data.MIN_FRF_LINES` when the FRFs are to be identified.
     """
     path = Path(path)
     if frf_format(path) == "uff":

@@ -34,11 +34,11 @@ Reading rules
   label wins as well (warning logged). An unknown label is an error, never a
   silent SI.
 * Uneven abscissa (spacing flag 0): the values are kept as stored. The FRFSet
-  then has a non-uniform axis (:func:`axis_is_uniform` tells);
+  then has a non-uniform axis (:func:`ema_pipeline.data.axis_is_uniform` tells);
   identification needs equally spaced lines and must refuse it with a message
   to resample.
 * Too few lines: ``min_lines`` (default 2) refuses FRFs with fewer lines;
-  callers that identify pass :data:`MIN_FRF_LINES`.
+  callers that identify pass :data:`ema_pipeline.data.MIN_FRF_LINES`.
 
 Our own files also store the exact sample rate and record length in ID line 4
 (``ema-pipeline fs=... ns=...``; the UFF header keeps the abscissa increment in
@@ -75,12 +75,6 @@ log = logging.getLogger("ema_pipeline.io.uff")
 #: File name suffixes read as Universal Files (compared in lower case).
 UFF_SUFFIXES = {".uff", ".unv", ".ufb", ".58", ".bunv", ".buf", ".uf"}
 
-#: Fewest frequency lines an FRF must have for identification: the default band
-#: skips the first 5 lines, and pLSCF needs 2 (p + 1) lines for model order p;
-#: below about 32 lines the stabilization diagram has too few orders to find a
-#: mode (measured: a single-mode FRF is found from 32 lines, not from 24).
-MIN_FRF_LINES = 32
-
 _UFF_QUANTITY_TYPE = QUANTITY_TYPE
 _UFF_FORCE = 13
 _UFF_FUNC_TIME, _UFF_FUNC_FRF, _UFF_FUNC_COHERENCE = 1, 4, 6
@@ -92,21 +86,6 @@ _FUNCTION_NAMES = {
 }
 _FORCE_DIMS = Unit(1.0, (0, 0, -1), "1/N")  # dividing by it multiplies by N
 _ENTITY_DOF = re.compile(r"^\W*(\d+)\W*?([+-]?)([XYZ])([+-]?)\W*$", re.IGNORECASE)
-
-
-def axis_is_uniform(freq_hz: np.ndarray, rtol: float = 1e-6) -> bool:
-    """True when the lines are equally spaced (within ``rtol`` of the mean step).
-
-    Examples
-    --------
-    >>> axis_is_uniform(np.arange(5.0)), axis_is_uniform(np.array([1.0, 2.0, 4.0]))
-    (True, False)
-    """
-    f = np.asarray(freq_hz, dtype=float)
-    if f.size < 3:
-        return True
-    step = np.diff(f)
-    return bool(np.all(np.abs(step - step.mean()) <= rtol * abs(step.mean())))
 
 
 def read_uff(path: str | os.PathLike[str]) -> UffContents:
@@ -269,7 +248,7 @@ def read_frf_uff(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     ----------
     path : file name (.uff, .unv, .ufb, any case).
     min_lines : refuse FRFs with fewer frequency lines (pass
-        :data:`MIN_FRF_LINES` before identification).
+        :data:`ema_pipeline.data.MIN_FRF_LINES` before identification).
 
     Returns
     -------

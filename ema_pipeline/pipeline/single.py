@@ -15,7 +15,6 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from ema_pipeline import io
@@ -26,10 +25,6 @@ from ema_pipeline.identification import (
     identify,
     modes_table,
 )
-
-#: Transitional alias: ``pipeline.batch`` still imports the old name; switch it
-#: to :class:`IdentificationOptions` and delete this line.
-IdentifyOptions = IdentificationOptions
 
 
 @dataclass
@@ -72,15 +67,6 @@ def identify_frf(frf: FRFSet, options: IdentificationOptions) -> IdentificationR
     return identify(frf, options)
 
 
-def completed_sha256(result_h5: Path) -> str | None:
-    """The input hash recorded in a complete result file, else None."""
-    if not io.results_complete(result_h5):
-        return None
-    with h5py.File(result_h5, "r") as h5:
-        value = h5.attrs.get("input_sha256")
-    return value.decode() if isinstance(value, bytes) else (None if value is None else str(value))
-
-
 def identify_file(
     path: str | Path,
     out_dir: str | Path,
@@ -102,7 +88,7 @@ def identify_file(
     modes_csv, result_h5 = output_paths(path, out_dir)
     try:
         outcome.sha256 = sha256 or io.sha256_file(path)
-        if not force and completed_sha256(result_h5) == outcome.sha256:
+        if not force and io.completed_result_sha256(result_h5) == outcome.sha256:
             outcome.status = "skipped"
             outcome.reason = "complete result with the same content hash exists"
             outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5

@@ -24,6 +24,7 @@ from typing import Any, Protocol
 from tqdm import tqdm
 
 from ema_pipeline.data import ConfigError
+from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.pipeline.batch.dask import DaskBackend
 from ema_pipeline.pipeline.batch.local import LocalBackend, default_workers
 from ema_pipeline.pipeline.batch.resume import batch_lock, remove_stale_temporaries
@@ -37,7 +38,6 @@ from ema_pipeline.pipeline.batch.summary import (
     summary_row,
 )
 from ema_pipeline.pipeline.batch.tasks import FileRecord, FileTask, naming
-from ema_pipeline.pipeline.single import IdentifyOptions
 
 __all__ = ["Backend", "StopRequest", "run_batch", "run_tasks"]
 
@@ -93,7 +93,7 @@ def run_batch(
     folder: str | os.PathLike[str],
     out: str | os.PathLike[str],
     *,
-    options: IdentifyOptions | None = None,
+    options: IdentificationOptions | None = None,
     workers: int | None = None,
     scheduler: str | None = None,
     force: bool = False,
@@ -111,7 +111,7 @@ def run_batch(
         ``<stem>_result.h5`` in the mirrored sub-folder (see the module
         docstring), plus ``summary.csv`` and ``failures.csv``.
     options : identification settings, the same for every file (default
-        :class:`IdentifyOptions()`).
+        :class:`IdentificationOptions()`).
     workers : local worker processes (default: the cores this process may use).
         With ``scheduler``: how many tasks may run at once (default: the
         cluster's worker threads).
@@ -131,7 +131,7 @@ def run_batch(
         batch writing to ``out``, or worker processes that keep dying.
     KeyboardInterrupt : on a second SIGINT/SIGTERM (abort).
     """
-    options = IdentifyOptions() if options is None else options
+    options = IdentificationOptions() if options is None else options
     folder, out = Path(folder).absolute(), Path(out).absolute()
     if not folder.is_dir():
         raise ConfigError(f"{folder}: no such folder")

@@ -13,8 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
+from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.pipeline.batch.resume import completed_details
-from ema_pipeline.pipeline.single import IdentifyOptions, identify_file
+from ema_pipeline.pipeline.single import identify_file
 
 __all__ = ["FileRecord", "FileTask", "naming", "process_file"]
 
@@ -26,7 +27,7 @@ class FileTask:
     path: Path
     file: str  # path relative to the batch folder, for the tables
     out_dir: Path
-    options: IdentifyOptions
+    options: IdentificationOptions
     force: bool
 
 
