@@ -21,8 +21,16 @@ def test_regenerating_the_example_data_gives_equal_arrays(name, example_dir, tmp
     out = tmp_path / name
     assert main([*EXAMPLE_COMMANDS[name].split(), "--out", str(out), "--quiet"]) == 0
     shipped, again = io.read_frf(example_dir / name), io.read_frf(out)
-    np.testing.assert_array_equal(again.freq_hz, shipped.freq_hz)
-    np.testing.assert_array_equal(again.H, shipped.H)
+    # The arrays are recomputed (FFTs, averaging, H1 estimate): another CPU or BLAS
+    # changes the last bits (differences of 2e-10 seen on another machine), and
+    # the ASCII UFF keeps 12 significant digits, so a changed last bit can also
+    # change the stored rounding. Equal within 1e-9 of the largest |H| (absolute,
+    # since lines near an antiresonance have no meaningful relative error); the
+    # frequency axis within 1e-12 relative.
+    np.testing.assert_allclose(again.freq_hz, shipped.freq_hz, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(again.H, shipped.H, rtol=0,
+                               atol=1e-9 * np.max(np.abs(shipped.H)))
+    assert again.H.shape == shipped.H.shape
     assert again.acquisition == shipped.acquisition
 
 

@@ -1,10 +1,13 @@
-"""The code base stays ruff-clean and free of pickle (users open files from others)."""
+"""The code base stays ruff-clean and free of pickle (users open files from others),
+its modules import downhill (no cycle, no private name from another module)."""
 
 from __future__ import annotations
 
+import ast
 import re
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 from conftest import REPO
@@ -24,4 +27,151 @@ def test_no_pickle_anywhere():
                          re.MULTILINE)
     offenders = [str(p) for p in (REPO / "ema_pipeline").rglob("*.py")
                  if pattern.search(p.read_text())]
+    assert offenders == []
+
+
+# ------------------------------------------------------------------ imports
+PACKAGE = "ema_pipeline"
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(REPO).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+def package_modules() -> dict[str, Path]:
+    return {module_name(p): p for p in sorted((REPO / PACKAGE).rglob("*.py"))}
+
+
+def is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+def module_level_imports(tree: ast.Module) -> list[ast.Import | ast.ImportFrom]:
+    """Imports that run when the module is imported: module body, class bodies,
+    if/try/with blocks; not function bodies, not ``if TYPE_CHECKING:`` blocks."""
+    found: list[ast.Import | ast.ImportFrom] = []
+
+    def visit(body: list[ast.stmt]) -> None:
+        for node in body:
+            if isinstance(node, ast.Import | ast.ImportFrom):
+                found.append(node)
+            elif isinstance(node, ast.If):
+                if not is_type_checking(node.test):
+                    visit(node.body)
+                visit(node.orelse)
+            elif isinstance(node, ast.Try):
+                for block in (node.body, node.orelse, node.finalbody):
+                    visit(block)
+                for handler in node.handlers:
+                    visit(handler.body)
+            elif isinstance(node, ast.With | ast.ClassDef):
+                visit(node.body)
+
+    visit(tree.body)
+    return found
+
+
+def absolute(node: ast.ImportFrom, importer: str, is_package: bool) -> str:
+    if not node.level:
+        return node.module or ""
+    base = importer.split(".")
+    base = base if is_package else base[:-1]
+    base = base[: len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
+def imported_modules(importer: str, path: Path, known: set[str]) -> set[str]:
+    """The package's modules that importing ``importer`` executes first: each
+    target, a submodule named in ``from X import name``, and every package
+    ``__init__`` on the way that is not an ancestor of the importer itself."""
+    tree = ast.parse(path.read_text(), str(path))
+    is_package = path.name == "__init__.py"
+    own_ancestors = {".".join(importer.split(".")[:k]) for k in range(1, importer.count(".") + 2)}
+    targets: set[str] = set()
+    for node in module_level_imports(tree):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        else:
+            base = absolute(node, importer, is_package)
+            names = [base] + [f"{base}.{alias.name}" for alias in node.names]
+        for name in names:
+            parts = name.split(".")
+            for k in range(1, len(parts) + 1):
+                target = ".".join(parts[:k])
+                if target in known and target not in own_ancestors:
+                    targets.add(target)
+    targets.discard(importer)
+    return targets
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    state: dict[str, int] = {}  # 1 on the stack, 2 done
+    stack: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(graph[node]):
+            if state.get(nxt) == 1:
+                return stack[stack.index(nxt):] + [nxt]
+            if nxt not in state and (cycle := visit(nxt)):
+                return cycle
+        stack.pop()
+        state[node] = 2
+        return None
+
+    for node in sorted(graph):
+        if node not in state and (cycle := visit(node)):
+            return cycle
+    return None
+
+
+def test_find_cycle_finds_a_cycle_and_accepts_a_tree():
+    assert find_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": {"b", "c"}, "b": {"c"}, "c": set()}) is None
+
+
+def test_no_import_cycle_among_package_modules():
+    modules = package_modules()
+    known = set(modules)
+    graph = {name: imported_modules(name, path, known) for name, path in modules.items()}
+    assert graph["ema_pipeline.pipeline.single"] >= {"ema_pipeline.io", "ema_pipeline.data"}
+    assert find_cycle(graph) is None, " -> ".join(find_cycle(graph) or [])
+
+
+def private_imports(path: Path) -> list[str]:
+    """``from X import _name`` and imports of ``_module`` paths, anywhere in the file
+    (function bodies too); dunder names (``__future__``, ``__version__``) are public."""
+    def private(name: str) -> bool:
+        return name.startswith("_") and not name.startswith("__")
+
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.ImportFrom):
+            where = "." * node.level + (node.module or "")
+            if any(private(part) for part in (node.module or "").split(".")):
+                found.append(f"{path.name}:{node.lineno}: from {where}")
+            found += [f"{path.name}:{node.lineno}: {alias.name} from {where}"
+                      for alias in node.names if private(alias.name)]
+        elif isinstance(node, ast.Import):
+            found += [f"{path.name}:{node.lineno}: import {alias.name}" for alias in node.names
+                      if any(private(part) for part in alias.name.split("."))]
+    return found
+
+
+def test_private_import_check_sees_one(tmp_path):
+    probe = tmp_path / "probe.py"
+    probe.write_text("from a.b import _hidden, public\nimport os\n"
+                     "from __future__ import annotations\n")
+    assert private_imports(probe) == ["probe.py:1: _hidden from a.b"]
+
+
+def test_no_private_name_imported_from_another_module():
+    offenders = [hit for path in sorted((REPO / PACKAGE).rglob("*.py"))
+                 for hit in private_imports(path)]
     assert offenders == []

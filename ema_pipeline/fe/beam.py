@@ -44,7 +44,7 @@ def hermite_element_matrices(
     le, ei, ra = np.broadcast_arrays(
         *(np.atleast_1d(np.asarray(v, dtype=float)) for v in (length_m, ei_nm2, rho_a_kg_m))
     )
-    k_hat, m_hat = _hat_element_matrices()
+    k_hat, m_hat = hat_element_matrices()
     # rotations as le*theta in the hat matrices: scale rows/cols 1 and 3 by le
     s = np.ones((le.size, 4))
     s[:, 1] = s[:, 3] = le
@@ -54,7 +54,7 @@ def hermite_element_matrices(
     return ke, me
 
 
-def _hat_element_matrices() -> tuple[np.ndarray, np.ndarray]:
+def hat_element_matrices() -> tuple[np.ndarray, np.ndarray]:
     """Dimensionless element matrices (element length 1, EI = 1, rho A = 1)."""
     k_hat = np.array(
         [
@@ -78,7 +78,7 @@ def _hat_element_matrices() -> tuple[np.ndarray, np.ndarray]:
     return k_hat, m_hat
 
 
-def _scatter(n_elements: int, elements: np.ndarray, ke: np.ndarray) -> np.ndarray:
+def scatter_elements(n_elements: int, elements: np.ndarray, ke: np.ndarray) -> np.ndarray:
     """Assemble (n_sel, 4, 4) element matrices into the free-DOF matrix (clamp removed)."""
     n_all = 2 * (n_elements + 1)
     idx = 2 * elements[:, None] + np.arange(4)[None, :]
@@ -103,7 +103,7 @@ def _hermite_shape(xi: np.ndarray) -> np.ndarray:
     )
 
 
-def _point_mass_vectors(n_elements: int, fraction: np.ndarray, mass_kg: np.ndarray) -> np.ndarray:
+def point_mass_vectors(n_elements: int, fraction: np.ndarray, mass_kg: np.ndarray) -> np.ndarray:
     """Columns sqrt(m_k) * N(x_k) in hat DOFs (rotations as le*theta): (n_dof, n_masses).
 
     The point-mass matrix is G G^T. ``fraction`` = x/L in [0, 1].
@@ -122,7 +122,7 @@ def _point_mass_vectors(n_elements: int, fraction: np.ndarray, mass_kg: np.ndarr
     return g[2 : 2 + n_dof]
 
 
-def _check_point_masses(beam: Beam) -> tuple[np.ndarray, np.ndarray]:
+def check_point_masses(beam: Beam) -> tuple[np.ndarray, np.ndarray]:
     pm = np.asarray(beam.point_masses, dtype=float).reshape(-1, 2)
     x, m = pm[:, 0], pm[:, 1]
     if not (np.all(np.isfinite(pm)) and np.all(m >= 0)):
@@ -186,11 +186,11 @@ def assemble_beam(beam: Beam, *, elements: Sequence[int] | np.ndarray | None = N
         sel = np.unique(np.asarray(elements, dtype=int))
         if sel.size and (sel.min() < 0 or sel.max() >= n):
             raise DataError(f"FE element indices must lie in 0..{n - 1}, got {sel.tolist()}")
-    k_full = _scatter(n, sel, np.broadcast_to(ke, (sel.size, 4, 4)))
-    m_full = _scatter(n, sel, np.broadcast_to(me, (sel.size, 4, 4)))
+    k_full = scatter_elements(n, sel, np.broadcast_to(ke, (sel.size, 4, 4)))
+    m_full = scatter_elements(n, sel, np.broadcast_to(me, (sel.size, 4, 4)))
     if elements is None and beam.point_masses:
-        frac, mass = _check_point_masses(beam)
-        g = _point_mass_vectors(n, frac, mass)
+        frac, mass = check_point_masses(beam)
+        g = point_mass_vectors(n, frac, mass)
         g[1::2] /= le  # hat rotation DOF le*theta -> theta (rad)
         m_full = m_full + g @ g.T
     return FEModel(K=k_full, M=m_full, node_x_m=np.linspace(0.0, beam.length_m, n + 1), beam=beam)
@@ -216,7 +216,7 @@ def _half_bandwidth(a: np.ndarray) -> int:
     return int(np.max(np.where(has, last - np.arange(a.shape[0]), 0), initial=0))
 
 
-def _banded_cholesky(k: np.ndarray) -> np.ndarray:
+def banded_cholesky(k: np.ndarray) -> np.ndarray:
     kb = _banded_upper(k, _half_bandwidth(k))
     chol, info = lapack.dpbtrf(kb, lower=0)
     if info != 0:
@@ -242,7 +242,7 @@ def _ritz(kr: np.ndarray, mr: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return w, v
 
 
-def _subspace_iteration(
+def subspace_iteration(
     chol: np.ndarray,
     k_apply: Callable[[np.ndarray], np.ndarray],
     m_apply: Callable[[np.ndarray], np.ndarray],
@@ -303,13 +303,13 @@ def _from_columns(x: np.ndarray, n_batch: int) -> np.ndarray:
     return x.reshape(n, n_batch, -1).transpose(1, 0, 2)
 
 
-def _start_vectors(n: int, q: int, n_batch: int = 1) -> np.ndarray:
+def start_vectors(n: int, q: int, n_batch: int = 1) -> np.ndarray:
     """Fixed pseudo-random start block (S, n, q): deterministic, no global state."""
     rng = np.random.default_rng(20240611)
     return np.repeat(rng.standard_normal((1, n, q)), n_batch, axis=0)
 
 
-def _operator(a: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+def batch_operator(a: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     """X (S, n, q) -> A X_s: dense BLAS for one problem, sparse (banded A) for a batch."""
     a_sp: list[scipy.sparse.csr_array] = []
 
@@ -367,9 +367,9 @@ def lowest_modes(
         except np.linalg.LinAlgError as exc:
             raise DataError(f"eigen-solution failed: {exc}") from exc
     elif method == "banded":
-        chol = _banded_cholesky(K)
-        w, v, err = _subspace_iteration(
-            chol, _operator(K), _operator(M), _start_vectors(n, q), n_modes, tol, max_iter
+        chol = banded_cholesky(K)
+        w, v, err = subspace_iteration(
+            chol, batch_operator(K), batch_operator(M), start_vectors(n, q), n_modes, tol, max_iter
         )
         if err > 1e-5:
             raise DataError(f"subspace iteration did not converge (relative residual {err:.2g})")

@@ -14,14 +14,14 @@ from scipy.optimize import differential_evolution
 
 from ema_pipeline.data import Beam, DataError
 from ema_pipeline.fe.beam import (
-    _banded_cholesky,
-    _check_point_masses,
-    _hat_element_matrices,
-    _operator,
-    _point_mass_vectors,
-    _scatter,
-    _start_vectors,
-    _subspace_iteration,
+    banded_cholesky,
+    batch_operator,
+    check_point_masses,
+    hat_element_matrices,
+    point_mass_vectors,
+    scatter_elements,
+    start_vectors,
+    subspace_iteration,
 )
 
 #: Update parameters in the order of the paper's Table 4 rows (names as in :class:`Beam`).
@@ -117,20 +117,20 @@ class FrequencyEvaluator:
         self._n_modes = int(self.mode_numbers.max())
         if self._n_modes > 2 * n:
             raise DataError(f"the FE model with {n} elements has only {2 * n} modes")
-        k_hat, m_hat = _hat_element_matrices()
+        k_hat, m_hat = hat_element_matrices()
         all_el = np.arange(n)
-        self._k = _scatter(n, all_el, np.broadcast_to(k_hat, (n, 4, 4)))
-        self._m = _scatter(n, all_el, np.broadcast_to(m_hat, (n, 4, 4)))
-        frac, mass = _check_point_masses(beam)
+        self._k = scatter_elements(n, all_el, np.broadcast_to(k_hat, (n, 4, 4)))
+        self._m = scatter_elements(n, all_el, np.broadcast_to(m_hat, (n, 4, 4)))
+        frac, mass = check_point_masses(beam)
         keep = mass > 0
-        self._g = _point_mass_vectors(n, frac[keep], mass[keep])
+        self._g = point_mass_vectors(n, frac[keep], mass[keep])
         self.has_point_masses = bool(self._g.shape[1])
         self._q = max(2 * self._n_modes, self._n_modes + 8)
         self._small = 2 * n <= 2 * self._q
         if not self._small:
-            self._chol = _banded_cholesky(self._k)
-            self._k_apply = _operator(self._k)
-            self._m_apply = _operator(self._m)
+            self._chol = banded_cholesky(self._k)
+            self._k_apply = batch_operator(self._k)
+            self._m_apply = batch_operator(self._m)
         self.n_solves = 0
         self._x_warm: np.ndarray | None = None
         if self.has_point_masses:
@@ -166,12 +166,12 @@ class FrequencyEvaluator:
             return mx
 
         if self._x_warm is None:
-            x0 = _start_vectors(self._k.shape[0], self._q, t.size)
+            x0 = start_vectors(self._k.shape[0], self._q, t.size)
         else:  # point masses change the modes only a little: start from the reference
             x0 = np.repeat(self._x_warm, t.size, axis=0)
         n_keep = self._n_modes + 4 if keep_vectors else self._n_modes
         # eigenvalues only: their error is ~ residual^2, so 1e-7 gives ~1e-14
-        w, x, err = _subspace_iteration(
+        w, x, err = subspace_iteration(
             self._chol, self._k_apply, mass_apply, x0, n_keep, 1e-9 if keep_vectors else 1e-7, 100
         )
         if err > 1e-5:
