@@ -100,16 +100,22 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     options = _identify_options(args)
     failed = 0
     for path in args.files:
-        outcome = identify_file(path, args.out, options)
+        outcome = identify_file(path, args.out, options, keep=args.report)
         if outcome.status == "failed":
             failed += 1
             print(f"ema-pipeline identify: error: {outcome.reason}", file=sys.stderr)
             continue
+        page = None
+        if args.report:
+            from ema_pipeline.pipeline.reports import write_identify_report
+
+            page = write_identify_report(outcome, args.out, options, figures=not args.no_figures)
         if not args.quiet:
             freqs = ", ".join(f"{f:.3f}" for f in outcome.fn_hz)
             print(
                 f"{path}: {outcome.n_modes} modes [{freqs}] Hz -> {outcome.modes_csv} "
-                f"({outcome.seconds:.1f} s)"
+                + (f"and {page} " if page else "")
+                + f"({outcome.seconds:.1f} s)"
             )
     return EXIT_INPUT if failed else EXIT_OK
 
@@ -130,6 +136,15 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         progress=not args.quiet,
     )
     print(report.summary_line(), file=sys.stderr if report.n_failed else sys.stdout)
+    if args.report:
+        from ema_pipeline.pipeline.reports import write_batch_report
+
+        page = write_batch_report(
+            report.out, report.folder, options, seconds=report.seconds,
+            interrupted=report.interrupted, figures=not args.no_figures,
+        )
+        if not args.quiet:
+            print(f"report: {page}")
     return EXIT_INPUT if report.n_failed else EXIT_OK
 
 
@@ -146,7 +161,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
             print(message, file=sys.stderr, flush=True)
 
     result = study.run_study(experiment, progress=say, progress_bars=not (args.quiet or args.json))
-    study.write_study(result, args.results, say)
+    study.write_study(
+        result, args.results, say, figures=not args.no_figures, experiment_file=experiment_path
+    )
     if args.json:
         payload = study.summary(result)
         payload["results"] = str(args.results)
@@ -221,6 +238,14 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="print only errors")
 
 
+def _add_no_figures(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--no-figures",
+        action="store_true",
+        help="write reports without figures (faster; for batch jobs and CI)",
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="ema-pipeline",
@@ -291,6 +316,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("files", nargs="+", type=Path, metavar="FILE", help="FRF files")
     p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
+    p.add_argument(
+        "--report",
+        action="store_true",
+        help="also write DIR/<stem>_report.html per file (setup, FRFs and coherence, "
+        "stabilization, modes with MPC, AutoMAC, shapes, fit, provenance)",
+    )
+    _add_no_figures(p)
     _add_identify_options(p)
     p.set_defaults(func=_cmd_identify)
 
@@ -318,6 +350,13 @@ def build_parser() -> argparse.ArgumentParser:
         "(needs the [distributed] extra)",
     )
     p.add_argument("--force", action="store_true", help="recompute files with complete results")
+    p.add_argument(
+        "--report",
+        action="store_true",
+        help="also write OUT/report.html: status per file with failure reasons, modes per "
+        "file, each mode's frequency across the files",
+    )
+    _add_no_figures(p)
     _add_identify_options(p)
     p.set_defaults(func=_cmd_batch)
 
@@ -327,7 +366,8 @@ def build_parser() -> argparse.ArgumentParser:
         description="Run the study described by RAW/experiment.toml: identify every "
         "configuration (Table 1), modal added mass (Table 2), FE model, update and local "
         "added mass (Tables 3-6); write RESULTS/tables/*.csv, RESULTS/ema_results.h5, "
-        "RESULTS/report.md, RESULTS/report.html and RESULTS/figures/*.png. Exit status 1 "
+        "RESULTS/report.md, RESULTS/report.html and RESULTS/figures/*.svg (not with "
+        "--no-figures). Exit status 1 "
         "when some input failed (what could be computed is still written), 2 for an "
         "unreadable experiment file.",
     )
@@ -351,6 +391,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--quiet", action="store_true", help="print only problems")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    _add_no_figures(p)
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser(

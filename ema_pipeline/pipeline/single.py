@@ -44,6 +44,8 @@ class FileOutcome:
     seconds: float = 0.0
     modes_csv: Path | None = None
     result_h5: Path | None = None
+    frf: FRFSet | None = None  # with identify_file(..., keep=True): what the report draws
+    result: IdentificationResult | None = None
 
 
 def output_paths(path: Path, out_dir: Path) -> tuple[Path, Path]:
@@ -74,11 +76,13 @@ def identify_file(
     *,
     force: bool = True,
     sha256: str | None = None,
+    keep: bool = False,
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
     With ``force=False`` a file whose content hash already has a complete result
-    in ``out_dir`` is skipped. Problems with the file (unreadable, NaN, no modes)
+    in ``out_dir`` is skipped. With ``keep=True`` the outcome keeps the FRFs and
+    the identification result (for a report). Problems with the file (unreadable, NaN, no modes)
     are returned as ``status="failed"`` with the reason, never raised.
     """
     options = IdentificationOptions() if options is None else options
@@ -115,6 +119,8 @@ def identify_file(
         outcome.fit_frac = float(np.mean(result.frac))
         outcome.fit_error = float(np.mean(result.error))
         outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
+        if keep:
+            outcome.frf, outcome.result = frf, result
     except DataError as exc:
         outcome.status, outcome.reason = "failed", str(exc)
     except (OSError, ValueError, np.linalg.LinAlgError) as exc:

@@ -218,9 +218,15 @@ def _is_paper_experiment(exp: Experiment) -> bool:
     return same_beam and set(c.name for c in exp.configurations) <= set(paper.CONFIGURATIONS)
 
 
-def report_input(result: StudyResult):
-    """The :class:`~ema_pipeline.report.ReportInput` of a study."""
-    from ema_pipeline.report import ReportInput
+def report_input(result: StudyResult, experiment_file: str | os.PathLike[str] | None = None):
+    """The :class:`~ema_pipeline.report.ReportInput` of a study.
+
+    ``experiment_file`` (the TOML the study was read from) is listed with its
+    sha256 among the inputs when given.
+    """
+    from ema_pipeline import __version__
+    from ema_pipeline.pipeline.reports import report_date
+    from ema_pipeline.report import Geometry, ReportInput
 
     exp = result.experiment
     fe_x = fe_shapes = None
@@ -232,6 +238,15 @@ def report_input(result: StudyResult):
         fe_x = modes.model.node_x_m / modes.model.node_x_m[-1]
         fe_shapes = np.vstack([np.zeros((1, exp.n_modes)), modes.shapes[trans]])
     sensors = np.array([exp.beam.node_x_m(n) for n in exp.response_nodes]) / exp.beam.length_m
+    inputs = []
+    if experiment_file is not None and Path(experiment_file).is_file():
+        inputs.append(("experiment", str(experiment_file), io.sha256_file(experiment_file)))
+    for spec in exp.configurations:
+        frf = result.frfs.get(spec.name)
+        if frf is not None and frf.source.path:
+            inputs.append((spec.name, frf.source.path, frf.source.sha256))
+        elif frf is None:
+            inputs.append((spec.name, spec.file, "(not read)"))
     return ReportInput(
         title=exp.name,
         tables=result.tables,
@@ -244,7 +259,41 @@ def report_input(result: StudyResult):
         notes=result.notes,
         problems=result.problems,
         compare_with_paper=_is_paper_experiment(exp),
+        descriptions={c.name: c.description for c in exp.configurations},
+        geometry=Geometry(
+            length_m=exp.beam.length_m,
+            n_elements=exp.beam.n_measurement_elements,
+            response_nodes=tuple(exp.response_nodes),
+            hammer_node=exp.hammer_node,
+            immersed_elements=tuple(exp.immersed_elements),
+            direction=exp.direction,
+        ),
+        inputs=inputs,
+        settings=_settings_text(exp),
+        version=__version__,
+        generated=report_date(),
     )
+
+
+def _settings_text(exp: Experiment) -> dict[str, str]:
+    """The settings the study used, as text for the report's provenance."""
+    from dataclasses import fields
+
+    out = {
+        f"identification.{f.name}": str(getattr(exp.identification, f.name))
+        for f in fields(exp.identification)
+    }
+    beam = exp.beam
+    out["beam"] = (
+        f"L {beam.length_m} m, b {beam.width_m} m, h {beam.thickness_m} m, "
+        f"E {beam.youngs_modulus_pa:g} Pa, rho {beam.density_kg_m3} kg/m^3, "
+        f"{beam.n_elements} FE / {beam.n_measurement_elements} measurement elements"
+    )
+    out["fe"] = (
+        f"immersed elements {list(exp.immersed_elements)}, {exp.n_modes} modes, "
+        f"{exp.update_repeats} update repeats, seed {exp.seed}"
+    )
+    return out
 
 
 def summary(result: StudyResult) -> dict[str, Any]:
@@ -281,9 +330,15 @@ def _swap_in(tmp_dir: Path, results_dir: Path) -> None:
 
 
 def write_study(
-    result: StudyResult, results_dir: str | os.PathLike[str], say: Progress | None = None
+    result: StudyResult,
+    results_dir: str | os.PathLike[str],
+    say: Progress | None = None,
+    *,
+    figures: bool = True,
+    experiment_file: str | os.PathLike[str] | None = None,
 ) -> list[Path]:
-    """Write tables, HDF5 store, figures and reports; returns the files written.
+    """Write tables, HDF5 store, figures (SVG, unless ``figures=False``) and
+    reports; returns the files written.
 
     Everything goes to a temporary folder beside ``results_dir`` first, which
     replaces ``results_dir`` only when complete.
@@ -297,13 +352,13 @@ def write_study(
     try:
         for name, table in result.tables.items():
             io.write_csv(table, tmp_dir / "tables" / f"{name}.csv")
-        say("[report] figures")
-        rin = report_input(result)
-        figures = report.make_figures(rin)
-        for name, png in figures.items():
-            io.write_bytes(png, tmp_dir / "figures" / f"{name}.png")
-        io.write_text(report.render_markdown(rin, list(figures)), tmp_dir / "report.md")
-        io.write_text(report.render_html(rin, figures), tmp_dir / "report.html")
+        say("[report] report.html" + ("" if figures else " (no figures)"))
+        rin = report_input(result, experiment_file)
+        drawn = report.make_figures(rin) if figures else None
+        for name, svg in (drawn or {}).items():
+            io.write_text(report.standalone_svg(svg), tmp_dir / "figures" / f"{name}.svg")
+        io.write_text(report.render_markdown(rin, list(drawn or ())), tmp_dir / "report.md")
+        io.write_text(report.render_html(rin, drawn), tmp_dir / "report.html")
         reproducible = {k: v for k, v in summary(result).items() if k != "seconds"}
         io.write_text(json.dumps(reproducible, indent=2) + "\n", tmp_dir / "summary.json")
         say("[store] ema_results.h5")

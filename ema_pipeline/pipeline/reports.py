@@ -1,0 +1,108 @@
+"""Report pages of ``identify --report`` and ``batch --report``: gather what the
+page shows, render it with :mod:`ema_pipeline.report`, write it with :mod:`ema_pipeline.io`.
+
+(The study report is assembled by :func:`ema_pipeline.pipeline.study.report_input`.)
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import os
+from dataclasses import fields
+from pathlib import Path
+
+import pandas as pd
+
+from ema_pipeline import __version__, io
+from ema_pipeline.data import DataError
+from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.pipeline.single import FileOutcome
+
+__all__ = [
+    "identify_report_path",
+    "options_text",
+    "report_date",
+    "write_batch_report",
+    "write_identify_report",
+]
+
+
+def report_date() -> str:
+    """The report's date (UTC); ``SOURCE_DATE_EPOCH`` fixes it for reproducible outputs."""
+    epoch = os.environ.get("SOURCE_DATE_EPOCH")
+    when = (
+        dt.datetime.fromtimestamp(int(epoch), dt.UTC) if epoch and epoch.isdigit()
+        else dt.datetime.now(dt.UTC)
+    )
+    return when.strftime("%Y-%m-%d %H:%M UTC")
+
+
+def options_text(options: IdentificationOptions) -> dict[str, str]:
+    """The identification options as ``{"identification.<name>": text}``."""
+    return {f"identification.{f.name}": str(getattr(options, f.name)) for f in fields(options)}
+
+
+def identify_report_path(path: str | Path, out_dir: str | Path) -> Path:
+    """``<out_dir>/<stem>_report.html`` for an input file."""
+    return Path(out_dir) / f"{Path(path).stem}_report.html"
+
+
+def write_identify_report(
+    outcome: FileOutcome, out_dir: str | Path, options: IdentificationOptions, *,
+    figures: bool = True,
+) -> Path:
+    """Write the report page of one identified file (``identify_file(..., keep=True)``)."""
+    from ema_pipeline.report import render_identify_html
+
+    if outcome.frf is None or outcome.result is None:
+        raise DataError(f"{outcome.path}: no identification result to report")
+    settings = options_text(options)
+    settings["identification.resolved"] = (
+        f"method {outcome.result.settings.method}, band {outcome.result.settings.band_hz} Hz, "
+        f"max order {outcome.result.settings.max_order}"
+    )
+    page = render_identify_html(
+        outcome.frf, outcome.result, settings=settings, version=__version__,
+        generated=report_date(), figures=figures,
+    )
+    return io.write_text(page, identify_report_path(outcome.path, out_dir))
+
+
+def write_batch_report(
+    out: str | Path,
+    folder: str | Path,
+    options: IdentificationOptions,
+    *,
+    seconds: float = float("nan"),
+    interrupted: bool = False,
+    figures: bool = True,
+) -> Path:
+    """Write ``OUT/report.html`` from ``OUT/summary.csv`` and ``OUT/failures.csv``."""
+    from ema_pipeline.report import BatchReportInput, render_batch_html
+
+    out = Path(out)
+    summary = io.read_csv(out / "summary.csv", required=("file", "status"))
+    failures_csv = out / "failures.csv"
+    failures = (
+        io.read_csv(failures_csv, required=("file", "reason")) if failures_csv.is_file()
+        else pd.DataFrame(columns=["file", "sha256", "reason"])
+    )
+    for table in (summary, failures):
+        for col in ("file", "reason", "configuration", "sha256", "frequencies_hz"):
+            if col in table:
+                table[col] = table[col].fillna("").astype(str)
+    page = render_batch_html(
+        BatchReportInput(
+            title=f"Batch identification: {Path(folder).name or folder}",
+            folder=str(folder),
+            summary=summary,
+            failures=failures,
+            settings=options_text(options),
+            seconds=seconds,
+            interrupted=interrupted,
+            version=__version__,
+            generated=report_date(),
+        ),
+        figures=figures,
+    )
+    return io.write_text(page, out / "report.html")

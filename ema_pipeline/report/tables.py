@@ -1,0 +1,367 @@
+"""The report's tables: the paper's values beside ours, the mode table, and
+number formatting with consistent decimals per column.
+
+Decimals per column: a column with a standard deviation beside it
+(``fn_hz``/``fn_std_hz``, ``zeta_pct``/``zeta_std_pct``, ``x``/``x_std``) is
+printed to the decimal of the second significant digit of its median standard
+deviation; other columns to five significant digits of their largest value, or
+in e-notation when they span more than that. Markdown tables keep the CSV
+column names; HTML tables show ``value ± std`` in one cell.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from html import escape
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ema_pipeline import paper
+
+__all__ = [
+    "TABLE_TITLES",
+    "column_formatters",
+    "compare_with_paper",
+    "html_matrix",
+    "html_table",
+    "markdown_table",
+    "std_column",
+]
+
+#: Titles of the six tables, as in the paper.
+TABLE_TITLES = {
+    "table1_modal_parameters": "Table 1 - Measured natural frequencies and damping ratios",
+    "table2_modal_added_mass": "Table 2 - Modal added mass (ratio m_ar/m_r, eq. 10)",
+    "table3_fe_initial": "Table 3 - Natural frequencies of the initial FE model",
+    "table4_updated_parameters": "Table 4 - Updated design parameters",
+    "table5_fe_updated": "Table 5 - Natural frequencies of the updated FE model",
+    "table6_local_added_mass": "Table 6 - Local added mass on the immersed element(s)",
+}
+
+#: Table 4 parameter names (as the FE stage writes them) -> keys of paper.TABLE4_*.
+TABLE4_PAPER_KEYS = {
+    "thickness": "thickness_m",
+    "width": "width_m",
+    "length": "length_m",
+    "youngs_modulus": "youngs_modulus_pa",
+    "density": "density_kg_m3",
+}
+
+#: Fixed decimals of columns whose scale is known (ratios near 1, percentages of deviations).
+FIXED_DECIMALS = {
+    "mpc": 4,
+    "mpd_deg": 2,
+    "frac": 4,
+    "fit_frac": 4,
+    "error_pct": 2,
+    "fit_error_pct": 2,
+    "dev_fd_hz": 3,
+    "dev_pct": 2,
+    "dev_zeta_rel_pct": 1,
+    "dev_delta_m_pct": 1,
+    "dev_ratio": 4,
+    "rel_deviation": 5,
+}
+
+
+# --------------------------------------------------------------------------
+# Tables beside the paper
+# --------------------------------------------------------------------------
+
+
+def _paper_table1() -> pd.DataFrame:
+    rows = [
+        (cfg, k + 1, fd, 100 * z)
+        for cfg in paper.CONFIGURATIONS
+        for k, (fd, z) in enumerate(
+            zip(paper.TABLE1_FD_HZ[cfg], paper.TABLE1_ZETA[cfg], strict=True)
+        )
+    ]
+    return pd.DataFrame(rows, columns=["configuration", "mode", "paper_fd_hz", "paper_zeta_pct"])
+
+
+def _paper_table2() -> pd.DataFrame:
+    rows = [
+        (cfg, k + 1, r) for cfg, ratios in paper.TABLE2_RATIO.items() for k, r in enumerate(ratios)
+    ]
+    return pd.DataFrame(rows, columns=["configuration", "mode", "paper_added_mass_ratio"])
+
+
+def _paper_fn(values: np.ndarray) -> pd.DataFrame:
+    return pd.DataFrame({"mode": np.arange(1, values.size + 1), "paper_fn_hz": values})
+
+
+def compare_with_paper(name: str, table: pd.DataFrame) -> pd.DataFrame:
+    """The table with the paper's values and the deviations added as columns.
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"mode": [1, 2], "fn_hz": [19.34, 121.2]})
+    >>> compare_with_paper("table3_fe_initial", t).columns.tolist()
+    ['mode', 'fn_hz', 'paper_fn_hz', 'dev_pct']
+    """
+    t = table.copy()
+    if name == "table1_modal_parameters":
+        t = t.merge(_paper_table1(), on=["configuration", "mode"], how="left")
+        t["dev_fd_hz"] = t["fd_hz"] - t["paper_fd_hz"]
+        t["dev_zeta_rel_pct"] = 100 * (t["zeta_pct"] / t["paper_zeta_pct"] - 1)
+    elif name == "table2_modal_added_mass":
+        t = t.merge(_paper_table2(), on=["configuration", "mode"], how="left")
+        t["dev_ratio"] = t["added_mass_ratio"] - t["paper_added_mass_ratio"]
+    elif name in ("table3_fe_initial", "table5_fe_updated"):
+        ref = paper.TABLE3_FN_HZ if name == "table3_fe_initial" else paper.TABLE5_FN_HZ
+        t = t.merge(_paper_fn(ref), on="mode", how="left")
+        t["dev_pct"] = 100 * (t["fn_hz"] / t["paper_fn_hz"] - 1)
+    elif name == "table4_updated_parameters":
+        t["paper_updated"] = t["parameter"].map(TABLE4_PAPER_KEYS).map(paper.TABLE4_UPDATED)
+        if "identifiable" in t:  # the only combination the frequencies determine
+            p = paper.TABLE4_UPDATED
+            combination = (
+                p["thickness_m"] * np.sqrt(p["youngs_modulus_pa"] / p["density_kg_m3"])
+                / p["length_m"] ** 2
+            )
+            t.loc[t["identifiable"].astype(bool), "paper_updated"] = combination
+        t["dev_pct"] = 100 * (t["updated"] / t["paper_updated"] - 1)
+    elif name == "table6_local_added_mass":
+        t["paper_delta_k"] = t["configuration"].map(
+            lambda c: paper.TABLE6.get(c, {}).get("delta_k")
+        )
+        t["paper_delta_m"] = t["configuration"].map(
+            lambda c: paper.TABLE6.get(c, {}).get("delta_m")
+        )
+        t["dev_delta_m_pct"] = 100 * (
+            t["delta_m"] / pd.to_numeric(t["paper_delta_m"], errors="coerce") - 1
+        )
+    return t
+
+
+# --------------------------------------------------------------------------
+# Number formatting
+# --------------------------------------------------------------------------
+
+
+def std_column(table: pd.DataFrame, column: str) -> str | None:
+    """Name of the standard-deviation column of ``column`` in ``table``, if any.
+
+    Examples
+    --------
+    >>> t = pd.DataFrame(columns=["fn_hz", "fn_std_hz", "zeta_pct", "zeta_std_pct", "r", "r_std"])
+    >>> [std_column(t, c) for c in ("fn_hz", "zeta_pct", "r", "fn_std_hz")]
+    ['fn_std_hz', 'zeta_std_pct', 'r_std', None]
+    """
+    if "_std" in column:
+        return None
+    candidates = [f"{column}_std"]
+    for unit in ("_hz", "_pct", "_m", "_kg"):
+        if column.endswith(unit):
+            candidates.append(column[: -len(unit)] + "_std" + unit)
+    return next((c for c in candidates if c in table.columns), None)
+
+
+def _is_float(series: pd.Series) -> bool:
+    return pd.api.types.is_float_dtype(series) and not pd.api.types.is_bool_dtype(series)
+
+
+def _decimals_from_std(std: pd.Series) -> int | None:
+    s = pd.to_numeric(std, errors="coerce").to_numpy(dtype=float)
+    s = s[np.isfinite(s) & (s > 0)]
+    if s.size == 0:
+        return None
+    return int(np.clip(1 - math.floor(math.log10(float(np.median(s)))), 0, 8))
+
+
+def _fixed(decimals: int) -> Callable[[Any], str]:
+    def fmt(v: Any) -> str:
+        if v is None or pd.isna(v):
+            return ""
+        text = f"{float(v):.{decimals}f}"
+        return text[1:] if text.startswith("-") and not text.strip("-0.") else text  # no -0.00
+
+    return fmt
+
+
+def _sci(v: Any) -> str:
+    return "" if v is None or pd.isna(v) else f"{float(v):.4e}"
+
+
+def _general(v: Any) -> str:
+    return "" if v is None or pd.isna(v) else f"{float(v):.5g}"
+
+
+def _plain(v: Any) -> str:
+    if v is None or (isinstance(v, float) and math.isnan(v)):
+        return ""
+    if isinstance(v, bool | np.bool_):
+        return "yes" if v else "no"
+    return str(v)
+
+
+def column_formatters(table: pd.DataFrame) -> dict[str, Callable[[Any], str]]:
+    """One formatter per column, with the same number of decimals for every row.
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"fn_hz": [18.13982, 629.4], "fn_std_hz": [0.0012, 0.03],
+    ...                   "E": [2.1e11, 0.01], "dev": [-1e-6, 0.2]})
+    >>> f = column_formatters(t)
+    >>> f["fn_hz"](18.13982), f["fn_std_hz"](0.0012), f["E"](2.1e11), f["dev"](-1e-6)
+    ('18.140', '0.001', '2.1e+11', '0.00000')
+    """
+    out: dict[str, Callable[[Any], str]] = {}
+    for col in table.columns:
+        series = table[col]
+        name = str(col)
+        if not _is_float(series):
+            out[name] = _plain
+            continue
+        if name in FIXED_DECIMALS:
+            out[name] = _fixed(FIXED_DECIMALS[name])
+            continue
+        std = std_column(table, name)
+        if std is None and name.endswith("fd_hz") and "fn_std_hz" in table.columns:
+            std = "fn_std_hz"  # damped frequencies: the decimals of the undamped ones
+        own = name if "_std" in name else std
+        decimals = None if own is None else _decimals_from_std(table[own])
+        if decimals is not None:
+            out[name] = _fixed(decimals)
+            continue
+        v = series.to_numpy(dtype=float)
+        v = np.abs(v[np.isfinite(v)])
+        if v.size == 0 or not np.any(v > 0):
+            out[name] = _fixed(0 if v.size and np.all(v == 0) else 4)
+            continue
+        big, typical = float(v.max()), float(np.median(v))
+        if np.all(v == np.round(v)) and big < 1e6:
+            out[name] = _fixed(0)  # integers stored as floats (mode numbers after a merge)
+        elif typical > 0 and big / typical > 1e4:
+            out[name] = _general  # rows of different quantities (Table 4): 5 significant digits
+        elif big >= 1e6 or big < 1e-3:
+            out[name] = _sci
+        else:
+            out[name] = _fixed(int(np.clip(4 - math.floor(math.log10(big)), 0, 6)))
+    # a std column takes the decimals of its value column
+    for col in table.columns:
+        std = std_column(table, str(col))
+        if std is not None and std in out and _is_float(table[std]):
+            out[std] = out[str(col)]
+    return out
+
+
+def markdown_table(table: pd.DataFrame) -> str:
+    """A GitHub-flavoured Markdown table with consistent decimals per column.
+
+    Examples
+    --------
+    >>> print(markdown_table(pd.DataFrame({"mode": [1, 2], "fn_hz": [18.1, 112.23]})))
+    | mode | fn_hz |
+    |---|---|
+    | 1 | 18.10 |
+    | 2 | 112.23 |
+    """
+    cols = [str(c) for c in table.columns]
+    fmts = column_formatters(table)
+    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    for row in table.itertuples(index=False):
+        cells = (fmts[c](v).replace("|", "\\|") for c, v in zip(cols, row, strict=True))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _breakable(name: str) -> str:
+    """Escaped column name that may wrap after its underscores."""
+    return escape(name).replace("_", "_<wbr>")
+
+
+def html_table(
+    table: pd.DataFrame,
+    *,
+    caption: str = "",
+    table_id: str = "",
+    merge_std: bool = True,
+    titles: Mapping[str, str] | None = None,
+) -> str:
+    """An HTML table (every string escaped) in a horizontally scrolling wrapper.
+
+    With ``merge_std`` a value column with a standard deviation column beside
+    it is shown as ``value ± std`` and the std column is not shown.
+    ``titles`` maps column names to header tooltips (units, meaning).
+
+    Examples
+    --------
+    >>> t = pd.DataFrame({"configuration": ["<b>air</b>"], "fn_hz": [18.14], "fn_std_hz": [0.01]})
+    >>> s = html_table(t)
+    >>> "&lt;b&gt;air&lt;/b&gt;" in s, "18.140 ± 0.010" in s, "fn_std_hz" in s
+    (True, True, False)
+    """
+    fmts = column_formatters(table)
+    cols = [str(c) for c in table.columns]
+    pairs = {c: std_column(table, c) for c in cols} if merge_std else {}
+    hidden = {s for s in pairs.values() if s}
+    shown = [c for c in cols if c not in hidden]
+    titles = titles or {}
+    head = "".join(
+        f'<th title="{escape(titles[c])}">{_breakable(c)}</th>' if c in titles
+        else f"<th>{_breakable(c)}</th>"
+        for c in shown
+    )
+    numeric = {c for c in cols if pd.api.types.is_numeric_dtype(table[c])}
+    body = []
+    for _, row in table.iterrows():
+        cells = []
+        for c in shown:
+            text = fmts[c](row[c])
+            std = pairs.get(c)
+            if std and text:
+                s = fmts[std](row[std])
+                if s:
+                    text = f"{text} ± {s}"
+            cls = ' class="num"' if c in numeric else ""
+            cells.append(f"<td{cls}>{escape(text)}</td>")
+        body.append("<tr>" + "".join(cells) + "</tr>")
+    ident = f' id="{escape(table_id)}"' if table_id else ""
+    cap = f"<caption>{escape(caption)}</caption>" if caption else ""
+    return (
+        f'<div class="tablewrap"><table{ident}>{cap}<thead><tr>{head}</tr></thead>'
+        f"<tbody>{''.join(body)}</tbody></table></div>"
+    )
+
+
+def html_matrix(
+    matrix: np.ndarray,
+    row_labels: Sequence[str],
+    col_labels: Sequence[str],
+    *,
+    caption: str = "",
+    decimals: int = 3,
+) -> str:
+    """A matrix in [0, 1] (MAC) as an HTML table, cells shaded by value.
+
+    Examples
+    --------
+    >>> s = html_matrix(np.eye(2), ["1", "2"], ["1", "2"], caption="AutoMAC")
+    >>> s.count("<td"), "1.000" in s
+    (4, True)
+    """
+    m = np.asarray(matrix, dtype=float)
+    head = "<th></th>" + "".join(f"<th>{escape(c)}</th>" for c in col_labels)
+    rows = []
+    for i, label in enumerate(row_labels):
+        cells = []
+        for j in range(m.shape[1]):
+            v = m[i, j]
+            shade = int(round(255 - 180 * float(np.clip(v, 0, 1)))) if np.isfinite(v) else 255
+            ink = "#fff" if np.isfinite(v) and v > 0.6 else "#222"
+            text = f"{v:.{decimals}f}" if np.isfinite(v) else ""
+            cells.append(
+                f'<td class="num" style="background:rgb({shade},{shade + (255 - shade) // 3},255);'
+                f'color:{ink}">{text}</td>'
+            )
+        rows.append(f"<tr><th>{escape(label)}</th>{''.join(cells)}</tr>")
+    cap = f"<caption>{escape(caption)}</caption>" if caption else ""
+    return (
+        f'<div class="tablewrap"><table class="mac">{cap}<thead><tr>{head}</tr></thead>'
+        f"<tbody>{''.join(rows)}</tbody></table></div>"
+    )
