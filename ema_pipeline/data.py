@@ -248,6 +248,17 @@ class FRFSet:
         if self.coherence is not None and not np.all(np.isfinite(self.coherence)):
             raise DataError(f"{where}coherence contains NaN/inf values")
 
+    def __repr__(self) -> str:
+        """Short: configuration, shape, band, quantity, coherence, source (no arrays)."""
+        f = self.freq_hz
+        return (
+            f"FRFSet({self.configuration or 'unnamed'}: {self.n_out} out x {self.n_in} in x "
+            f"{f.size} lines, {f[0]:.4g}-{f[-1]:.5g} Hz (df {self.df_hz:.4g} Hz), "
+            f"{self.quantity} {self.units}, "
+            f"coherence {'yes' if self.coherence is not None else 'no'}, "
+            f"source {self.source.path or 'memory'})"
+        )
+
     # -- convenience -------------------------------------------------------
     @property
     def units(self) -> str:
@@ -357,6 +368,15 @@ class TimeRecords:
                 f"{where}{len(self.response_dofs)} labels for {response.shape[1]} responses"
             )
 
+    def __repr__(self) -> str:
+        """Short: configuration, averages x responses x samples, sample rate, source."""
+        return (
+            f"TimeRecords({self.configuration or 'unnamed'}: {self.n_averages} averages x "
+            f"{self.response.shape[1]} responses x {self.n_samples} samples at "
+            f"{self.sample_rate_hz:g} Hz ({self.n_samples / self.sample_rate_hz:.4g} s), "
+            f"reference {self.reference_dof.label()}, source {self.source.path or 'memory'})"
+        )
+
     @property
     def n_averages(self) -> int:
         return self.force.shape[0]
@@ -395,6 +415,35 @@ class ModalParameters:
             val = getattr(self, name)
             val = np.full(fn.shape, np.nan) if val is None else np.asarray(val, dtype=float)
             object.__setattr__(self, name, val)
+
+    def __repr__(self) -> str:
+        """Short: configuration, number of modes, frequencies and damping (no arrays)."""
+        more = ", ..." if self.n_modes > 8 else ""
+        freqs = ", ".join(f"{f:.2f}" for f in self.fn_hz[:8]) + more
+        zetas = ", ".join(f"{100 * z:.3f}" for z in self.zeta[:8]) + more
+        shapes = "" if self.shapes is None else f", shapes at {self.shapes.shape[0]} DOFs"
+        return (
+            f"ModalParameters({self.configuration or 'unnamed'}: {self.n_modes} modes, "
+            f"fn [{freqs}] Hz, zeta [{zetas}] %{shapes})"
+        )
+
+    def _repr_html_(self) -> str:
+        """The modal table (notebooks): fn, fd, zeta with standard deviations."""
+        import pandas as pd
+
+        from ema_pipeline.report.tables import html_table
+
+        table = pd.DataFrame(
+            {
+                "mode": np.arange(1, self.n_modes + 1),
+                "fn_hz": self.fn_hz,
+                "fn_std_hz": self.fn_std_hz,
+                "fd_hz": self.fd_hz,
+                "zeta_pct": 100 * self.zeta,
+                "zeta_std_pct": 100 * np.asarray(self.zeta_std),
+            }
+        )
+        return html_table(table, caption=f"{self.configuration or 'modes'}: {self.n_modes} modes")
 
     @classmethod
     def from_damped(cls, fd_hz: np.ndarray, zeta: np.ndarray, **kwargs: object) -> ModalParameters:

@@ -83,6 +83,26 @@ class IdentificationResult:
     settings: ResolvedSettings
     extras: dict[str, float] = field(default_factory=dict)
 
+    def __repr__(self) -> str:
+        """Short: configuration, modes, band, method and order, mean fit error."""
+        m = self.modes
+        freqs = ", ".join(f"{f:.2f}" for f in np.sort(m.fn_hz)[:8]) + (
+            ", ..." if m.n_modes > 8 else ""
+        )
+        lo, hi = self.settings.band_hz
+        error = f"{100 * float(np.mean(self.error)):.2f} %" if self.error.size else "n/a"
+        return (
+            f"IdentificationResult({m.configuration or 'unnamed'}: {m.n_modes} modes "
+            f"[{freqs}] Hz, band {lo:g}-{hi:g} Hz, {self.settings.method} max order "
+            f"{self.settings.max_order}, fit error {error})"
+        )
+
+    def _repr_html_(self) -> str:
+        """The modal table (notebooks): f, zeta with std, sigma, MPC, stable orders."""
+        from ema_pipeline.report import mode_table_html
+
+        return mode_table_html(self)
+
     @property
     def fn_hz(self) -> np.ndarray:
         return self.modes.fn_hz
