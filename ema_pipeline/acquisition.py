@@ -52,7 +52,16 @@ _CANTILEVER_BETA_L = np.array(
 
 
 def cantilever_beta_l(n_modes: int) -> np.ndarray:
-    """First ``n_modes`` roots beta_n*L of cos(x) cosh(x) = -1 (clamped-free beam)."""
+    """First ``n_modes`` roots beta_n*L of cos(x) cosh(x) = -1 (clamped-free beam).
+
+    Examples
+    --------
+    >>> cantilever_beta_l(3)  # roots of cos(x) cosh(x) = -1
+    array([1.87510407, 4.69409113, 7.85475744])
+    >>> x = cantilever_beta_l(4)
+    >>> bool(np.allclose(np.cos(x) * np.cosh(x), -1.0))
+    True
+    """
     n = np.arange(1, n_modes + 1)
     roots = (2 * n - 1) * np.pi / 2  # asymptote, exact to 1e-15 from n = 5
     roots[: min(n_modes, 4)] = _CANTILEVER_BETA_L[: min(n_modes, 4)]
@@ -177,7 +186,13 @@ def synthesize_frf_set(
 def force_window(
     n_samples: int, sample_rate_hz: float, width_s: float, taper_s: float = 0.01
 ) -> np.ndarray:
-    """Rectangular force window of ``width_s`` seconds closed by a half-cosine taper."""
+    """Rectangular force window of ``width_s`` seconds closed by a half-cosine taper.
+
+    Examples
+    --------
+    >>> force_window(6, 1000.0, width_s=0.002, taper_s=0.002)  # ones, half-cosine, zeros
+    array([1. , 1. , 1. , 0.5, 0. , 0. ])
+    """
     t = np.arange(n_samples) / sample_rate_hz
     w = np.ones(n_samples)
     taper = (t > width_s) & (t < width_s + taper_s)
@@ -189,7 +204,13 @@ def force_window(
 def exponential_window(
     n_samples: int, sample_rate_hz: float, tau_s: float, t0_s: float = 0.0
 ) -> np.ndarray:
-    """Exponential window exp(-(t - t0)/tau); it adds 1/tau (1/s) to every decay rate."""
+    """Exponential window exp(-(t - t0)/tau); it adds 1/tau (1/s) to every decay rate.
+
+    Examples
+    --------
+    >>> exponential_window(4, 1000.0, tau_s=0.002)  # exp(-t / 2 ms) at 1 kHz
+    array([1.        , 0.60653066, 0.36787944, 0.22313016])
+    """
     t = np.arange(n_samples) / sample_rate_hz
     return np.exp(-(t - t0_s) / tau_s)
 
@@ -341,6 +362,13 @@ def configuration_modes(
     follow eq. (4). Higher modes, up to ``n_modes_total``, continue the last
     measured one with the Euler-Bernoulli ratios (beta_k / beta_n)^2 and damping
     ``high_mode_zeta``. ``configuration`` names the result.
+
+    Examples
+    --------
+    >>> modes = configuration_modes("genuine", fd_hz=[18.0, 113.0], zeta=[0.01, 0.005],
+    ...                             n_modes_total=3)
+    >>> modes.fn_hz.round(3), modes.zeta
+    (array([ 18.001, 113.001, 316.407]), array([0.01 , 0.005, 0.004]))
     """
     measured = ModalParameters.from_damped(fd_hz, zeta)
     n_meas = measured.n_modes

@@ -57,6 +57,11 @@ def quantity_power(quantity: str) -> int:
 
     In pole-residue form the same power multiplies the residue: the residue of
     the quantity is lambda_r^q times that of the receptance.
+
+    Examples
+    --------
+    >>> quantity_power("receptance"), quantity_power("mobility"), quantity_power("accelerance")
+    (0, 1, 2)
     """
     try:
         return QUANTITY_POWER[quantity]
@@ -72,6 +77,13 @@ def quantity_factor(quantity_from: str, quantity_to: str, freq_hz: np.ndarray) -
 
     Accelerance = j omega mobility = (j omega)^2 receptance. Where the factor is
     not finite (negative powers at 0 Hz) it is 0.
+
+    Examples
+    --------
+    >>> quantity_factor("receptance", "accelerance", np.array([0.0, 1.0])).real  # -(2 pi f)^2
+    array([  0.        , -39.4784176])
+    >>> quantity_factor("accelerance", "receptance", np.array([0.0, 1.0])).real  # 0 where infinite
+    array([ 0.        , -0.02533030])
     """
     power = quantity_power(quantity_to) - quantity_power(quantity_from)
     jw = 2j * np.pi * np.asarray(freq_hz, dtype=float)
@@ -116,6 +128,13 @@ class DOF:
     direction: int = 3
 
     def label(self) -> str:
+        """Node, sign and axis as written in tables and plots, e.g. ``3+Z``.
+
+        Examples
+        --------
+        >>> DOF(3).label(), DOF(12, -1).label()
+        ('3+Z', '12-X')
+        """
         axis = "SXYZ"[abs(self.direction)] if abs(self.direction) <= 3 else "?"
         sign = "-" if self.direction < 0 else "+"
         return f"{self.node}{sign}{axis}"
@@ -294,6 +313,14 @@ class FRFSet:
 
         A roving-hammer test (many references, one response) becomes one
         reference and many responses, which keeps a poly-reference model small.
+
+        Examples
+        --------
+        >>> roving = FRFSet(freq_hz=np.arange(1.0, 6.0), H=np.ones((1, 3, 5), complex),
+        ...                 response_dofs=(DOF(1),), reference_dofs=(DOF(2), DOF(3), DOF(4)))
+        >>> single = roving.reciprocal()
+        >>> single.H.shape, [d.label() for d in single.response_dofs]
+        ((3, 1, 5), ['2+Z', '3+Z', '4+Z'])
         """
         coh = None if self.coherence is None else self.coherence.transpose(1, 0, 2)
         return replace(
@@ -305,7 +332,15 @@ class FRFSet:
         )
 
     def band(self, lo_hz: float, hi_hz: float) -> FRFSet:
-        """The lines with lo_hz <= f <= hi_hz (a copy)."""
+        """The lines with lo_hz <= f <= hi_hz (a copy).
+
+        Examples
+        --------
+        >>> frf = FRFSet(freq_hz=np.arange(0.0, 100.0), H=np.ones(100, complex))
+        >>> sub = frf.band(10.0, 20.0)
+        >>> sub.freq_hz[[0, -1]], sub.H.shape
+        (array([10., 20.]), (1, 1, 11))
+        """
         if not lo_hz < hi_hz:
             raise DataError(f"band [{lo_hz}, {hi_hz}] Hz is empty")
         if lo_hz < self.freq_hz[0] - 1e-9 or hi_hz > self.freq_hz[-1] + 1e-9:
@@ -447,7 +482,13 @@ class ModalParameters:
 
     @classmethod
     def from_damped(cls, fd_hz: np.ndarray, zeta: np.ndarray, **kwargs: object) -> ModalParameters:
-        """Build from damped natural frequencies, fn = fd / sqrt(1 - zeta^2) (eq. 4)."""
+        """Build from damped natural frequencies, fn = fd / sqrt(1 - zeta^2) (eq. 4).
+
+        Examples
+        --------
+        >>> ModalParameters.from_damped([10.0], [0.1]).fn_hz  # 10 / sqrt(1 - 0.1^2)
+        array([10.05037815])
+        """
         fd = np.asarray(fd_hz, dtype=float)
         z = np.asarray(zeta, dtype=float)
         return cls(fn_hz=fd / np.sqrt(1.0 - z**2), zeta=z, **kwargs)  # type: ignore[arg-type]

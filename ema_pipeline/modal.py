@@ -35,6 +35,15 @@ def mac(phi_a: np.ndarray, phi_b: np.ndarray | None = None) -> np.ndarray:
     ------
     DataError
         If the shapes are not 2-D arrays with the same number of DOFs.
+
+    Examples
+    --------
+    >>> phi = np.array([[1.0, 1.0], [2.0, -0.5]])  # two orthogonal shapes
+    >>> mac(phi).round(6)
+    array([[1., 0.],
+           [0., 1.]])
+    >>> float(mac(phi[:, :1], 2j * phi[:, :1])[0, 0])  # blind to complex scaling
+    1.0
     """
     a = np.asarray(phi_a)
     b = a if phi_b is None else np.asarray(phi_b)
@@ -59,6 +68,14 @@ def mac_pairs(phi_a: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
     -------
     (n,) MAC of column k of ``phi_a`` with column k of ``phi_b``; 0 where a
     column is all zero.
+
+    Examples
+    --------
+    >>> phi = np.array([[1.0, 1.0], [2.0, -0.5]])
+    >>> mac_pairs(phi, -3.0 * phi)
+    array([1., 1.])
+    >>> mac_pairs(phi, phi[:, ::-1]).round(6)
+    array([0., 0.])
     """
     a = np.asarray(phi_a)
     b = np.asarray(phi_b)

@@ -69,6 +69,19 @@ def local_added_mass_factors(
     -------
     delta_k, delta_m : (n,) factors (ratios). residual : (p,) [A,B] x - Delta_lambda.
     A, B : (p, n).
+
+    Examples
+    --------
+    A 2-DOF toy (M = I, K = diag(1, 4)) whose one "element" holds the stiffness of
+    DOF 1 and the mass of DOF 2; both grow by 10 %:
+
+    >>> psi, omega2 = np.eye(2), np.array([1.0, 4.0])
+    >>> k_e = np.array([[[1.0, 0.0], [0.0, 0.0]]])
+    >>> m_e = np.array([[[0.0, 0.0], [0.0, 1.0]]])
+    >>> dk, dm, residual, A, B = local_added_mass_factors(psi, omega2, k_e, m_e,
+    ...                                                   np.array([0.1, -0.4]))
+    >>> dk.round(6), dm.round(6)
+    (array([0.1]), array([0.1]))
     """
     psi = np.asarray(shapes, dtype=float)
     w2 = np.asarray(omega2, dtype=float)

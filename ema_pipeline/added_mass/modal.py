@@ -56,6 +56,14 @@ def pair_modes(
     -------
     partner : (n_a,) int, index into b of each mode of a, -1 if missing in b.
     mac : (n_a,) MAC of the pair, NaN without shapes or partner.
+
+    Examples
+    --------
+    >>> partner, mac = pair_modes([20.0, 100.0], [96.0, 19.0])
+    >>> partner, mac
+    (array([1, 0]), array([nan, nan]))
+    >>> pair_modes([20.0, 100.0], [19.0])[0]  # the 100 Hz mode is missing
+    array([ 0, -1])
     """
     fa = np.atleast_1d(np.asarray(fn_a_hz, dtype=float))
     fb = np.atleast_1d(np.asarray(fn_b_hz, dtype=float))
@@ -137,6 +145,15 @@ def modal_added_mass(
     propagation, sigma^2 = (2 f/f_w^2 sigma_f)^2 + (2 f^2/f_w^3 sigma_fw)^2;
     zeta_std does not enter because the ratio depends on the undamped
     frequencies only.
+
+    Examples
+    --------
+    Undamped frequencies 20 and 100 Hz drop to 19 and 96 Hz:
+
+    >>> genuine = ModalParameters(fn_hz=[20.0, 100.0], zeta=[0.01, 0.005])
+    >>> modified = ModalParameters(fn_hz=[19.0, 96.0], zeta=[0.012, 0.005])
+    >>> modal_added_mass(genuine, modified).ratio.round(5)  # (20/19)^2 - 1, (100/96)^2 - 1
+    array([0.10803, 0.08507])
     """
     for mp, name in ((genuine, "genuine"), (modified, "modified")):
         if np.any(~np.isfinite(mp.fn_hz)) or np.any(mp.fn_hz <= 0):

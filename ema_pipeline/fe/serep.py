@@ -18,7 +18,13 @@ from ema_pipeline.fe.beam import FEModes, beam_modes
 # SEREP, eq. (21)-(25)
 # ---------------------------------------------------------------------------
 def fe_elements_of_measurement_element(beam: Beam, element: int) -> np.ndarray:
-    """0-based FE element indices inside measurement element ``element`` (1-based)."""
+    """0-based FE element indices inside measurement element ``element`` (1-based).
+
+    Examples
+    --------
+    >>> fe_elements_of_measurement_element(Beam(), 2)  # 100 FE elements, 10 measured
+    array([10, 11, 12, 13, 14, 15, 16, 17, 18, 19])
+    """
     n_meas = beam.n_measurement_elements
     if not 1 <= element <= n_meas:
         raise DataError(f"measurement element {element} does not exist (1..{n_meas})")
@@ -32,6 +38,12 @@ def measurement_master_dofs(beam: Beam) -> tuple[np.ndarray, tuple[int, ...]]:
     Measurement node k (1-based, node 1 clamped) sits at FE node
     (k - 1) * n_elements / n_measurement_elements. Returns the DOF indices and
     the measurement node numbers 2..n_measurement_elements + 1.
+
+    Examples
+    --------
+    >>> dofs, nodes = measurement_master_dofs(Beam())
+    >>> dofs[:3], nodes[:3], len(nodes)
+    (array([18, 38, 58]), (2, 3, 4), 10)
     """
     r = beam.n_elements // beam.n_measurement_elements
     nodes = tuple(range(2, beam.n_measurement_elements + 2))

@@ -54,7 +54,13 @@ IDENTIFIABLE_NAME = "h*sqrt(E/rho)/L^2"
 # model update, eq. (26)
 # ---------------------------------------------------------------------------
 def beam_parameters(beam: Beam) -> np.ndarray:
-    """The five update parameters of ``beam`` in :data:`PARAMETER_NAMES` order (SI)."""
+    """The five update parameters of ``beam`` in :data:`PARAMETER_NAMES` order (SI).
+
+    Examples
+    --------
+    >>> beam_parameters(Beam())  # h, b, L, E, rho
+    array([1.0e-02, 5.0e-02, 6.5e-01, 2.1e+11, 7.8e+03])
+    """
     return np.array([getattr(beam, name) for name in PARAMETER_NAMES], dtype=float)
 
 
@@ -63,6 +69,13 @@ def beam_with_parameters(beam: Beam, params: np.ndarray) -> Beam:
 
     Point masses keep their position relative to the length (a sensor at a
     measurement node stays at that node when L changes).
+
+    Examples
+    --------
+    >>> beam = Beam(point_masses=((0.65, 0.1),))
+    >>> longer = beam_with_parameters(beam, [0.01, 0.05, 1.3, 210e9, 7800.0])
+    >>> longer.length_m, longer.point_masses  # the tip mass stays at the tip
+    (1.3, ((1.3, 0.1),))
     """
     params = np.asarray(params, dtype=float)
     values = dict(zip(PARAMETER_NAMES, params.tolist(), strict=True))
@@ -76,6 +89,14 @@ def identifiable_combination(params: np.ndarray) -> np.ndarray:
 
     For a uniform beam without point masses every natural frequency is
     proportional to it, and b cancels: it is all that frequencies can identify.
+
+    Examples
+    --------
+    >>> p = beam_parameters(Beam())
+    >>> float(identifiable_combination(p).round(3))  # 0.01 * sqrt(210e9 / 7800) / 0.65^2
+    122.811
+    >>> float(identifiable_combination(p * [2, 1, 1, 4, 1]) / identifiable_combination(p))
+    4.0
     """
     p = np.asarray(params, dtype=float)
     h, length, e, rho = p[..., 0], p[..., 2], p[..., 3], p[..., 4]
@@ -86,6 +107,11 @@ def update_objective(fn_model_hz: np.ndarray, fn_measured_hz: np.ndarray) -> np.
     """Eq. (26): sum_r |f_A,r - f_X,r| / f_X,r over the last axis.
 
     ``fn_measured_hz`` are undamped natural frequencies (eq. 4).
+
+    Examples
+    --------
+    >>> round(float(update_objective(np.array([20.0, 125.0]), np.array([19.84, 124.33]))), 5)
+    0.01345
     """
     fa = np.asarray(fn_model_hz, dtype=float)
     fx = np.asarray(fn_measured_hz, dtype=float)

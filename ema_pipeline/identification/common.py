@@ -30,13 +30,29 @@ from ema_pipeline.modal import mac
 
 
 def source_prefix(frf: FRFSet) -> str:
-    """``"<path>: "`` for error messages, or ``""`` when the FRF set has no source file."""
+    """``"<path>: "`` for error messages, or ``""`` when the FRF set has no source file.
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from ema_pipeline.data import Provenance
+    >>> frf = FRFSet(freq_hz=np.arange(3.0), H=np.ones(3, complex))
+    >>> source_prefix(frf), source_prefix(replace(frf, source=Provenance(path="a.uff")))
+    ('', 'a.uff: ')
+    """
     return f"{frf.source.path}: " if frf.source.path else ""
 
 
 def resolve_band(frf: FRFSet, band_hz: tuple[float, float] | None) -> tuple[float, float]:
     """The band (lo, hi) in Hz: ``band_hz`` checked against the axis, or by default
-    from the 6th line (skipping 0 Hz and the first lines) to the last line."""
+    from the 6th line (skipping 0 Hz and the first lines) to the last line.
+
+    Examples
+    --------
+    >>> frf = FRFSet(freq_hz=np.arange(0.0, 100.0), H=np.ones(100, complex))
+    >>> resolve_band(frf, None), resolve_band(frf, (10, 50))
+    ((5.0, 99.0), (10.0, 50.0))
+    """
     f = frf.freq_hz
     if band_hz is None:
         return float(f[min(5, f.size - 2)]), float(f[-1])
@@ -107,7 +123,13 @@ def check_band_data(sub: FRFSet, max_order: int, where: str) -> None:
 
 def default_max_order(n_in: int, n_lines: int) -> int:
     """Default highest polynomial order: 40 matrix coefficients for one reference
-    (80 poles), fewer per extra reference, never more than the lines allow."""
+    (80 poles), fewer per extra reference, never more than the lines allow.
+
+    Examples
+    --------
+    >>> default_max_order(1, 4000), default_max_order(2, 4000), default_max_order(1, 50)
+    (64, 40, 24)
+    """
     p = {1: 64, 2: 40, 3: 30}.get(n_in, 24)
     return int(min(p, n_lines // 2 - 1))
 

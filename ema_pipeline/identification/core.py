@@ -72,6 +72,19 @@ def identify(
     residual), times ``STD_CALIBRATION``
     (:mod:`ema_pipeline.identification.uncertainty`); with ``refine=False`` the
     scatter of the cluster's poles over the model orders (an underestimate).
+
+    Examples
+    --------
+    Two modes (30 Hz, 1 %; 70 Hz, 2 %), accelerance at two responses, noise-free:
+
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import FRFSet, ModalParameters
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> result = identify(FRFSet(freq_hz=f, H=H))
+    >>> result.fn_hz.round(4), result.zeta.round(5)
+    (array([30., 70.]), array([0.01, 0.02]))
     """
     options = IdentificationOptions() if options is None else options
     if overrides:

@@ -144,6 +144,11 @@ def mpc(phi: np.ndarray) -> np.ndarray:
 
     MPC = ((S_xx - S_yy)^2 + 4 S_xy^2) / (S_xx + S_yy)^2 with S_xx = Re^T Re,
     S_yy = Im^T Im, S_xy = Re^T Im of each shape (n_dof, n_modes).
+
+    Examples
+    --------
+    >>> mpc(np.array([[1.0 + 1.0j, 1.0], [2.0 + 2.0j, 1.0j]])).round(6)  # real mode, complex mode
+    array([1., 0.])
     """
     x, y = phi.real, phi.imag
     sxx = np.sum(x * x, axis=0)
@@ -157,7 +162,14 @@ def mpc(phi: np.ndarray) -> np.ndarray:
 def real_normalised(phi: np.ndarray) -> np.ndarray:
     """Real mode shapes: each complex shape rotated to its principal axis (the
     phase maximising the norm of the real part), real part taken, scaled to a
-    largest component of +1."""
+    largest component of +1.
+
+    Examples
+    --------
+    >>> real_normalised(np.array([[1.0j], [-2.0j]]))
+    array([[-0.5],
+           [ 1. ]])
+    """
     x, y = phi.real, phi.imag
     theta = 0.5 * np.arctan2(2 * np.sum(x * y, axis=0), np.sum(x * x - y * y, axis=0))
     rot = np.real(phi * np.exp(-1j * theta)[None, :])
@@ -168,7 +180,14 @@ def real_normalised(phi: np.ndarray) -> np.ndarray:
 
 
 def frac(H: np.ndarray, H_fit: np.ndarray) -> np.ndarray:
-    """Frequency response assurance criterion per FRF (last axis = frequency)."""
+    """Frequency response assurance criterion per FRF (last axis = frequency).
+
+    Examples
+    --------
+    >>> H = np.array([[[1.0 + 1.0j, 2.0, 3.0j]]])
+    >>> frac(H, H), frac(H, 2 * H).round(3)
+    (array([[1.]]), array([[1.]]))
+    """
     num = np.abs(np.sum(H.conj() * H_fit, axis=-1)) ** 2
     den = np.sum(np.abs(H) ** 2, axis=-1) * np.sum(np.abs(H_fit) ** 2, axis=-1)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -176,7 +195,14 @@ def frac(H: np.ndarray, H_fit: np.ndarray) -> np.ndarray:
 
 
 def normalised_error(H: np.ndarray, H_fit: np.ndarray) -> np.ndarray:
-    """||H - H_fit|| / ||H|| per FRF (last axis = frequency)."""
+    """||H - H_fit|| / ||H|| per FRF (last axis = frequency).
+
+    Examples
+    --------
+    >>> H = np.array([[[1.0 + 1.0j, 2.0, 3.0j]]])
+    >>> normalised_error(H, H), normalised_error(H, 1.1 * H).round(3)
+    (array([[0.]]), array([[0.1]]))
+    """
     num = np.sqrt(np.sum(np.abs(H - H_fit) ** 2, axis=-1))
     den = np.sqrt(np.sum(np.abs(H) ** 2, axis=-1))
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -50,6 +50,14 @@ class IdentificationOptions:
         squares (:func:`ema_pipeline.identification.refine.refine_poles`), which
         also gives their covariance.
     lower_residual, upper_residual : residual terms in LSFD.
+
+    Examples
+    --------
+    >>> options = IdentificationOptions(band_hz=[5, 395], expect_hz=[18.1, 112.0])
+    >>> options.band_hz, options.expect_hz
+    ((5.0, 395.0), (18.1, 112.0))
+    >>> options == IdentificationOptions(band_hz=(5.0, 395.0), expect_hz=(18.1, 112.0))
+    True
     """
 
     band_hz: tuple[float, float] | None = None
@@ -75,7 +83,15 @@ class IdentificationOptions:
 
     def apply_window(self, frf: FRFSet) -> FRFSet:
         """``frf`` with ``exp_window_tau_s`` recorded in its acquisition info
-        (unchanged when the option is ``None``)."""
+        (unchanged when the option is ``None``).
+
+        Examples
+        --------
+        >>> frf = FRFSet(freq_hz=np.arange(3.0), H=np.ones(3, complex))
+        >>> windowed = IdentificationOptions(exp_window_tau_s=2.0).apply_window(frf)
+        >>> windowed.acquisition.window_decay_rate  # 1 / tau
+        0.5
+        """
         if self.exp_window_tau_s is None:
             return frf
         return replace(

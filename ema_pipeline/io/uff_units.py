@@ -199,7 +199,13 @@ DIMENSIONLESS = Unit(1.0, (0, 0, 0), "1")
 
 
 def is_blank_label(label: str) -> bool:
-    """True for an absent unit label (empty or ``NONE``)."""
+    """True for an absent unit label (empty or ``NONE``).
+
+    Examples
+    --------
+    >>> is_blank_label(" NONE "), is_blank_label(""), is_blank_label("m/s^2")
+    (True, True, False)
+    """
     return label.strip().lower() in _BLANK
 
 

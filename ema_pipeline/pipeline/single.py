@@ -49,7 +49,13 @@ class FileOutcome:
 
 
 def output_paths(path: Path, out_dir: Path) -> tuple[Path, Path]:
-    """``(<out>/<stem>_modes.csv, <out>/<stem>_result.h5)`` for an input file."""
+    """``(<out>/<stem>_modes.csv, <out>/<stem>_result.h5)`` for an input file.
+
+    Examples
+    --------
+    >>> [p.as_posix() for p in output_paths(Path("raw/test_01.uff"), Path("out"))]
+    ['out/test_01_modes.csv', 'out/test_01_result.h5']
+    """
     stem = Path(path).stem
     return out_dir / f"{stem}_modes.csv", out_dir / f"{stem}_result.h5"
 
