@@ -421,9 +421,16 @@ def simulate_time_records(
     configuration: str = "",
     period_factor: int = 8,
 ) -> TimeRecords:
+    shapes: tuple[np.ndarray, np.ndarray] | None = None,
     """Time records of a simulated impact test (force and accelerations).
 
     For every impact the analogue signals are exact: the response is the
+    ``shapes`` = (phi_out (n_out, n_modes), phi_in (1, n_modes)) are the
+    mass-normalised mode shapes at the response and hammer nodes (e.g. of an FE
+    beam with added mass,
+    :func:`ema_pipeline.added_mass.exact.beam_modes_with_added_mass`); ``None``
+    uses the analytic cantilever's (:meth:`TestSetup.shapes`).
+
     convolution of each mode's impulse response with a half-sine hammer pulse
     (amplitude varying +-20 % between impacts), computed as the inverse
     transform of (pole-residue FRF per mode) x (analytic pulse spectrum) x (the
@@ -441,7 +448,16 @@ def simulate_time_records(
     fs, n = setup.sample_rate_hz, setup.n_samples
     n_long = n * period_factor
     freq_long = np.fft.rfftfreq(n_long, 1.0 / fs)
-    phi_out, phi_in = setup.shapes(modes.n_modes)
+    phi_out, phi_in = setup.shapes(modes.n_modes) if shapes is None else shapes
+    n_out_expected = len(setup.response_nodes)
+    if np.shape(phi_out) != (n_out_expected, modes.n_modes) or np.shape(phi_in) != (
+        1, modes.n_modes
+    ):
+        raise DataError(
+            f"simulation needs mode shapes ({n_out_expected}, {modes.n_modes}) at the responses "
+            f"and (1, {modes.n_modes}) at the hammer, got {np.shape(phi_out)} and "
+            f"{np.shape(phi_in)}"
+        )
     H = modal_frf(freq_long, modes, phi_out, phi_in)[:, 0, :]  # (n_out, n_freq)
     G = anti_aliasing_filter(freq_long, fs, setup.aa_pass_fraction)
     delay = np.exp(-2j * np.pi * freq_long * setup.pretrigger_s)
@@ -477,14 +493,16 @@ def simulate_impact_test(
     snr_db: float | None = 40.0,
     seed: int | None = 0,
 ) -> FRFSet:
+    shapes: tuple[np.ndarray, np.ndarray] | None = None,
     """A whole simulated impact test: time records, windows, H1 with coherence.
 
     ``modes`` are the modal parameters to simulate, e.g. from
     :func:`configuration_modes` (the paper's configurations by name:
-    :func:`ema_pipeline.pipeline.simulate.simulate_paper_test`). See
-    :func:`simulate_time_records`.
+    :func:`ema_pipeline.pipeline.simulate.simulate_paper_test`; an FE beam with
+    added mass: :func:`ema_pipeline.pipeline.simulate.simulate_added_mass_test`).
+    See :func:`simulate_time_records` (also for ``shapes``).
     """
-    records = simulate_time_records(modes, setup, snr_db=snr_db, seed=seed)
+    records = simulate_time_records(modes, setup, snr_db=snr_db, seed=seed, shapes=shapes)
     return estimate_frf(
         records,
         force_window_s=setup.force_window_s,

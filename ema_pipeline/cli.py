@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 from ema_pipeline.data import ConfigError, DataError, EMAError
 
 if TYPE_CHECKING:  # pragma: no cover
+    from ema_pipeline.data import FRFSet, TimeRecords
     from ema_pipeline.identification.options import IdentificationOptions
 
 EXIT_OK, EXIT_INPUT, EXIT_USAGE = 0, 1, 2
@@ -35,10 +36,15 @@ def _floats(text: str) -> tuple[float, ...]:
 
 
 def _cmd_simulate(args: argparse.Namespace) -> int:
-    from ema_pipeline import acquisition, io, paper
+    from ema_pipeline import acquisition, paper
     from ema_pipeline.pipeline.simulate import paper_modes
 
+    if args.added_mass is not None:
+        return _simulate_added_mass(args)
     setup = acquisition.TestSetup()
+    if args.experiment is not None:
+        raise ConfigError("--experiment goes with --added-mass (the experiment's FE beam)")
+    args.configuration = args.configuration or "genuine"
     if args.fd_hz is None and args.configuration not in paper.CONFIGURATIONS:
         raise ConfigError(
             f"no Table 1 values for configuration {args.configuration!r} (known: "
@@ -65,7 +71,36 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     frf = acquisition.estimate_frf(
         records, force_window_s=setup.force_window_s, exp_window_tau_s=setup.exp_window_tau_s
     )
-    fmt = "h5" if args.format == "h5" else ("uff-binary" if args.binary else "uff")
+    _write_simulated(args, records, frf, snr)
+    return EXIT_OK
+
+
+def _simulate_format(out: Path, fmt: str | None, binary: bool) -> str:
+    """The format ``simulate`` writes: ``--format`` or the suffix of ``--out``; a
+    contradiction between them (or ``--binary`` with HDF5) is a usage error."""
+    from ema_pipeline import io
+
+    try:
+        by_suffix = io.frf_format_for_writing(out)
+    except DataError:
+        by_suffix = None
+    if fmt is None and by_suffix is None:
+        raise ConfigError(f"{out}: cannot tell the format from the suffix; use .uff or .h5, "
+                          "or give --format")
+    if fmt is not None and by_suffix is not None and fmt != by_suffix:
+        raise ConfigError(f"--format {fmt} contradicts the suffix of {out} ({by_suffix})")
+    chosen = fmt or by_suffix
+    if binary and chosen != "uff":
+        raise ConfigError("--binary is for UFF output, not HDF5")
+    return "uff-binary" if binary else str(chosen)
+
+
+def _write_simulated(
+    args: argparse.Namespace, records: TimeRecords, frf: FRFSet, snr: float | None
+) -> None:
+    from ema_pipeline import io
+
+    fmt = _simulate_format(args.out, args.format, args.binary)
     io.write_frf(frf, args.out, fmt, coherence=args.coherence)
     if args.time_records:
         io.write_time_uff(records, args.time_records, binary=args.binary)
@@ -75,6 +110,41 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
             f"df = {frf.df_hz:.7g} Hz, {records.n_averages} averages, seed {args.seed}, "
             f"SNR {'none' if snr is None else f'{snr:g} dB'}"
         )
+
+
+def _simulate_added_mass(args: argparse.Namespace) -> int:
+    """``simulate --added-mass``: the experiment's FE beam with extra mass (frequencies
+    and shapes from the FE model), damping from --zeta-pct or Table 1's genuine."""
+    from ema_pipeline import acquisition
+    from ema_pipeline.added_mass import parse_element_fractions
+    from ema_pipeline.pipeline import study
+    from ema_pipeline.pipeline.simulate import added_mass_modes, experiment_setup
+
+    if args.fd_hz is not None:
+        raise ConfigError("--added-mass takes its frequencies from the FE beam; drop --fd-hz")
+    text = args.added_mass.strip()
+    added = {} if text.lower() in ("", "none") else parse_element_fractions(text)
+    experiment_path = args.experiment
+    if experiment_path is None:
+        default = Path("raw_frf") / "experiment.toml"
+        experiment_path = default if default.is_file() else None
+    experiment = None if experiment_path is None else study.load_experiment(experiment_path)
+    setup = experiment_setup(experiment)
+    args.configuration = args.configuration or ("genuine" if not added else "added_mass")
+    zeta = None if args.zeta_pct is None else [z / 100 for z in args.zeta_pct]
+    modes, shapes = added_mass_modes(added, setup, zeta=zeta, configuration=args.configuration)
+    snr = None if args.snr_db is not None and args.snr_db <= 0 else args.snr_db
+    records = acquisition.simulate_time_records(
+        modes, setup, snr_db=snr, seed=args.seed, configuration=args.configuration,
+        shapes=shapes,
+    )
+    frf = acquisition.estimate_frf(
+        records, force_window_s=setup.force_window_s, exp_window_tau_s=setup.exp_window_tau_s
+    )
+    _write_simulated(args, records, frf, snr)
+    if not args.quiet:
+        freqs = ", ".join(f"{f:.3f}" for f in modes.fn_hz[:4])
+        print(f"FE beam with added mass {added or 'none'}: fn = {freqs}, ... Hz")
     return EXIT_OK
 
 
@@ -177,6 +247,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_fe(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ema_pipeline import added_mass, io
     from ema_pipeline.data import Beam
     from ema_pipeline.pipeline import fe_stage, study
@@ -191,6 +263,8 @@ def _cmd_fe(args: argparse.Namespace) -> int:
     measured = added_mass.modal_parameters_from_table(
         table, genuine=genuine, source=str(args.table1)
     )
+    stds = [m.fn_std_hz for m in measured.values()]
+    has_std = "fn_std_hz" in table.columns and all(np.all(np.isfinite(s)) for s in stds)
     stage = fe_stage.run_fe_stage(
         experiment.beam if experiment else Beam(),
         measured,
@@ -204,6 +278,15 @@ def _cmd_fe(args: argparse.Namespace) -> int:
         path = io.write_csv(frame, args.out / f"{name}.csv")
         if not args.quiet:
             print(f"wrote {path}")
+    if not args.quiet:
+        print(
+            "note: Table 6 delta_m_std (method exact) is the frequencies' fn_std_hz propagated "
+            "through the fit" if has_std else f"note: {args.table1} has no (complete) fn_std_hz "
+            "column: Table 6 delta_m_std (method exact) is the misfit std, from the fit residual "
+            "(delta_m_std_source)"
+        )
+        for message in stage.messages:
+            print(f"note: {message}")
     return EXIT_OK
 
 
@@ -266,11 +349,34 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--configuration",
-        default="genuine",
+        default=None,
         help="Table 1 configuration: genuine, larger_tank, smaller_tank "
-        "(or any name with --fd-hz/--zeta-pct); default genuine",
+        "(or any name with --fd-hz/--zeta-pct or --added-mass); default genuine "
+        "(added_mass with a non-empty --added-mass)",
     )
-    p.add_argument("--format", choices=("uff", "h5"), default="uff", help="file format")
+    p.add_argument(
+        "--added-mass",
+        default=None,
+        metavar="ELEMENT=FRACTION[,ELEMENT=FRACTION]",
+        help="simulate the experiment's FE beam whose measurement elements (1-based, 10 = tip) "
+        "carry extra mass, as a fraction of the element's mass, e.g. 10=0.3; frequencies and "
+        "shapes from the FE model, damping from --zeta-pct or Table 1's genuine; 'none' is "
+        "the genuine FE beam",
+    )
+    p.add_argument(
+        "--experiment",
+        type=Path,
+        default=None,
+        help="with --added-mass: experiment file giving the FE beam and sensor nodes "
+        "(default raw_frf/experiment.toml if present, else the paper's beam)",
+    )
+    p.add_argument(
+        "--format",
+        choices=("uff", "h5"),
+        default=None,
+        help="file format (default: from the suffix of --out, .uff/.unv or .h5; "
+        "a format that contradicts the suffix is an error)",
+    )
     p.add_argument("--binary", action="store_true", help="binary instead of ASCII UFF")
     p.add_argument("--out", required=True, type=Path, help="output file")
     p.add_argument("--seed", type=int, default=0, help="random seed (default 0)")

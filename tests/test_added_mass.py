@@ -232,7 +232,12 @@ def test_fe_stage_tables_forms(stage):
     assert abs(t5["fn_hz"].iloc[0] - 18.14) < 0.02
     assert fe.update_objective(t5["fn_hz"].to_numpy(), t5["fn_measured_hz"].to_numpy()) <= 0.052
     t6 = tables["table6_local_added_mass"]
-    assert len(t6) == 4 and set(t6["method"]) == {"block", "projected"}
+    # one row per configuration, method and element, methods in the order block, projected, exact
+    assert t6["method"].tolist() == ["block", "projected", "exact"] * 2
+    assert (t6["element"] == 10).all() and (t6["status"] == "ok").all()
+    exact = t6[t6["method"] == "exact"].set_index("configuration")["delta_m"]
+    assert 0.40 < exact["larger_tank"] < 0.43 and 0.34 < exact["smaller_tank"] < 0.38
+    assert t2["added_mass_ratio_fe"].notna().all()
 
 
 def test_fe_stage_requires_genuine():

@@ -276,3 +276,69 @@ def test_paper_table1_exact(cfg):
     # the paper's delta_k is not determined by four modes at this added mass
     with pytest.raises(DataError, match="condition number"):
         exact_added_mass(_paper_beam(), g.fn_hz, w.fn_hz, fit_stiffness=True)
+
+
+# --- every configuration, Tables 2 and 6 -----------------------------------------------------
+def _measured(cases: dict[str, dict[int, float]], n_modes: int = 4) -> dict[str, ModalParameters]:
+    return {name: ModalParameters(fn_hz=truth(added, n_modes)[0], zeta=np.zeros(n_modes),
+                                  configuration=name)
+            for name, added in cases.items()}
+
+
+def test_exact_all_configurations_and_table6_rows():
+    measured = _measured({"genuine": {}, "light": {10: 0.05}, "heavy": {10: 0.6}})
+    out = am.exact_added_mass_all(BEAM, measured, "genuine")
+    assert list(out) == ["light", "heavy"]
+    for name, dm in (("light", 0.05), ("heavy", 0.6)):
+        assert out[name].status == "ok"
+        assert abs(out[name].result.delta_m[0] - dm) < 1e-3 * dm
+    t6 = am.local_added_mass_table([], out)
+    assert list(t6.columns[:5]) == ["configuration", "method", "element", "delta_k", "delta_m"]
+    assert list(t6.columns[5:]) == list(am.TABLE6_EXTRA_COLUMNS)
+    assert t6["method"].tolist() == ["exact", "exact"] and t6["element"].tolist() == [10, 10]
+    # exact frequencies carry no std and the fit leaves no residual: the misfit std is ~0
+    assert (t6["delta_m_std_source"] == "misfit").all() and (t6["delta_m_std"] < 1e-5).all()
+    assert (t6["condition_number"] == 1.0).all() and (t6["status"] == "ok").all()
+
+
+def test_unidentifiable_configuration_is_a_row_with_the_reason():
+    measured = _measured({"genuine": {}, "wet": {9: 0.2, 10: 0.5}})
+    # one of the modified modes was not identified: 2 unknowns, 1 usable mode ... refused
+    measured["sparse"] = ModalParameters(fn_hz=measured["wet"].fn_hz[:1], zeta=np.zeros(1),
+                                         configuration="sparse")
+    out = am.exact_added_mass_all(BEAM, measured, "genuine", immersed_elements=[9, 10])
+    assert out["wet"].status == "ok"
+    np.testing.assert_allclose(out["wet"].result.delta_m, [0.2, 0.5], rtol=1e-3)
+    assert out["sparse"].status == "refused" and out["sparse"].result is None
+    assert "need at least 2 modes" in out["sparse"].reason
+    t6 = am.local_added_mass_table([], out).set_index(["configuration", "element"])
+    for el in (9, 10):
+        row = t6.loc[("sparse", el)]
+        assert np.isnan(row["delta_m"]) and row["status"] == "refused"
+        assert np.isinf(row["condition_number"]) and "2 unknowns" in row["reason"]
+    notes = am.exact_method_notes(am.local_added_mass_table([], out))
+    assert "0.200" in notes[0] and "0.500" in notes[0]
+    assert "std" in notes[1] and "sparse" in notes[-1] and "refused" in notes[-1]
+    # three elements near the clamp from four modes: refused for the condition number (~1200)
+    out3 = am.exact_added_mass_all(BEAM, _measured({"genuine": {}, "w": {10: 0.3}}),
+                                   immersed_elements=[1, 2, 3])["w"]
+    assert out3.status == "refused" and out3.rank == 3
+    assert 300 < out3.condition_number and "condition number" in out3.reason
+    assert [r["condition_number"] for r in out3.rows()] == [out3.condition_number] * 3
+
+
+def test_table2_true_modal_added_mass_beside_eq10():
+    measured = _measured({"genuine": {}, "heavy": {10: 0.6}})
+    exact = am.exact_added_mass_all(BEAM, measured, "genuine")
+    t2 = am.modal_added_mass_table(am.modal_added_mass_all(measured), exact)
+    phi, m0 = truth({}, 4)[1], truth({}, 4)[3]
+    d_mass = truth({10: 0.6}, 4)[3] - m0
+    np.testing.assert_allclose(t2["added_mass_ratio_fe"],
+                               np.einsum("ir,ik,kr->r", phi, d_mass, phi), rtol=1e-4)
+    # eq. (10) (unchanged shapes) agrees for mode 1 and falls short for modes 2-4
+    r = t2["added_mass_ratio"] / t2["added_mass_ratio_fe"]
+    assert abs(r.iloc[0] - 1) < 0.01 and (r.iloc[1:] < 0.9).all()
+    assert t2["added_mass_ratio_fe_modified_shape"].notna().all()
+    # without the exact fit, the columns are there and NaN
+    t2_none = am.modal_added_mass_table(am.modal_added_mass_all(measured))
+    assert t2_none["added_mass_ratio_fe"].isna().all()

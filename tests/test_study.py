@@ -251,6 +251,6 @@ def test_second_experiment_runs_without_code_change(second_experiment, tmp_path)
     np.testing.assert_allclose(t2.sort_values("mode")["added_mass_ratio"], SECOND_RATIOS,
                                atol=0.002)
     t6 = pd.read_csv(res / "tables" / "table6_local_added_mass.csv")
-    assert sorted(set(t6["element"])) == [9, 10] and len(t6) == 4  # 2 elements x 2 methods
+    assert sorted(set(t6["element"])) == [9, 10] and len(t6) == 6  # 2 elements x 3 methods
     html = (res / "report.html").read_text()
     assert "Second beam" in html and "paper_fd_hz" not in html  # no paper comparison here

@@ -7,6 +7,11 @@ Modules:
 * :mod:`.local` - the local added mass of the immersed element(s) by least
   squares on the SEREP-reduced FE model (:func:`local_added_mass`, methods
   ``"block"`` and ``"projected"``).
+* :mod:`.exact` - the local added mass by an exact (nonlinear) fit of the FE
+  eigenvalues to the measured frequency ratios (method ``"exact"``,
+  :func:`exact_added_mass`, :func:`exact_added_mass_all`), with its linearised
+  std and identifiability check; the FE beam with added mass for simulation
+  (:func:`beam_modes_with_added_mass`).
 * :mod:`.tables` - Tables 1-6 as DataFrames (:func:`modal_parameters_from_table`
   reads the Table 1 form; :data:`TABLE_COLUMNS`).
 
@@ -14,6 +19,18 @@ The whole FE stage (model update, SEREP, Tables 2-6) is orchestrated by
 :mod:`ema_pipeline.pipeline.fe_stage`.
 """
 
+from ema_pipeline.added_mass.exact import (
+    EXACT_METHOD,
+    MAX_CONDITION,
+    AddedMassModes,
+    ExactAddedMassResult,
+    ExactOutcome,
+    UnidentifiableError,
+    beam_modes_with_added_mass,
+    exact_added_mass,
+    exact_added_mass_all,
+    parse_element_fractions,
+)
 from ema_pipeline.added_mass.local import (
     METHODS,
     LocalAddedMassResult,
@@ -31,7 +48,9 @@ from ema_pipeline.added_mass.modal import (
 )
 from ema_pipeline.added_mass.tables import (
     TABLE4_PARAMETER_NAMES,
+    TABLE6_EXTRA_COLUMNS,
     TABLE_COLUMNS,
+    exact_method_notes,
     fe_frequency_table,
     local_added_mass_table,
     modal_added_mass_table,
@@ -40,12 +59,23 @@ from ema_pipeline.added_mass.tables import (
 )
 
 __all__ = [
+    "EXACT_METHOD",
+    "MAX_CONDITION",
     "METHODS",
     "TABLE4_PARAMETER_NAMES",
+    "TABLE6_EXTRA_COLUMNS",
     "TABLE_COLUMNS",
+    "AddedMassModes",
     "AddedMassResult",
+    "ExactAddedMassResult",
+    "ExactOutcome",
     "LocalAddedMassResult",
     "Method",
+    "UnidentifiableError",
+    "beam_modes_with_added_mass",
+    "exact_added_mass",
+    "exact_added_mass_all",
+    "exact_method_notes",
     "fe_frequency_table",
     "local_added_mass",
     "local_added_mass_factors",
@@ -55,6 +85,7 @@ __all__ = [
     "modal_added_mass_table",
     "modal_parameters_from_table",
     "pair_modes",
+    "parse_element_fractions",
     "replace_configuration",
     "require_genuine",
     "updated_parameters_table",

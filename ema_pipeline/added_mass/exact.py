@@ -93,12 +93,21 @@ from typing import Literal
 import numpy as np
 
 from ema_pipeline import fe
-from ema_pipeline.data import Beam, ConfigError, DataError
+from ema_pipeline.added_mass.modal import (
+    AddedMassResult,
+    modal_added_mass_all,
+    replace_configuration,
+)
+from ema_pipeline.data import Beam, ConfigError, DataError, ModalParameters
 
 __all__ = [
+    "EXACT_METHOD",
     "MAX_CONDITION",
     "AddedMassModes",
     "ExactAddedMassResult",
+    "ExactOutcome",
+    "UnidentifiableError",
+    "exact_added_mass_all",
     "parse_element_fractions",
     "modified_beam_matrices",
     "beam_modes_with_added_mass",
@@ -107,6 +116,22 @@ __all__ = [
 
 #: Largest condition number of the sensitivity matrix at which unknowns are reported.
 MAX_CONDITION = 100.0
+#: Name of the method in Table 6 (beside ``block`` and ``projected``).
+EXACT_METHOD = "exact"
+
+
+class UnidentifiableError(DataError):
+    """The measured modes cannot determine the unknowns (rank or condition number).
+
+    ``condition_number`` (inf when rank deficient or too few modes) and ``rank``
+    of the sensitivity matrix travel with the message so that a table can
+    report them beside the refusal.
+    """
+
+    def __init__(self, message: str, condition_number: float, rank: int) -> None:
+        super().__init__(message)
+        self.condition_number = condition_number
+        self.rank = rank
 
 Start = Literal["first_order", "zero"]
 Weighting = Literal["equal", "inverse_variance"]
@@ -393,25 +418,45 @@ class ExactAddedMassResult:
     weighting: str
     fit_stiffness: bool
 
+    @property
+    def std_source(self) -> str:
+        """Where the reported std comes from: ``"frequency_std"`` (the frequencies'
+        std propagated, when known for every mode used), else ``"misfit"`` (the
+        fit residual, when there are more modes than unknowns), else ``"none"``."""
+        if np.all(np.isfinite(self.delta_m_std)):
+            return "frequency_std"
+        if np.all(np.isfinite(self.delta_m_std_misfit)):
+            return "misfit"
+        return "none"
+
     def rows(self) -> list[dict[str, object]]:
         """One Table 6 row per element: ``configuration, method, element, delta_k,
-        delta_m`` (DESIGN.md) and ``delta_m_std, delta_k_std, delta_m_std_misfit,
-        delta_m_first_order, residual, condition_number, rank, n_modes``."""
+        delta_m`` (DESIGN.md) and ``delta_m_std`` (from :attr:`std_source`:
+        the frequencies' std propagated, else the misfit std),
+        ``delta_m_std_source, residual, condition_number, rank, n_modes, status``
+        (``"ok"``), ``reason`` (empty), ``delta_k_std`` (same source),
+        ``delta_m_std_misfit, delta_m_first_order``."""
+        source = self.std_source
+        m_std = self.delta_m_std_misfit if source == "misfit" else self.delta_m_std
+        k_std = self.delta_k_std_misfit if source == "misfit" else self.delta_k_std
         return [
             {
                 "configuration": self.configuration,
-                "method": "exact",
+                "method": EXACT_METHOD,
                 "element": el,
                 "delta_k": float(self.delta_k[i]),
                 "delta_m": float(self.delta_m[i]),
-                "delta_m_std": float(self.delta_m_std[i]),
-                "delta_k_std": float(self.delta_k_std[i]),
-                "delta_m_std_misfit": float(self.delta_m_std_misfit[i]),
-                "delta_m_first_order": float(self.delta_m_first_order[i]),
+                "delta_m_std": float(m_std[i]),
+                "delta_m_std_source": source,
                 "residual": self.residual,
                 "condition_number": self.condition_number,
                 "rank": self.rank,
                 "n_modes": int(self.mode.size),
+                "status": "ok",
+                "reason": "",
+                "delta_k_std": float(k_std[i]),
+                "delta_m_std_misfit": float(self.delta_m_std_misfit[i]),
+                "delta_m_first_order": float(self.delta_m_first_order[i]),
             }
             for i, el in enumerate(self.elements)
         ]
@@ -443,11 +488,13 @@ def _svd_check(s_mat: np.ndarray, max_condition: float, where: str, names: list[
     rank = int(np.sum(sv > tol))
     cond = float(sv[0] / sv[-1]) if rank == sv.size and sv.size else np.inf
     if rank < s_mat.shape[1] or cond > max_condition:
-        raise DataError(
+        raise UnidentifiableError(
             f"exact local added mass: the {s_mat.shape[0]} mode(s) used cannot determine the "
             f"{s_mat.shape[1]} unknowns {', '.join(names)} ({where}: sensitivity matrix rank "
             f"{rank}, condition number {cond:.3g} > {max_condition:g}); use more modes, fewer "
-            "immersed elements, or fit_stiffness=False"
+            "immersed elements, or fit_stiffness=False",
+            cond,
+            rank,
         )
     return cond, rank, sv
 
@@ -547,9 +594,11 @@ def exact_added_mass(
         [f"delta_k[{e}]" for e in elements] if fit_stiffness else []
     )
     if n_p > use.size:
-        raise DataError(
+        raise UnidentifiableError(
             f"exact local added mass: {n_p} unknowns ({', '.join(names)}) need at least {n_p} "
-            f"modes measured in both configurations, got {use.size}"
+            f"modes measured in both configurations, got {use.size}",
+            np.inf,
+            int(use.size),
         )
     if weighting not in ("equal", "inverse_variance"):
         raise DataError(f"unknown weighting {weighting!r}; use 'equal' or 'inverse_variance'")
@@ -684,3 +733,113 @@ def exact_added_mass(
         weighting=weighting,
         fit_stiffness=fit_stiffness,
     )
+
+
+# ---------------------------------------------------------------------------
+# every modified configuration of a study
+# ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class ExactOutcome:
+    """The ``exact`` local added mass of one modified configuration, or why not.
+
+    ``result`` is None when the fit was refused (``status`` ``"refused"``: the
+    modes cannot determine the unknowns, ``condition_number``/``rank`` say how
+    badly) or failed (``"failed"``: bad data, no convergence); ``reason`` is
+    the message. Table 6 gets one row per element either way (:meth:`rows`).
+    """
+
+    configuration: str
+    elements: tuple[int, ...]
+    result: ExactAddedMassResult | None
+    status: str = "ok"
+    reason: str = ""
+    condition_number: float = float("nan")
+    rank: int = -1
+
+    def rows(self) -> list[dict[str, object]]:
+        """Table 6 rows (:meth:`ExactAddedMassResult.rows`); NaN values and the
+        reason when refused or failed."""
+        if self.result is not None:
+            return self.result.rows()
+        nan = float("nan")
+        return [
+            {
+                "configuration": self.configuration,
+                "method": EXACT_METHOD,
+                "element": el,
+                "delta_k": nan,
+                "delta_m": nan,
+                "delta_m_std": nan,
+                "delta_m_std_source": "none",
+                "residual": nan,
+                "condition_number": self.condition_number,
+                "rank": self.rank,
+                "n_modes": 0,
+                "status": self.status,
+                "reason": self.reason,
+                "delta_k_std": nan,
+                "delta_m_std_misfit": nan,
+                "delta_m_first_order": nan,
+            }
+            for el in self.elements
+        ]
+
+
+def exact_added_mass_all(
+    beam: Beam,
+    measured: Mapping[str, ModalParameters],
+    genuine: str = "genuine",
+    *,
+    immersed_elements: Sequence[int] = (10,),
+    pairing: Mapping[str, AddedMassResult] | None = None,
+    fit_stiffness: bool = False,
+    max_condition: float = MAX_CONDITION,
+) -> dict[str, ExactOutcome]:
+    """:func:`exact_added_mass` for every modified configuration, never raising per configuration.
+
+    Genuine mode r (all genuine modes, in order) is FE mode r; the modified
+    configuration's partner comes from the eq. (10) pairing (``pairing``,
+    default :func:`ema_pipeline.added_mass.modal_added_mass_all`), so a mode
+    missing there is dropped, never paired with a wrong one. Frequencies and
+    their ``fn_std_hz`` are the undamped ones (eq. 4). A configuration whose
+    modes cannot determine the unknowns, or whose fit fails, becomes an
+    :class:`ExactOutcome` with the reason instead of an exception.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import Beam, ModalParameters
+    >>> beam = Beam()
+    >>> fn = {k: beam_modes_with_added_mass(beam, a, 4).fn_hz
+    ...       for k, a in (("genuine", {}), ("wet", {10: 0.3}))}
+    >>> measured = {k: ModalParameters(fn_hz=f, zeta=np.zeros(4)) for k, f in fn.items()}
+    >>> out = exact_added_mass_all(beam, measured)
+    >>> round(float(out["wet"].result.delta_m[0]), 4), out["wet"].status
+    (0.3, 'ok')
+    >>> exact_added_mass_all(beam, measured, immersed_elements=range(1, 11))["wet"].status
+    'refused'
+    """
+    elements = tuple(int(e) for e in immersed_elements)
+    pairs = modal_added_mass_all(measured, genuine) if pairing is None else pairing
+    gen = replace_configuration(measured[genuine], genuine)
+    out: dict[str, ExactOutcome] = {}
+    for name, pair in pairs.items():
+        mod = measured[name]
+        paired = pair.partner >= 0
+        idx = np.where(paired, pair.partner, 0)
+        fw = np.where(paired, mod.fn_hz[idx], np.nan)
+        sw = np.where(paired, np.asarray(mod.fn_std_hz)[idx], np.nan)
+        try:
+            res = exact_added_mass(
+                beam, gen.fn_hz, fw, fn_genuine_std_hz=gen.fn_std_hz, fn_modified_std_hz=sw,
+                immersed_elements=elements, fit_stiffness=fit_stiffness,
+                max_condition=max_condition, configuration=name,
+            )
+        except UnidentifiableError as exc:
+            out[name] = ExactOutcome(name, elements, None, "refused", str(exc),
+                                     exc.condition_number, exc.rank)
+            continue
+        except DataError as exc:
+            out[name] = ExactOutcome(name, elements, None, "failed", str(exc))
+            continue
+        out[name] = ExactOutcome(name, elements, res, "ok", "", res.condition_number, res.rank)
+    return out

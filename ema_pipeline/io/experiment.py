@@ -58,8 +58,14 @@ def read_experiment(path: str | os.PathLike[str]) -> Experiment:
         raise DataError(f"{path}: needs at least one [[configurations]] entry")
     specs = []
     for k, c in enumerate(configs, start=1):
+        if isinstance(c, dict) and "name" in c and "added_mass" in c:
+            specs.append(read_simulated_configuration(c, k, beam, path))
+            continue
         if not isinstance(c, dict) or "name" not in c or "file" not in c:
-            raise DataError(f"{path}: configuration {k} needs 'name' and 'file'")
+            raise DataError(
+                f"{path}: configuration {k} needs 'name' and 'file' (or 'added_mass' for a "
+                "simulated one)"
+            )
         tau = c.get("exp_window_tau_s")
         specs.append(
             ConfigurationSpec(
@@ -102,6 +108,57 @@ def read_experiment(path: str | os.PathLike[str]) -> Experiment:
         n_modes=int(fe.get("n_modes", 4)),
         update_repeats=int(fe.get("update_repeats", 5)),
         seed=int(fe.get("seed", 0)),
+    )
+
+
+def read_simulated_configuration(
+    table: Mapping[str, Any], position: int, beam: Beam, path: Path
+) -> ConfigurationSpec:
+    """A ``[[configurations]]`` entry simulated on the FE beam (no ``file``).
+
+    Keys: ``name``; ``added_mass`` = {ELEMENT = FRACTION, ...} (measurement
+    element, 1-based, tip = n: extra mass as a fraction of the element's mass;
+    ``{}`` is the genuine beam); optional ``zeta_pct`` = [damping of the lowest
+    modes in percent] (default: the paper's genuine damping), ``snr_db``
+    (default 40; 0 = noise-free), ``seed`` (default: the entry's 1-based
+    ``position`` in the file), ``description``.
+    """
+    where = f"{path}: configuration {position} ({table.get('name')!r})"
+    if "file" in table:
+        raise DataError(f"{where}: give either 'file' or 'added_mass', not both")
+    added = table["added_mass"]
+    if not isinstance(added, dict):
+        raise DataError(f"{where}: added_mass must be a table such as {{10 = 0.3}}, got {added!r}")
+    pairs = []
+    for el, frac in added.items():
+        try:
+            el_i = int(el)
+        except ValueError:
+            raise DataError(f"{where}: added_mass key {el!r} is not an element number") from None
+        if not 1 <= el_i <= beam.n_measurement_elements:
+            raise DataError(
+                f"{where}: added_mass element {el_i} does not exist "
+                f"(1..{beam.n_measurement_elements})"
+            )
+        if isinstance(frac, bool) or not isinstance(frac, int | float) or not frac > -1:
+            raise DataError(f"{where}: added_mass of element {el_i} must be a number > -1, "
+                            f"got {frac!r}")
+        pairs.append((el_i, float(frac)))
+    zeta = table.get("zeta_pct")
+    if zeta is not None and (
+        not isinstance(zeta, list)
+        or not all(isinstance(z, int | float) and not isinstance(z, bool) for z in zeta)
+    ):
+        raise DataError(f"{where}: zeta_pct must be a list of numbers (percent), got {zeta!r}")
+    snr = _get(table, "snr_db", float, path, 40.0)
+    return ConfigurationSpec(
+        name=str(table["name"]),
+        file="",
+        description=str(table.get("description", "")),
+        added_mass=tuple(sorted(pairs)),
+        zeta_pct=None if zeta is None else tuple(float(z) for z in zeta),
+        snr_db=snr if snr > 0 else None,
+        seed=_get(table, "seed", int, path, position),
     )
 
 

@@ -1,16 +1,16 @@
 """The FE stage of the study (paper Tables 2-6) from measured modal parameters.
 
 Orchestration only: the numerics are :mod:`ema_pipeline.added_mass` (eq. 10,
-eq. 14-20, the tables) and :mod:`ema_pipeline.fe` (beam FE, SEREP, model update);
-this module runs them in order, shows the model update's progress bar and
-assembles the tables (:func:`fe_stage_tables`).
+eq. 14-20, the exact eigenvalue fit, the tables) and :mod:`ema_pipeline.fe`
+(beam FE, SEREP, model update); this module runs them in order, shows the model
+update's progress bar and assembles the tables (:func:`fe_stage_tables`).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -18,9 +18,13 @@ from tqdm.auto import tqdm
 
 from ema_pipeline import fe, paper
 from ema_pipeline.added_mass import (
+    EXACT_METHOD,
     METHODS,
     AddedMassResult,
+    ExactOutcome,
     LocalAddedMassResult,
+    exact_added_mass_all,
+    exact_method_notes,
     fe_frequency_table,
     local_added_mass,
     local_added_mass_table,
@@ -32,7 +36,16 @@ from ema_pipeline.added_mass import (
 )
 from ema_pipeline.data import Beam, DataError, ModalParameters
 
-__all__ = ["FEStageResult", "fe_stage_tables", "run_fe_stage", "update_progress_bar"]
+__all__ = [
+    "TABLE6_METHODS",
+    "FEStageResult",
+    "fe_stage_tables",
+    "run_fe_stage",
+    "update_progress_bar",
+]
+
+#: The local added mass methods of Table 6, in table order.
+TABLE6_METHODS: tuple[str, ...] = (*METHODS, EXACT_METHOD)
 
 
 @contextmanager
@@ -72,7 +85,14 @@ class FEStageResult:
     fn_updated_hz : Table 5.
     reduced : SEREP model of the updated beam (10 masters, 10 modes in the paper).
     modal_added_mass : Table 2, per modified configuration.
-    local_added_mass : Table 6, one entry per configuration and method.
+    local_added_mass : Table 6, one entry per configuration and first-order
+        method (``block``, ``projected``).
+    messages : notes for the report (mode pairing, the exact method beside
+        the first-order one).
+    exact_added_mass : Table 6 method ``exact`` per modified configuration
+        (:class:`ema_pipeline.added_mass.ExactOutcome`: the fit on the updated
+        beam, or the reason it was refused); also Table 2's FE-based modal
+        added mass.
     """
 
     beam_initial: Beam
@@ -86,6 +106,7 @@ class FEStageResult:
     modal_added_mass: dict[str, AddedMassResult]
     local_added_mass: tuple[LocalAddedMassResult, ...]
     messages: tuple[str, ...] = ()
+    exact_added_mass: dict[str, ExactOutcome] = field(default_factory=dict)
 
 
 def run_fe_stage(
@@ -94,7 +115,7 @@ def run_fe_stage(
     *,
     immersed_elements: Sequence[int] = (10,),
     genuine: str = "genuine",
-    methods: Sequence[str] = METHODS,
+    methods: Sequence[str] = TABLE6_METHODS,
     n_repeats: int = 5,
     seed: int = 0,
     progress: bool = True,
@@ -106,8 +127,12 @@ def run_fe_stage(
     3. Table 4: :func:`ema_pipeline.fe.update_beam` on the genuine undamped
        frequencies, eq. (26), differential evolution repeated ``n_repeats`` times.
     4. Table 5: FE frequencies of the updated beam.
-    5. Table 6: :func:`local_added_mass` per modified configuration and method,
-       on the SEREP-reduced updated model.
+    5. Table 6: :func:`local_added_mass` per modified configuration and
+       first-order method, on the SEREP-reduced updated model, and method
+       ``exact`` (:func:`ema_pipeline.added_mass.exact_added_mass_all`: the
+       updated beam's eigenvalues fitted to the measured frequency ratios, all
+       genuine modes, the eq. (10) pairing); a configuration whose modes cannot
+       determine the unknowns gets a refusal with the reason, the stage goes on.
 
     ``measured`` maps configuration names to modal parameters (see
     :func:`modal_parameters_from_table`); ``measured[genuine]`` must have every
@@ -115,14 +140,14 @@ def run_fe_stage(
     """
     require_genuine(measured, genuine)
     for m in methods:
-        if m not in METHODS:
-            raise DataError(f"unknown local added mass method {m!r}; use {METHODS}")
+        if m not in TABLE6_METHODS:
+            raise DataError(f"unknown local added mass method {m!r}; use {TABLE6_METHODS}")
     gen = replace_configuration(measured[genuine], genuine)
     p = gen.n_modes
     if p < 1:
         raise DataError(f"configuration {genuine!r} has no modes")
     n_mod = len(measured) - 1
-    if n_mod and 2 * len(tuple(immersed_elements)) > p:
+    if n_mod and any(m in METHODS for m in methods) and 2 * len(tuple(immersed_elements)) > p:
         raise DataError(
             f"{len(tuple(immersed_elements))} immersed element(s) need at least "
             f"{2 * len(tuple(immersed_elements))} measured modes, got {p}: the number of "
@@ -137,12 +162,19 @@ def run_fe_stage(
     local: list[LocalAddedMassResult] = []
     for name, pair in modal.items():
         mod = replace_configuration(measured[name], name)
-        for m in methods:
+        for m in (m for m in methods if m in METHODS):
             local.append(
                 local_added_mass(upd.beam, gen, mod, immersed_elements=immersed_elements,
                                  method=m, reduced=reduced, pairing=pair)  # type: ignore[arg-type]
             )
-    msgs = tuple(msg for res in modal.values() for msg in res.messages)
+    exact = (
+        exact_added_mass_all(upd.beam, measured, genuine, immersed_elements=immersed_elements,
+                             pairing=modal)
+        if EXACT_METHOD in methods else {}
+    )
+    msgs = tuple(msg for res in modal.values() for msg in res.messages) + tuple(
+        exact_method_notes(local_added_mass_table(local, exact))
+    )
     return FEStageResult(
         beam_initial=beam,
         beam_updated=upd.beam,
@@ -155,6 +187,7 @@ def run_fe_stage(
         modal_added_mass=modal,
         local_added_mass=tuple(local),
         messages=msgs,
+        exact_added_mass=exact,
     )
 
 
@@ -167,13 +200,19 @@ def fe_stage_tables(result: FEStageResult) -> dict[str, pd.DataFrame]:
     over the runs (``run_min, run_max, run_std``), the paper's row label and a
     last row with the identifiable combination h*sqrt(E/rho)/L^2
     (``identifiable`` True); Table 5 the measured frequency and relative
-    deviation; Table 6 the element number and the number of modes used.
+    deviation; Table 6 (one row per configuration, method and element) the
+    std, residual, condition number, rank, modes used and status of the
+    ``exact`` fit (:data:`ema_pipeline.added_mass.TABLE6_EXTRA_COLUMNS`), and
+    Table 2 the FE-based modal added mass of the exact fit
+    (``added_mass_ratio_fe``).
     """
     fx = result.measured[result.genuine].fn_hz
     return {
-        "table2_modal_added_mass": modal_added_mass_table(result.modal_added_mass),
+        "table2_modal_added_mass": modal_added_mass_table(result.modal_added_mass,
+                                                          result.exact_added_mass),
         "table3_fe_initial": fe_frequency_table(result.fn_initial_hz),
         "table4_updated_parameters": updated_parameters_table(result.update, paper.TABLE4_LABELS),
         "table5_fe_updated": fe_frequency_table(result.fn_updated_hz, fx),
-        "table6_local_added_mass": local_added_mass_table(result.local_added_mass),
+        "table6_local_added_mass": local_added_mass_table(result.local_added_mass,
+                                                          result.exact_added_mass),
     }

@@ -1,17 +1,47 @@
-"""The paper's simulated impact test by configuration name.
+"""Simulated impact tests: the paper's configurations by name, or an FE beam with added mass.
 
 :mod:`ema_pipeline.acquisition` simulates whatever modal parameters it is
-given; this module looks up the paper's Table 1 (:mod:`ema_pipeline.paper`) for
-a named configuration (``genuine``, ``larger_tank``, ``smaller_tank``) and
-passes it in. Used by ``ema-pipeline simulate``, the tests and the benchmarks.
+given; this module supplies them:
+
+* :func:`paper_modes` / :func:`simulate_paper_test` look up the paper's Table 1
+  (:mod:`ema_pipeline.paper`) for a named configuration (``genuine``,
+  ``larger_tank``, ``smaller_tank``); the shapes are the analytic cantilever's.
+* :func:`added_mass_modes` / :func:`simulate_added_mass_test` take the
+  frequencies *and* the shapes at the response and hammer nodes from the FE beam
+  whose measurement elements carry extra mass
+  (:func:`ema_pipeline.added_mass.exact.beam_modes_with_added_mass`; ``{}`` is
+  the genuine beam), with given damping (default: Table 1's genuine damping):
+  a simulated immersed beam with a known answer, for ``simulate --added-mass``
+  and for configurations declared with ``added_mass`` in an experiment file
+  (:func:`simulate_configuration`).
+
+Used by ``ema-pipeline simulate``, ``ema-pipeline run``, the tests and the benchmarks.
 """
 
 from __future__ import annotations
 
-from ema_pipeline import acquisition, paper
-from ema_pipeline.data import DataError, FRFSet, ModalParameters
+from collections.abc import Mapping, Sequence
 
-__all__ = ["paper_modes", "simulate_paper_test"]
+import numpy as np
+
+from ema_pipeline import acquisition, paper
+from ema_pipeline.added_mass.exact import beam_modes_with_added_mass
+from ema_pipeline.data import (
+    ConfigurationSpec,
+    DataError,
+    Experiment,
+    FRFSet,
+    ModalParameters,
+)
+
+__all__ = [
+    "added_mass_modes",
+    "experiment_setup",
+    "paper_modes",
+    "simulate_added_mass_test",
+    "simulate_configuration",
+    "simulate_paper_test",
+]
 
 
 def paper_modes(
@@ -56,3 +86,129 @@ def simulate_paper_test(
     setup = acquisition.TestSetup() if setup is None else setup
     modes = paper_modes(configuration, setup)
     return acquisition.simulate_impact_test(modes, setup, snr_db=snr_db, seed=seed)
+
+
+def experiment_setup(experiment: Experiment | None = None) -> acquisition.TestSetup:
+    """The simulated test setup of an experiment: its FE beam and sensor nodes.
+
+    Acquisition settings (sampling, averages, windows) are
+    :class:`~ema_pipeline.acquisition.TestSetup`'s; ``None`` gives the default setup.
+
+    Examples
+    --------
+    >>> experiment_setup().response_nodes, experiment_setup().hammer_node
+    ((3, 6), 8)
+    """
+    if experiment is None:
+        return acquisition.TestSetup()
+    return acquisition.TestSetup(
+        beam=experiment.beam,
+        response_nodes=tuple(experiment.response_nodes),
+        hammer_node=experiment.hammer_node,
+        direction=experiment.direction,
+    )
+
+
+def added_mass_modes(
+    added: Mapping[int, float],
+    setup: acquisition.TestSetup | None = None,
+    *,
+    zeta: Sequence[float] | np.ndarray | None = None,
+    configuration: str = "",
+) -> tuple[ModalParameters, tuple[np.ndarray, np.ndarray]]:
+    """Modes of ``setup.beam`` with extra mass on measurement elements, for simulation.
+
+    Parameters
+    ----------
+    added : {measurement element (1-based, tip = n): delta_m}, extra mass as a
+        fraction of the element's own mass (``{}``: the genuine beam).
+    setup : beam, sensor nodes, ``n_modes_total`` and ``high_mode_zeta``.
+    zeta : damping ratios (not percent) of the lowest modes; the modes above
+        them get ``setup.high_mode_zeta``. Default: the genuine configuration's
+        of the paper's Table 1 (:data:`ema_pipeline.paper.TABLE1_ZETA`).
+    configuration : name given to the modes.
+
+    Returns
+    -------
+    modes : ModalParameters of the ``setup.n_modes_total`` lowest FE modes.
+    shapes : (phi_out (n_responses, n), phi_in (1, n)) mass-normalised FE shapes
+        at the response and hammer nodes (the ``shapes`` argument of
+        :func:`ema_pipeline.acquisition.simulate_time_records`).
+
+    Examples
+    --------
+    >>> modes, (phi_out, phi_in) = added_mass_modes({10: 0.3}, zeta=[0.005])
+    >>> modes.n_modes, phi_out.shape, phi_in.shape, float(modes.zeta[1])
+    (8, (2, 8), (1, 8), 0.004)
+    >>> bool(modes.fn_hz[0] < 19.84)
+    True
+    """
+    setup = acquisition.TestSetup() if setup is None else setup
+    n = setup.n_modes_total
+    z_low = np.asarray(paper.TABLE1_ZETA["genuine"] if zeta is None else zeta, dtype=float).ravel()
+    if z_low.size > n or not (np.all(np.isfinite(z_low)) and np.all((z_low >= 0) & (z_low < 1))):
+        raise DataError(
+            f"damping ratios must be {n} or fewer values in [0, 1) (ratios, not percent), "
+            f"got {z_low.tolist()}"
+        )
+    fe_modes = beam_modes_with_added_mass(
+        setup.beam, added, n, nodes=(*setup.response_nodes, setup.hammer_node)
+    )
+    zeta_all = np.concatenate([z_low, np.full(n - z_low.size, setup.high_mode_zeta)])
+    modes = ModalParameters(fn_hz=fe_modes.fn_hz, zeta=zeta_all, configuration=configuration)
+    n_out = len(setup.response_nodes)
+    return modes, (fe_modes.shapes[:n_out], fe_modes.shapes[n_out:])
+
+
+def simulate_added_mass_test(
+    added: Mapping[int, float],
+    setup: acquisition.TestSetup | None = None,
+    *,
+    zeta: Sequence[float] | np.ndarray | None = None,
+    snr_db: float | None = 40.0,
+    seed: int | None = 0,
+    configuration: str = "",
+) -> FRFSet:
+    """A simulated impact test of the FE beam with extra mass on measurement elements.
+
+    :func:`added_mass_modes` (frequencies and shapes from the FE model) then
+    :func:`ema_pipeline.acquisition.simulate_impact_test`. The answer is known:
+    ``added`` is what the ``exact`` local added mass should return.
+
+    Examples
+    --------
+    >>> frf = simulate_added_mass_test({10: 0.3}, snr_db=None, configuration="truth")
+    >>> frf.H.shape, frf.configuration
+    ((2, 1, 8193), 'truth')
+    """
+    setup = acquisition.TestSetup() if setup is None else setup
+    modes, shapes = added_mass_modes(added, setup, zeta=zeta, configuration=configuration)
+    frf = acquisition.simulate_impact_test(modes, setup, snr_db=snr_db, seed=seed, shapes=shapes)
+    return frf
+
+
+def simulate_configuration(experiment: Experiment, spec: ConfigurationSpec) -> FRFSet:
+    """The FRFs of a configuration the experiment file declares as simulated.
+
+    A ``[[configurations]]`` entry with ``added_mass = {ELEMENT = FRACTION, ...}``
+    (``{}`` for the genuine beam) and no ``file``: the experiment's FE beam and
+    sensors (:func:`experiment_setup`), damping ``zeta_pct`` of the entry
+    (default Table 1's genuine damping), ``snr_db`` (default 40) and ``seed``
+    (default: the entry's 1-based position in the file, so every configuration
+    has its own fixed noise).
+
+    Raises
+    ------
+    DataError : the configuration has no ``added_mass`` (it is read from a file).
+    """
+    if spec.added_mass is None:
+        raise DataError(f"configuration {spec.name!r} is not simulated (it has no added_mass)")
+    frf = simulate_added_mass_test(
+        dict(spec.added_mass),
+        experiment_setup(experiment),
+        zeta=None if spec.zeta_pct is None else np.asarray(spec.zeta_pct) / 100.0,
+        snr_db=spec.snr_db,
+        seed=spec.seed,
+        configuration=spec.name,
+    )
+    return frf

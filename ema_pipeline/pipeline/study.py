@@ -37,6 +37,7 @@ from ema_pipeline.data import (
     FRFSet,
     ModalParameters,
 )
+from ema_pipeline.pipeline.simulate import simulate_configuration
 from ema_pipeline.pipeline.single import identify_frf, load_frf
 
 Progress = Callable[[str], None]
@@ -91,12 +92,15 @@ def table1(measured: dict[str, ModalParameters]) -> pd.DataFrame:
 
 def _identify_all(exp: Experiment, result: StudyResult, say: Progress) -> None:
     for k, spec in enumerate(exp.configurations, start=1):
-        path = io.experiment_file_path(exp, spec)
+        # a configuration declared with added_mass has no file: simulated on the FE beam
+        path = None if spec.added_mass is not None else io.experiment_file_path(exp, spec)
+        source = path or f"simulated, added mass {dict(spec.added_mass or ())}, seed {spec.seed}"
         start = time.perf_counter()
-        say(f"[identify {k}/{len(exp.configurations)}] {spec.name}: {path}")
+        say(f"[identify {k}/{len(exp.configurations)}] {spec.name}: {source}")
         try:
             options = replace(exp.identification, exp_window_tau_s=spec.exp_window_tau_s)
-            frf = replace(load_frf(path, options), configuration=spec.name)
+            frf = simulate_configuration(exp, spec) if path is None else replace(
+                load_frf(path, options), configuration=spec.name)
             ident = identify_frf(frf, options)
         except DataError as exc:
             result.problems.append(f"configuration {spec.name!r}: {exc}")
