@@ -420,17 +420,17 @@ def simulate_time_records(
     seed: int | None = 0,
     configuration: str = "",
     period_factor: int = 8,
-) -> TimeRecords:
     shapes: tuple[np.ndarray, np.ndarray] | None = None,
+) -> TimeRecords:
     """Time records of a simulated impact test (force and accelerations).
 
-    For every impact the analogue signals are exact: the response is the
     ``shapes`` = (phi_out (n_out, n_modes), phi_in (1, n_modes)) are the
     mass-normalised mode shapes at the response and hammer nodes (e.g. of an FE
     beam with added mass,
     :func:`ema_pipeline.added_mass.exact.beam_modes_with_added_mass`); ``None``
     uses the analytic cantilever's (:meth:`TestSetup.shapes`).
 
+    For every impact the analogue signals are exact: the response is the
     convolution of each mode's impulse response with a half-sine hammer pulse
     (amplitude varying +-20 % between impacts), computed as the inverse
     transform of (pole-residue FRF per mode) x (analytic pulse spectrum) x (the
@@ -492,8 +492,8 @@ def simulate_impact_test(
     *,
     snr_db: float | None = 40.0,
     seed: int | None = 0,
-) -> FRFSet:
     shapes: tuple[np.ndarray, np.ndarray] | None = None,
+) -> FRFSet:
     """A whole simulated impact test: time records, windows, H1 with coherence.
 
     ``modes`` are the modal parameters to simulate, e.g. from

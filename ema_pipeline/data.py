@@ -558,26 +558,26 @@ class ConfigurationSpec:
 
     ``exp_window_tau_s`` overrides the exponential-window time constant stored
     in the file (foreign UFF files do not carry it); ``None`` keeps the file's.
-    """
-
-    name: str
-    file: str
 
     A *simulated* configuration has ``added_mass`` ((element, delta_m) pairs,
     ``()`` for the genuine beam) instead of a file: ``ema-pipeline run``
     simulates its impact test on the experiment's FE beam with damping
     ``zeta_pct`` (None: Table 1's genuine), noise ``snr_db`` (None: noise-free)
     and ``seed`` (:func:`ema_pipeline.pipeline.simulate.simulate_configuration`).
+    """
+
+    name: str
+    file: str
     description: str = ""
     exp_window_tau_s: float | None = None
-
-
-@dataclass(frozen=True)
-class Experiment:
     added_mass: tuple[tuple[int, float], ...] | None = None
     zeta_pct: tuple[float, ...] | None = None
     snr_db: float | None = 40.0
     seed: int = 0
+
+
+@dataclass(frozen=True)
+class Experiment:
     """Everything ``ema-pipeline run`` needs, as described by ``experiment.toml``.
 
     ``configurations[0]`` is the genuine (reference) state unless ``genuine``
