@@ -299,7 +299,12 @@ def make_figures(report: ReportInput) -> dict[str, str]:
         _identification_figures(
             name, frf, report.identification.get(name), figures, name.replace("_", " ")
         )
-    if report.fe_shapes is not None and report.sensor_x is not None and report.identification:
+    if (
+        report.fe_shapes is not None
+        and report.fe_node_x is not None
+        and report.sensor_x is not None
+        and report.identification
+    ):
         measured = {n: r.shapes_real for n, r in report.identification.items()}
         figures["mode_shapes"] = figs.figure_mode_shapes(
             report.fe_node_x, report.fe_shapes, report.sensor_x, measured
@@ -328,7 +333,9 @@ table{border-collapse:collapse;font-size:.86em}
 caption{text-align:left;font-weight:600;padding:.2em 0}
 th,td{border:1px solid #ccc;padding:.2em .45em;text-align:left;vertical-align:top}
 th{background:#eef3f8;font-weight:600}
+td{overflow-wrap:anywhere}
 td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
+td.pm{white-space:normal;overflow-wrap:normal}
 td.hash,td.path{font-family:ui-monospace,Menlo,Consolas,monospace;font-size:.92em;
 word-break:break-all}
 table.mac td{min-width:3.6em}
@@ -526,7 +533,7 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
     page.section("summary", "Summary").append(_summary_study(report))
     if report.frfs:
         page.section("setup", "Test setup").append(
-            html_table(_setup_table(report.frfs, report.geometry))
+            html_table(_setup_table(report.frfs, report.geometry), split=False)
         )
     if report.geometry is not None:
         g = report.geometry
@@ -650,7 +657,9 @@ def render_identify_html(
         }
     )
     page.section("summary", "Summary").append(html_table(summary))
-    page.section("setup", "Test setup").append(html_table(_setup_table({name: frf}, None)))
+    page.section("setup", "Test setup").append(
+        html_table(_setup_table({name: frf}, None), split=False)
+    )
     no = _no_figures(None if not figures else fg)
     page.section("frf", "FRFs and coherence").append(
         no + _figure("frf_one", fg, f"|H| and coherence: {name}")
@@ -715,9 +724,11 @@ def render_batch_html(batch: BatchReportInput, *, figures: bool = True) -> str:
         table[f"f{k + 1}_hz"] = [f[k] if len(f) > k else np.nan for f in freqs]
     if "fit_error" in s:
         table["fit_error_pct"] = 100 * pd.to_numeric(s["fit_error"], errors="coerce")
-    table["reason"] = [reasons.get(f, "") for f in s["file"]]
     table = table.fillna({"configuration": ""})
-    page.section("files", "Status and modes per file").append(html_table(table))
+    page.section("files", "Status and modes per file").append(
+        html_table(table) + ('<p class="muted">Failed files and why: see above.</p>'
+                             if n_failed else "")
+    )
     sec = page.section("trend", "Each mode's frequency across the files")
     if figures:
         ok = [(str(f), fr) for f, fr, st in zip(s["file"], freqs, s["status"], strict=True)]

@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from html import escape
 
 import numpy as np
+import numpy.typing as npt
 
 __all__ = [
     "SCALE",
@@ -255,7 +256,7 @@ class Axes:
                 raise ValueError(f"bad {name} limits {lim} for a {'log' if log else 'linear'} axis")
 
     # -- coordinates -------------------------------------------------------
-    def _t(self, v: np.ndarray, lim: tuple[float, float], log: bool) -> np.ndarray:
+    def _t(self, v: npt.ArrayLike, lim: tuple[float, float], log: bool) -> np.ndarray:
         v = np.asarray(v, dtype=float)
         if log:
             with np.errstate(divide="ignore", invalid="ignore"):
@@ -264,11 +265,11 @@ class Axes:
                 )
         return (v - lim[0]) / (lim[1] - lim[0])
 
-    def px(self, x: np.ndarray) -> np.ndarray:
+    def px(self, x: npt.ArrayLike) -> np.ndarray:
         """x data -> canvas pixels (CSS px)."""
         return self.box[0] + self._t(x, self.xlim, self.xlog) * self.box[2]
 
-    def py(self, y: np.ndarray) -> np.ndarray:
+    def py(self, y: npt.ArrayLike) -> np.ndarray:
         """y data -> canvas pixels (CSS px, downwards)."""
         return self.box[1] + (1 - self._t(y, self.ylim, self.ylog)) * self.box[3]
 

@@ -275,6 +275,37 @@ def _breakable(name: str) -> str:
     return escape(name).replace("_", "_<wbr>")
 
 
+#: Width budget of one HTML table, in characters of cell text (about 600 CSS px):
+#: wider tables are split into parts that repeat the key columns.
+TABLE_BUDGET_CHARS = 90
+
+
+def _width_chars(header: str, cells: Sequence[str], numeric: bool) -> int:
+    """Estimated rendered width of a column: its widest unbreakable part (numbers do
+    not break; text breaks at spaces, and long words anywhere, past 24 characters)."""
+    head = max((len(w) for w in header.split("_")), default=0)
+    if numeric:
+        words = [w for text in cells for w in text.split(" ± ")]
+    else:
+        words = [w[:24] for text in cells for w in text.split(" ")]
+    return max(head, max((len(w) for w in words), default=0)) + 2
+
+
+def _chunks(shown: list[str], widths: dict[str, int], keys: list[str]) -> list[list[str]]:
+    """Columns split into parts within the width budget, each led by the key columns."""
+    rest = [c for c in shown if c not in keys]
+    key_width = sum(widths[k] for k in keys)
+    parts: list[list[str]] = []
+    current: list[str] = []
+    for c in rest:
+        if current and key_width + sum(widths[x] for x in current) + widths[c] > TABLE_BUDGET_CHARS:
+            parts.append(current)
+            current = []
+        current.append(c)
+    parts.append(current)
+    return [keys + p for p in parts] if len(parts) > 1 else [shown]
+
+
 def html_table(
     table: pd.DataFrame,
     *,
@@ -282,12 +313,16 @@ def html_table(
     table_id: str = "",
     merge_std: bool = True,
     titles: Mapping[str, str] | None = None,
+    split: bool = True,
 ) -> str:
     """An HTML table (every string escaped) in a horizontally scrolling wrapper.
 
     With ``merge_std`` a value column with a standard deviation column beside
     it is shown as ``value ± std`` and the std column is not shown.
-    ``titles`` maps column names to header tooltips (units, meaning).
+    ``titles`` maps column names to header tooltips (units, meaning). A table
+    wider than :data:`TABLE_BUDGET_CHARS` is split into parts of columns, each
+    repeating the leading text/integer columns (configuration, mode, ...), so
+    that it fits a narrow window and a printed page (unless ``split=False``).
 
     Examples
     --------
@@ -295,6 +330,9 @@ def html_table(
     >>> s = html_table(t)
     >>> "&lt;b&gt;air&lt;/b&gt;" in s, "18.140 ± 0.010" in s, "fn_std_hz" in s
     (True, True, False)
+    >>> wide = pd.DataFrame({"mode": [1], **{f"value_{k}": [1.0e-3 * k] for k in range(12)}})
+    >>> html_table(wide).count("<table")
+    2
     """
     fmts = column_formatters(table)
     cols = [str(c) for c in table.columns]
@@ -302,31 +340,49 @@ def html_table(
     hidden = {s for s in pairs.values() if s}
     shown = [c for c in cols if c not in hidden]
     titles = titles or {}
-    head = "".join(
-        f'<th title="{escape(titles[c])}">{_breakable(c)}</th>' if c in titles
-        else f"<th>{_breakable(c)}</th>"
-        for c in shown
-    )
     numeric = {c for c in cols if pd.api.types.is_numeric_dtype(table[c])}
-    body = []
+    texts: dict[str, list[str]] = {c: [] for c in shown}
     for _, row in table.iterrows():
-        cells = []
         for c in shown:
             text = fmts[c](row[c])
             std = pairs.get(c)
             if std and text:
-                s = fmts[std](row[std])
-                if s:
-                    text = f"{text} ± {s}"
-            cls = ' class="num"' if c in numeric else ""
-            cells.append(f"<td{cls}>{escape(text)}</td>")
-        body.append("<tr>" + "".join(cells) + "</tr>")
-    ident = f' id="{escape(table_id)}"' if table_id else ""
-    cap = f"<caption>{escape(caption)}</caption>" if caption else ""
-    return (
-        f'<div class="tablewrap"><table{ident}>{cap}<thead><tr>{head}</tr></thead>'
-        f"<tbody>{''.join(body)}</tbody></table></div>"
-    )
+                sd = fmts[std](row[std])
+                if sd:
+                    text = f"{text} ± {sd}"
+            texts[c].append(text)
+    widths = {c: _width_chars(c, texts[c], c in numeric) for c in shown}
+    keys = []
+    for c in shown[:2]:
+        if _is_float(table[c]):
+            break
+        keys.append(c)
+    parts = _chunks(shown, widths, keys) if split else [shown]
+    out = []
+    for k, part in enumerate(parts):
+        head = "".join(
+            f'<th title="{escape(titles[c])}">{_breakable(c)}</th>' if c in titles
+            else f"<th>{_breakable(c)}</th>"
+            for c in part
+        )
+        body = []
+        for r in range(len(table)):
+            cells = []
+            for c in part:
+                text = texts[c][r]
+                cls = ""
+                if c in numeric:
+                    cls = ' class="num pm"' if " ± " in text else ' class="num"'
+                cells.append(f"<td{cls}>{escape(text)}</td>")
+            body.append("<tr>" + "".join(cells) + "</tr>")
+        ident = f' id="{escape(table_id)}"' if table_id and k == 0 else ""
+        label = caption + (f" (part {k + 1} of {len(parts)})" if len(parts) > 1 else "")
+        cap = f"<caption>{escape(label)}</caption>" if label else ""
+        out.append(
+            f'<div class="tablewrap"><table{ident}>{cap}<thead><tr>{head}</tr></thead>'
+            f"<tbody>{''.join(body)}</tbody></table></div>"
+        )
+    return "".join(out)
 
 
 def html_matrix(

@@ -1,0 +1,264 @@
+"""The modal test report (issue 14): sections of the study report, identify and
+batch pages, escaping, decimals, --no-figures, the envelope decimation, reprs,
+and the simulate output format."""
+
+from __future__ import annotations
+
+import hashlib
+import re
+import shutil
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ema_pipeline import io
+from ema_pipeline.cli import main
+from ema_pipeline.identification import identify
+from ema_pipeline.report import ReportInput, render_html, render_identify_html
+from ema_pipeline.report.svg import envelope
+from ema_pipeline.report.tables import column_formatters
+
+SECTIONS = ["summary", "setup", "geometry", "frf", "stabilization", "modes", "mac", "shapes",
+            "fit", "tables", "provenance"]
+INPUTS = ["genuine.uff", "larger_tank.h5", "smaller_tank.uff"]
+
+
+class _Page(HTMLParser):
+    """Section ids in order, table cells by table, text."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.sections: list[str] = []
+        self.tables: list[list[list[str]]] = []
+        self.svgs = 0
+        self.text: list[str] = []
+        self._cell: list[str] | None = None
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "section":
+            self.sections.append(a.get("id", ""))
+        elif tag == "table":
+            self.tables.append([])
+        elif tag == "tr" and self.tables:
+            self.tables[-1].append([])
+        elif tag in ("td", "th"):
+            self._cell = []
+        elif tag == "svg":
+            self.svgs += 1
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th") and self._cell is not None and self.tables:
+            self.tables[-1][-1].append("".join(self._cell).strip())
+            self._cell = None
+
+    def handle_data(self, data):
+        self.text.append(data)
+        if self._cell is not None:
+            self._cell.append(data)
+
+
+def _parse(path: Path) -> _Page:
+    page = _Page()
+    page.feed(path.read_text(encoding="utf-8"))
+    return page
+
+
+@pytest.fixture(scope="module")
+def study(tmp_path_factory, example_dir) -> Path:
+    results = tmp_path_factory.mktemp("report") / "results"
+    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--quiet"]) == 0
+    return results
+
+
+def test_study_report_has_the_sections_in_order_and_is_small(study):
+    page = _parse(study / "report.html")
+    assert page.sections == SECTIONS
+    assert (study / "report.html").stat().st_size < 400_000
+    assert page.svgs == len(list((study / "figures").glob("*.svg"))) >= 14
+
+
+def test_study_report_content_a_test_engineer_checks(study, example_dir):
+    html = (study / "report.html").read_text(encoding="utf-8")
+    page = _parse(study / "report.html")
+    text = " ".join(page.text)
+    # test setup: sample rate, record length, averages, windows, tau, hammer and sensors
+    setup = next(t for t in page.tables if t and t[0][:1] == [""] and "genuine" in t[0])
+    rows = {r[0]: r[1:] for r in setup[1:]}
+    assert rows["sample rate"] == ["2000 Hz"] * 3
+    assert rows["record length"][0] == "8.192 s (16384 samples)"
+    assert rows["averages"] == ["4"] * 3
+    assert rows["exponential window tau"][0].startswith("1.6384 s")
+    assert rows["hammer (reference)"][0] == "8+Z (x = 0.455 m)"
+    assert rows["sensors (responses)"][0] == "3+Z (x = 0.13 m), 6+Z (x = 0.325 m)"
+    # coherence: drawn where the file has it (the HDF5 file), said where it has not
+    assert rows["coherence"] == ["not in the file", "in the file", "not in the file"]
+    assert "no coherence in this file" in html and 'id="fig-frf_larger_tank"' in html
+    # mode table: MPC and stable orders per mode; AutoMAC with a unit diagonal
+    joined = "".join(page.text)  # headers may break after "_" (<wbr>)
+    assert "mpc" in joined and "stable_orders" in joined and "sigma_1_s" in joined
+    assert "AutoMAC - genuine" in text
+    diag = re.findall(r"color:#fff\">(1\.000)</td>", html)
+    assert len(diag) >= 12  # 3 configurations x 4 modes
+    # provenance: every input file with its sha256, the version and the date
+    for name in INPUTS:
+        digest = hashlib.sha256((example_dir / name).read_bytes()).hexdigest()
+        assert digest in html, name
+    exp_digest = hashlib.sha256((example_dir / "experiment.toml").read_bytes()).hexdigest()
+    assert exp_digest in html
+    assert "ema-pipeline" in text and "report generated" in text
+    # the fit error per channel
+    assert re.search(r"FRAC 0\.99\d\d, fit error \d+\.\d\d %", html)
+
+
+def test_mode_table_decimals_follow_the_uncertainty(study, example_dir):
+    page = _parse(study / "report.html")
+    head = ["mode", "fn_hz", "fd_hz", "zeta_pct", "sigma_1_s", "mpc", "stable_orders"]
+    tables = [t for t in page.tables if t and t[0][:7] == head]
+    assert len(tables) == 3
+    frf = io.read_frf(example_dir / "genuine.uff")
+    truth = identify(frf, band_hz=(5.0, 1000.0)).modes
+    for table in tables:
+        for col in range(1, 5):
+            cells = [r[col].split(" ± ")[0] for r in table[1:]]
+            decimals = {len(c.split(".")[1]) for c in cells}
+            assert len(decimals) == 1, (table[0][col], cells)  # one number of decimals
+    genuine = tables[0]
+    for k, row in enumerate(genuine[1:]):
+        value, std = (float(v) for v in row[1].split(" ± "))
+        assert value == pytest.approx(truth.fn_hz[k], abs=1e-3)
+        assert std == pytest.approx(truth.fn_std_hz[k], rel=0.5, abs=1e-5)
+        lo, hi = (int(v) for v in row[6].split(" ")[0].split("-"))
+        assert 2 <= lo <= hi <= 64
+
+
+def test_column_formatters_use_the_std_and_keep_integers():
+    t = pd.DataFrame({"mode": [1.0, 2.0], "fn_hz": [18.14031, 112.07262],
+                      "fn_std_hz": [0.0002, 0.0003], "ratio": [0.1479, -1e-9]})
+    f = column_formatters(t)
+    assert [f["mode"](v) for v in t["mode"]] == ["1", "2"]
+    assert f["fn_hz"](18.14031) == "18.14031" and f["fn_std_hz"](0.0002) == "0.00020"
+    assert f["ratio"](-1e-9) == "0.00000"  # no negative zero
+
+
+def test_no_figures(tmp_path, example_dir):
+    res = tmp_path / "res"
+    assert main(["run", "--raw", str(example_dir), "--results", str(res), "--quiet",
+                 "--no-figures"]) == 0
+    assert not (res / "figures").exists()
+    page = _parse(res / "report.html")
+    assert page.svgs == 0 and page.sections == SECTIONS
+    assert "Figures not drawn (--no-figures)" in " ".join(page.text)
+
+
+def test_names_from_the_data_are_escaped(example_dir):
+    evil = '<img src=x onerror="alert(1)">'
+    frf = io.read_frf(example_dir / "larger_tank.h5")
+    frf.configuration = evil
+    result = identify(frf)
+    one = render_identify_html(frf, result, settings={"note": "<b>bold</b>"})
+    study = render_html(
+        ReportInput(title=f"Study {evil}", tables={}, frfs={evil: frf},
+                    identification={evil: result}, genuine=evil,
+                    problems=[f"configuration {evil}: broken"], descriptions={evil: evil}),
+        {},
+    )
+    for page in (one, study):
+        assert "<img" not in page and "<b>bold" not in page
+        assert "&lt;img src=x onerror=&quot;alert(1)&quot;&gt;" in page
+
+
+def test_identify_report_per_file(tmp_path, example_dir):
+    files = [example_dir / "genuine.uff", example_dir / "larger_tank.h5"]
+    assert main(["identify", *map(str, files), "--out", str(tmp_path), "--report",
+                 "--quiet"]) == 0
+    for path in files:
+        page_path = tmp_path / f"{path.stem}_report.html"
+        page = _parse(page_path)
+        assert page.sections == ["summary", "setup", "frf", "stabilization", "modes", "mac",
+                                 "shapes", "fit", "provenance"]
+        html = page_path.read_text(encoding="utf-8")
+        assert hashlib.sha256(path.read_bytes()).hexdigest() in html
+        assert "2000 Hz" in html and "AutoMAC" in html and page.svgs == 4
+        assert page_path.stat().st_size < 150_000
+    assert "no coherence in this file" in (tmp_path / "genuine_report.html").read_text()
+    assert "no coherence" not in (tmp_path / "larger_tank_report.html").read_text()
+
+
+def test_batch_report_lists_failures_with_reason_and_the_trend(tmp_path, example_dir):
+    src = tmp_path / "in"
+    src.mkdir()
+    for name in INPUTS:
+        shutil.copy(example_dir / name, src / name)
+    (src / "broken.uff").write_text("    -1\n    58\nnot a dataset\n")
+    out = tmp_path / "out"
+    assert main(["batch", str(src), "--out", str(out), "--workers", "1", "--report",
+                 "--quiet"]) == 1
+    page = _parse(out / "report.html")
+    assert page.sections == ["summary", "failures", "files", "trend", "provenance"]
+    failures = pd.read_csv(out / "failures.csv")
+    reason = failures.loc[failures["file"] == "broken.uff", "reason"].item()
+    failed_table = page.tables[0]
+    assert failed_table[0] == ["file", "reason"]
+    assert failed_table[1] == ["broken.uff", reason] and reason
+    files = page.tables[1]
+    assert files[0][:4] == ["#", "file", "status", "configuration"] and len(files) == 5
+    status = {r[1]: r[2] for r in files[1:]}
+    assert status == {"broken.uff": "failed", "genuine.uff": "ok", "larger_tank.h5": "ok",
+                      "smaller_tank.uff": "ok"}
+    f1 = {r[1]: r[4] for r in files[1:]}
+    assert float(f1["genuine.uff"]) == pytest.approx(18.14, abs=0.01)
+    assert page.svgs == 1 and "mode 4: median" in (out / "report.html").read_text()
+
+
+def test_envelope_keeps_every_columns_extremes():
+    rng = np.random.default_rng(3)
+    x = np.sort(rng.uniform(0, 50, 5000))
+    y = rng.standard_normal(5000).cumsum()
+    ex, ey = envelope(x, y)
+    assert ex.size == 2 * 50
+    cols = np.floor(x).astype(int)
+    for c in range(50):
+        sel = ey[ex == c + 0.5]
+        assert sel.min() == y[cols == c].min() and sel.max() == y[cols == c].max()
+    few_x, few_y = envelope(np.arange(10.0), np.arange(10.0))  # sparser than pixels: as is
+    assert few_x.size == 10
+
+
+def test_short_reprs(example_dir):
+    frf = io.read_frf(example_dir / "larger_tank.h5")
+    text = repr(frf)
+    assert text == ("FRFSet(larger_tank: 2 out x 1 in x 8193 lines, 0-1000 Hz (df 0.1221 Hz), "
+                    "accelerance m/s^2/N, coherence yes, source " + frf.source.path + ")")
+    result = identify(frf)
+    assert repr(result.modes).startswith("ModalParameters(larger_tank: 4 modes, fn [16.93, ")
+    assert len(repr(result)) < 200 and "4 modes" in repr(result)
+    table = result._repr_html_()
+    assert table.count("<tr>") == 5 and "mpc" in table and " ± " in table
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "fmt"),
+    [
+        (["--out", "x.h5"], 0, "h5"),
+        (["--out", "x.uff"], 0, "uff"),
+        (["--format", "h5", "--out", "x.h5"], 0, "h5"),
+        (["--format", "uff", "--out", "x.h5"], 2, None),
+        (["--format", "h5", "--out", "x.uff"], 2, None),
+        (["--out", "x.dat"], 2, None),
+        (["--binary", "--out", "x.h5"], 2, None),
+    ],
+)
+def test_simulate_format_follows_the_suffix(tmp_path, capsys, args, code, fmt):
+    args = [a if not a.startswith("x.") else str(tmp_path / a) for a in args]
+    assert main(["simulate", "--quiet", "--snr-db", "0", *args]) == code
+    out = Path(args[args.index("--out") + 1])
+    if fmt is None:
+        assert not out.exists()
+        assert "error" in capsys.readouterr().err
+    else:
+        assert io.frf_format(out) == fmt
+        assert io.read_frf(out).H.shape == (2, 1, 8193)

@@ -1,0 +1,138 @@
+"""The study report in a real browser (headless Chromium through Selenium):
+no table wider than the page at 800 px and in print layout, every image loads.
+
+Needs the system's ``chromium`` and ``chromium-driver`` (Debian packages; a
+browser downloaded at install time cannot be fetched here) and ``selenium``
+(the ``test`` extra); skipped with the reason where they are missing.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from ema_pipeline.cli import main
+
+webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+#: A4 (210 mm) less the print style sheet's 14 mm margins, in CSS px (96 per inch).
+PRINT_WIDTH_PX = round((210 - 2 * 14) / 25.4 * 96)
+
+pytestmark = pytest.mark.skipif(
+    CHROMIUM is None or CHROMEDRIVER is None,
+    reason="no headless browser: install the system packages chromium and chromium-driver",
+)
+
+# Per table: its width against the page's content width and whether its
+# scrolling wrapper would have to scroll. Per image and figure: loaded and drawn.
+LAYOUT_JS = """
+const page = document.documentElement.clientWidth;
+const tables = [...document.querySelectorAll('table')].map((t, k) => {
+  const r = t.getBoundingClientRect();
+  const wrap = t.closest('.tablewrap');
+  return {k: k, caption: (t.caption || t.querySelector('th') || {}).textContent || '',
+          right: r.right, width: r.width,
+          scrolls: wrap ? wrap.scrollWidth > wrap.clientWidth + 1 : false};
+});
+const images = [...document.images].map(i => ({src: i.src.slice(0, 60),
+  ok: i.complete && i.naturalWidth > 0}));
+const figures = [...document.querySelectorAll('svg.fig')].map(s => {
+  const r = s.getBoundingClientRect();
+  return {label: s.getAttribute('aria-label'), width: r.width, right: r.right,
+          drawn: s.querySelectorAll('path').length};
+});
+return {page: page, scroll: document.documentElement.scrollWidth, tables: tables,
+        images: images, figures: figures, print: window.matchMedia('print').matches};
+"""
+
+
+@pytest.fixture(scope="module")
+def report(tmp_path_factory, example_dir) -> Path:
+    results = tmp_path_factory.mktemp("browser") / "results"
+    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--quiet"]) == 0
+    return results / "report.html"
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    options = Options()
+    options.binary_location = CHROMIUM
+    profile = tmp_path_factory.mktemp("chromium-profile")
+    for arg in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--no-first-run",
+                f"--user-data-dir={profile}", "--window-size=800,1000"):
+        options.add_argument(arg)
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    driver.set_page_load_timeout(60)
+    yield driver
+    driver.quit()
+
+
+def _layout(driver, url: str, width: int, media: str) -> dict:
+    driver.execute_cdp_cmd("Emulation.setEmulatedMedia", {"media": media})
+    driver.execute_cdp_cmd(
+        "Emulation.setDeviceMetricsOverride",
+        {"width": width, "height": 1000, "deviceScaleFactor": 1, "mobile": False},
+    )
+    driver.get(url)
+    return driver.execute_script(LAYOUT_JS)
+
+
+def _check(layout: dict, width: int) -> None:
+    assert layout["page"] <= width
+    assert layout["scroll"] <= layout["page"], "the page scrolls sideways"
+    assert len(layout["tables"]) >= 20
+    too_wide = [t for t in layout["tables"] if t["right"] > layout["page"] + 1 or t["scrolls"]]
+    assert too_wide == [], too_wide
+    assert all(i["ok"] for i in layout["images"]), layout["images"]
+    assert len(layout["figures"]) >= 14
+    for fig in layout["figures"]:
+        assert 100 < fig["width"] and fig["right"] <= layout["page"] + 1, fig
+        assert fig["drawn"] >= 2, fig  # frame and data
+
+
+def test_report_fits_an_800_px_window(browser, report):
+    layout = _layout(browser, report.as_uri(), 800, "screen")
+    assert not layout["print"]
+    _check(layout, 800)
+
+
+def test_report_fits_the_printed_page(browser, report):
+    layout = _layout(browser, report.as_uri(), PRINT_WIDTH_PX, "print")
+    assert layout["print"]  # the print style sheet is in force
+    _check(layout, PRINT_WIDTH_PX)
+
+
+@pytest.fixture(scope="module")
+def other_pages(tmp_path_factory, example_dir) -> list[Path]:
+    """``identify --report`` of one file and ``batch --report`` with a broken file."""
+    tmp = tmp_path_factory.mktemp("pages")
+    h5 = example_dir / "larger_tank.h5"
+    assert main(["identify", str(h5), "--out", str(tmp / "id"), "--report", "--quiet"]) == 0
+    src = tmp / "in"
+    src.mkdir()
+    for name in ("genuine.uff", "larger_tank.h5"):
+        shutil.copy(example_dir / name, src / name)
+    (src / "broken.h5").write_bytes(b"not an HDF5 file")
+    assert main(["batch", str(src), "--out", str(tmp / "b"), "--workers", "1", "--report",
+                 "--quiet"]) == 1
+    return [tmp / "id" / "larger_tank_report.html", tmp / "b" / "report.html"]
+
+
+@pytest.mark.parametrize(("width", "media"), [(800, "screen"), (PRINT_WIDTH_PX, "print")])
+def test_identify_and_batch_pages_fit(browser, other_pages, width, media):
+    for page, n_figures in zip(other_pages, (4, 1), strict=True):
+        layout = _layout(browser, page.as_uri(), width, media)
+        assert layout["scroll"] <= layout["page"], page
+        too_wide = [t for t in layout["tables"]
+                    if t["right"] > layout["page"] + 1 or t["scrolls"]]
+        assert too_wide == [], (page, too_wide)
+        assert len(layout["figures"]) == n_figures
+        assert all(f["width"] > 100 and f["drawn"] >= 2 for f in layout["figures"])
