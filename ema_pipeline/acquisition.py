@@ -32,6 +32,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from ema_pipeline.data import (
     DOF,
@@ -348,8 +349,8 @@ class TestSetup:
 def configuration_modes(
     configuration: str = "",
     *,
-    fd_hz: np.ndarray,
-    zeta: np.ndarray,
+    fd_hz: npt.ArrayLike,
+    zeta: npt.ArrayLike,
     n_modes_total: int = 8,
     high_mode_zeta: float = 0.004,
 ) -> ModalParameters:

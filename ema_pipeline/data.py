@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Literal
 
 import numpy as np
+import numpy.typing as npt
 
 if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.options import IdentificationOptions
@@ -433,8 +434,9 @@ class ModalParameters:
 
     fn_hz: np.ndarray
     zeta: np.ndarray
-    fn_std_hz: np.ndarray | None = None
-    zeta_std: np.ndarray | None = None
+    # None (the default) becomes NaN per mode in __post_init__: always an array after
+    fn_std_hz: np.ndarray = None  # type: ignore[assignment]
+    zeta_std: np.ndarray = None  # type: ignore[assignment]
     shapes: np.ndarray | None = None
     dofs: tuple[DOF, ...] = ()
     configuration: str = ""
@@ -481,7 +483,9 @@ class ModalParameters:
         return html_table(table, caption=f"{self.configuration or 'modes'}: {self.n_modes} modes")
 
     @classmethod
-    def from_damped(cls, fd_hz: np.ndarray, zeta: np.ndarray, **kwargs: object) -> ModalParameters:
+    def from_damped(
+        cls, fd_hz: npt.ArrayLike, zeta: npt.ArrayLike, **kwargs: object
+    ) -> ModalParameters:
         """Build from damped natural frequencies, fn = fd / sqrt(1 - zeta^2) (eq. 4).
 
         Examples

@@ -136,6 +136,7 @@ def batched_qr(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         Q = Q @ np.swapaxes(Linv, -1, -2)
         Rk = np.swapaxes(Lc, -1, -2)
         R = Rk if R is None else Rk @ R
+    assert R is not None  # set in the first of the two rounds
     return Q, R
 
 

@@ -42,6 +42,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     Hn = sub.H / rms[:, None, None]
     weights = None
     if options.weighting == "coherence":
+        assert sub.coherence is not None  # identify() refuses coherence weighting without it
         weights = np.sqrt(np.clip(np.mean(sub.coherence, axis=1), 0.0, 1.0))
     orders = np.arange(2, p + 1, 2) if n_in == 1 else np.arange(1, p + 1)
     poles = plscf(freq, Hn, max_order=p, orders=orders, weights=weights)

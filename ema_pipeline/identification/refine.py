@@ -100,7 +100,9 @@ def _vp_solve(
     def cost_of(Rw: np.ndarray, inv_s2: np.ndarray) -> float:
         return float(np.sum(Rw**2 * inv_s2[None, :]))
 
-    def normal(lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray) -> tuple[np.ndarray, ...]:
+    def normal(
+        lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, float]:
         Qm, Rw, X = fit(lam, u)
         Jw = jac(lam, X) * u[:, None, None]
         Jf = Jw.reshape(Jw.shape[0], -1)

@@ -128,11 +128,11 @@ def select_poles(
         med = np.median(stab.pole[m].real) + 1j * np.median(stab.pole[m].imag)
         order_m = stab.order[m]
         dist = np.abs(stab.pole[m] - med)
-        keep = []
+        picked: list[int] = []
         for o in np.unique(order_m):
             mo = np.flatnonzero(order_m == o)
-            keep.append(m[mo[np.argmin(dist[mo])]])
-        keep = np.asarray(keep)
+            picked.append(m[mo[np.argmin(dist[mo])]])
+        keep = np.asarray(picked)
         rep = np.median(stab.pole[keep].real) + 1j * np.median(stab.pole[keep].imag)
         info.append(
             (c, rep, keep.size, np.std(stab.freq_hz[keep]), np.std(stab.zeta[keep]),

@@ -195,6 +195,7 @@ def ordinate_unit(path: Path, rec: Record58) -> Unit:
             log.info("%s: record %d: combined units label %r; denominator label %r ignored",
                      path, rec.record, num_ax.units, den_ax.units)
     else:
+        den: Unit | None
         if not is_blank_label(den_ax.units):
             den = _label_unit(path, rec, den_ax.units, "ordinate denominator, record 10")
         else:

@@ -10,6 +10,7 @@ import time
 import traceback
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -73,7 +74,7 @@ def process_file(task: FileTask) -> FileRecord:
             reason=naming(f"unexpected {type(exc).__name__}: {exc}{where}", task),
             seconds=time.perf_counter() - start,
         )
-    outputs = {
+    outputs: dict[str, Any] = {
         "modes_csv": str(outcome.modes_csv or ""),
         "result_h5": str(outcome.result_h5 or ""),
     }
