@@ -516,9 +516,9 @@ def _summary_study(report: ReportInput) -> str:
             row["added mass m_ar/m_r"] = ", ".join(f"{v:.4f}" for v in sub["added_mass_ratio"])
         if t6 is not None and len(t6):
             sub = t6[(t6["configuration"] == name) & (t6["method"] == "block")]
-            row["local delta_m"] = ", ".join(f"{v:.4f}" for v in sub["delta_m"])
+            row["local delta_m (block, eq. 20)"] = ", ".join(f"{v:.4f}" for v in sub["delta_m"])
         rows.append(row)
-    table = html_table(pd.DataFrame(rows).fillna("")) if rows else ""
+    table = html_table(pd.DataFrame(rows).fillna(""), split=False) if rows else ""
     return (
         status + "".join(f"<p>{_h(w)}</p>" for w in what) + table
         + _list(report.problems, "problems") + _list(report.notes, "notes")

@@ -168,7 +168,7 @@ def _is_float(series: pd.Series) -> bool:
 def _decimals_from_std(std: pd.Series) -> int | None:
     s = pd.to_numeric(std, errors="coerce").to_numpy(dtype=float)
     s = s[np.isfinite(s) & (s > 0)]
-    if s.size == 0:
+    if s.size == 0 or s.max() / s.min() > 1e4:  # rows of different quantities
         return None
     return int(np.clip(1 - math.floor(math.log10(float(np.median(s)))), 0, 8))
 
@@ -342,12 +342,13 @@ def html_table(
     titles = titles or {}
     numeric = {c for c in cols if pd.api.types.is_numeric_dtype(table[c])}
     texts: dict[str, list[str]] = {c: [] for c in shown}
-    for _, row in table.iterrows():
+    columns = {str(c): table[c].tolist() for c in table.columns}  # keeps each column's type
+    for r in range(len(table)):
         for c in shown:
-            text = fmts[c](row[c])
+            text = fmts[c](columns[c][r])
             std = pairs.get(c)
             if std and text:
-                sd = fmts[std](row[std])
+                sd = fmts[std](columns[std][r])
                 if sd:
                     text = f"{text} ± {sd}"
             texts[c].append(text)
