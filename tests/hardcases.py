@@ -7,7 +7,8 @@ Everything here is plain numpy (and ``scipy.signal.decimate`` as the analyser's
 anti-alias filter): a pole-residue model of real (proportionally damped) modes,
 
     receptance  H_oi(w) = sum_r A_r,oi / (jw - lambda_r) + conj(A_r,oi) / (jw - conj lambda_r)
-    A_r,oi = phi_r(o) phi_r(i) / (2j omega_dr m_r),   lambda_r = -zeta_r w_r + j w_r sqrt(1 - zeta_r^2)
+    A_r,oi = phi_r(o) phi_r(i) / (2j omega_dr m_r),
+    lambda_r = -zeta_r w_r + j w_r sqrt(1 - zeta_r^2)
 
 times (jw)^q for mobility (q = 1) and accelerance (q = 2); complex Gaussian noise,
 additive at a given SNR on each FRF plus a part proportional to |H|. The
