@@ -56,6 +56,19 @@ def order_cap(n_lines: int, n_out: int, n_in: int, max_poles: int = 480) -> int:
     return int(max(2, min(by_lines, max_poles // n_in)))
 
 
+def diagram_orders(p: int, n_in: int, max_orders: int = 48) -> np.ndarray:
+    """Orders of one diagram: every order (every second for one reference, whose
+    odd orders add a real pole) up to ``max_orders`` of them, else that many
+    evenly spaced in [1, p]; the companion eigenvalues, O(sum n^3), dominate
+    the cost at high order."""
+    step = 2 if n_in == 1 else 1
+    orders = np.arange(step, p + 1, step)
+    if orders.size > max_orders:
+        pick = np.unique(np.round(np.linspace(0, orders.size - 1, max_orders)).astype(int))
+        orders = orders[pick]
+    return orders
+
+
 # --------------------------------------------------------------------------- (b) tracking
 def track_poles(order: np.ndarray, orders: np.ndarray, pole: np.ndarray, part: np.ndarray,
                 tol_f: float = 0.01, tol_z: float = 0.3, tol_mac: float = 0.05,
@@ -245,8 +258,11 @@ def local_covariance(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, r: i
     residual of the fit, var_ck = a_c + b_c |H_ck|^2 fitted by NNLS to |e_ck|^2
     and scaled by the degrees of freedom 2n / (2n - K) (K linear terms per
     channel plus the channel's share of the pole parameters), re-estimated
-    after one weighted solve. The poles are re-solved by Gauss-Newton in those
-    weights (so the estimate is the weighted LS whose covariance follows).
+    after one weighted solve; where ``var`` (from coherence and averages) is
+    given, the larger of the two (coherence sees only the random error, the
+    residual also the bias: leakage, force noise, model error). The poles are
+    re-solved by Gauss-Newton in those weights (so the estimate is the
+    weighted LS whose covariance follows).
     Covariance: sandwich F^-1 G F^-1 with F = sum_c Jt_c^T Jt_c and
     G = sum_c Jt_c^T C Jt_c, Jt_c = (I - P_c) W_c J_c the projected weighted
     Jacobian and C the correlation of the weighted noise between lines
@@ -278,22 +294,21 @@ def local_covariance(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, r: i
     K = 2 * m + 2 * bg.shape[1]
 
     def noise_w(lam_: np.ndarray, w_: np.ndarray) -> np.ndarray:
-        if var is not None:
-            s2 = var[:, sel]
-        else:
-            A = _design(jw, lam_, bg)
-            _, _, res = _wls(A, Y, w_)
-            e = res / w_
-            e2 = e[:, :n] ** 2 + e[:, n:] ** 2
-            fit = Y - e
-            h2 = fit[:, :n] ** 2 + fit[:, n:] ** 2
-            dof = 2 * n / max(2 * n - K - 2 * m / n_ch, 1)
-            s2 = np.empty_like(e2)
-            for c in range(n_ch):
-                sc = max(np.max(h2[c]), 1e-300)
-                coef, _ = optimize.nnls(np.stack([np.ones(n), h2[c] / sc], 1), e2[c])
-                v = (coef[0] + coef[1] * h2[c] / sc) * dof
-                s2[c] = np.maximum(v, max(np.mean(e2[c]) * dof * 1e-3, 1e-300))
+        A = _design(jw, lam_, bg)
+        _, _, res = _wls(A, Y, w_)
+        e = res / w_
+        e2 = e[:, :n] ** 2 + e[:, n:] ** 2
+        fit = Y - e
+        h2 = fit[:, :n] ** 2 + fit[:, n:] ** 2
+        dof = 2 * n / max(2 * n - K - 2 * m / n_ch, 1)
+        s2 = np.empty_like(e2)
+        for c in range(n_ch):
+            sc = max(np.max(h2[c]), 1e-300)
+            coef, _ = optimize.nnls(np.stack([np.ones(n), h2[c] / sc], 1), e2[c])
+            v = (coef[0] + coef[1] * h2[c] / sc) * dof
+            s2[c] = np.maximum(v, max(np.mean(e2[c]) * dof * 1e-3, 1e-300))
+        if var is not None:  # random error from coherence; the residual also shows bias
+            s2 = np.maximum(var[:, sel], s2)
         sd = np.sqrt(s2 / 2)  # per real/imag component
         return 1.0 / np.concatenate([sd, sd], axis=1)
 
@@ -308,8 +323,7 @@ def local_covariance(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, r: i
 
     w = np.ones((n_ch, 2 * n)) / np.maximum(np.std(Y, axis=1, keepdims=True), 1e-300)
     w = noise_w(lam, w)
-    if var is None:
-        w = noise_w(lam, w)
+    w = noise_w(lam, w)
     F, g, cost, Jt = normal(lam, w)
     for _ in range(n_gn):
         try:
@@ -340,7 +354,7 @@ def local_covariance(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, r: i
         rr = rho[lagc]
         rr = np.where(sign < 0, np.conj(rr), rr) * (lag < rho.size)
         Cr = np.block([[rr.real, -rr.imag], [rr.imag, rr.real]])
-        G = np.einsum("cnp,nm,cmq->pq", Jt, Cr, Jt)
+        G = np.einsum("cnp,cnq->pq", Jt, Cr @ Jt)
         cov = Finv @ G @ Finv
     else:
         cov = Finv
@@ -368,7 +382,7 @@ def identify_proto(frf: FRFSet, band_hz: tuple[float, float] | None = None,
     history = []
     best = None
     while True:
-        orders = np.arange(2, p + 1, 2) if n_in == 1 else np.arange(1, p + 1)
+        orders = diagram_orders(p, n_in)
         try:
             poles = plscf(freq, Hn, max_order=p, orders=orders)
         except np.linalg.LinAlgError:  # normal equations too ill-conditioned: stop growing
