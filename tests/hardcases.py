@@ -1,0 +1,391 @@
+"""Hard identification cases with known truth, written independently of
+:mod:`ema_pipeline.acquisition`.
+
+Why our own synthesis: the issue (#11) asks for test data that our simulator
+did not write, so that the identification is not tuned to one data source.
+Everything here is plain numpy (and ``scipy.signal.decimate`` as the analyser's
+anti-alias filter): a pole-residue model of real (proportionally damped) modes,
+
+    receptance  H_oi(w) = sum_r A_r,oi / (jw - lambda_r) + conj(A_r,oi) / (jw - conj lambda_r)
+    A_r,oi = phi_r(o) phi_r(i) / (2j omega_dr m_r),
+    lambda_r = -zeta_r w_r + j w_r sqrt(1 - zeta_r^2)
+
+times (jw)^q for mobility (q = 1) and accelerance (q = 2); complex Gaussian noise,
+additive at a given SNR on each FRF plus a part proportional to |H|. The
+impact family is simulated in the time domain (exact modal responses to a
+half-sine force pulse, anti-alias filter, noise, force and exponential windows,
+H1 averaging with the numpy FFT) and carries ``exp_window_tau_s``, the number of
+averages and the coherence.
+
+Every case is a :class:`HardCase` with the FRFs as :class:`ema_pipeline.data.FRFSet`,
+the band to identify and the true f_n and zeta of every mode inside that band
+(modes outside the band, present in the data, are not counted). A mode is only
+generated if it is visible: its own peak over the noise, combined over all
+channels, is at least 20 dB (weaker modes get a smaller modal mass).
+
+Use ``make_case(family, seed)`` or ``cases(family, seeds)``; ``FAMILIES`` lists
+the families. The same (family, seed) always gives the same case.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ema_pipeline.data import DOF, AcquisitionInfo, FRFSet
+
+FAMILIES: tuple[str, ...] = (
+    "baseline",
+    "dense_log",
+    "dense_uniform",
+    "close_1ref",
+    "close_2ref",
+    "damping",
+    "snr",
+    "mimo",
+    "roving",
+    "impact",
+    "quantity",
+)
+_FAMILY_ID = {name: k for k, name in enumerate(FAMILIES)}
+_Q = {"receptance": 0, "mobility": 1, "accelerance": 2}
+#: Peak of a mode's own term over the noise std, combined over channels (20 dB).
+MIN_VISIBILITY = 10.0
+
+
+@dataclass
+class HardCase:
+    """One generated FRF set and its truth.
+
+    ``fn_hz``, ``zeta``: true undamped natural frequencies and damping ratios of
+    the modes inside ``band_hz`` (ascending). ``roving``: the FRFs are stored as
+    1 response x n hammer points (identify their reciprocal).
+    """
+
+    family: str
+    seed: int
+    frf: FRFSet
+    band_hz: tuple[float, float]
+    fn_hz: np.ndarray
+    zeta: np.ndarray
+    shapes: np.ndarray
+    roving: bool = False
+
+    @property
+    def name(self) -> str:
+        return f"{self.family}-{self.seed}"
+
+
+# --------------------------------------------------------------------------- building blocks
+def _poles(fn_hz: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+    wn = 2 * np.pi * fn_hz
+    return -zeta * wn + 1j * wn * np.sqrt(1 - zeta**2)
+
+
+def _residues(pole: np.ndarray, phi: np.ndarray, mass: np.ndarray, out: np.ndarray,
+              ref: np.ndarray) -> np.ndarray:
+    """Receptance residues A (n_modes, n_out, n_in) of real modes phi (n_pts, n_modes)."""
+    scale = 1.0 / (2j * pole.imag * mass)
+    return scale[:, None, None] * phi[out].T[:, :, None] * phi[ref].T[:, None, :]
+
+
+def _synth(freq_hz: np.ndarray, pole: np.ndarray, A: np.ndarray, q: int) -> np.ndarray:
+    """H (n_out, n_in, n_freq) of the pole-residue model in quantity power q."""
+    jw = 2j * np.pi * freq_hz
+    g = 1.0 / (jw[None, :] - pole[:, None])
+    gc = 1.0 / (jw[None, :] - np.conj(pole)[:, None])
+    H = np.einsum("roi,rk->oik", A, g) + np.einsum("roi,rk->oik", np.conj(A), gc)
+    return H * (jw**q)[None, None, :]
+
+
+def _shapes(rng: np.random.Generator, n_pts: int, n_modes: int, kind: str) -> np.ndarray:
+    """(n_pts, n_modes) real shapes: random normal or beam-like sin(k pi x)."""
+    if kind == "random":
+        return rng.standard_normal((n_pts, n_modes))
+    x = np.sort(rng.uniform(0.03, 0.97, n_pts))
+    k = np.arange(1, n_modes + 1) + rng.uniform(-0.15, 0.15, n_modes)
+    phi = np.sin(np.pi * np.outer(x, k) + rng.uniform(-0.2, 0.2, n_modes)[None, :])
+    return phi + 0.1 * rng.standard_normal(phi.shape)
+
+
+def _observable(phi: np.ndarray, ref: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """Make every mode excited by at least one reference (|phi_ref| >= 0.3 RMS)."""
+    phi = phi.copy()
+    rms = np.sqrt(np.mean(phi**2, axis=0))
+    best = np.max(np.abs(phi[ref]), axis=0)
+    for r in np.flatnonzero(best < 0.3 * rms):
+        i = ref[rng.integers(ref.size)]
+        phi[i, r] = np.sign(phi[i, r] or 1.0) * rng.uniform(0.4, 1.0) * rms[r]
+    return phi
+
+
+def _noise_std(H: np.ndarray, snr_db: float, prop_db: float) -> np.ndarray:
+    """Noise std per FRF and line: additive at ``snr_db`` below each FRF's RMS
+    plus ``prop_db`` below |H| (force noise, leakage)."""
+    rms = np.sqrt(np.mean(np.abs(H) ** 2, axis=-1, keepdims=True))
+    add = rms * 10 ** (-snr_db / 20)
+    return np.sqrt(add**2 + (np.abs(H) * 10 ** (-prop_db / 20)) ** 2)
+
+
+def _boost_weak(freq_hz: np.ndarray, pole: np.ndarray, A: np.ndarray, q: int,
+                std: np.ndarray) -> np.ndarray:
+    """Scale residues up so that every mode's own peak over the noise is >= MIN_VISIBILITY."""
+    A = A.copy()
+    for r in range(pole.size):
+        k = int(np.argmin(np.abs(freq_hz - pole[r].imag / (2 * np.pi))))
+        if not 0 < k < freq_hz.size - 1:
+            continue
+        peak = np.abs(A[r] / pole[r].real * (2j * np.pi * freq_hz[k]) ** q)
+        vis = np.sqrt(np.sum((peak / std[..., k]) ** 2))
+        if vis < MIN_VISIBILITY:
+            A[r] *= MIN_VISIBILITY / max(vis, 1e-30)
+    return A
+
+
+def _cnoise(rng: np.random.Generator, std: np.ndarray) -> np.ndarray:
+    return std * (rng.standard_normal(std.shape) + 1j * rng.standard_normal(std.shape)) / np.sqrt(2)
+
+
+def _spaced_log(rng: np.random.Generator, n: int, lo: float, hi: float, r_min: float,
+                r_max: float) -> np.ndarray:
+    """n frequencies in [lo, hi] with ratios of neighbours in [r_min, r_max]
+    (fewer if they do not fit)."""
+    ratios = np.exp(rng.uniform(np.log(r_min), np.log(r_max), n - 1))
+    span = np.log(hi / lo)
+    while np.sum(np.log(ratios)) > span:
+        if np.all(ratios <= r_min * 1.0001):
+            ratios = ratios[:-1]
+        ratios = np.maximum(ratios ** 0.95, r_min)
+    total = np.sum(np.log(ratios))
+    start = np.log(lo) + rng.uniform(0, span - total)
+    return np.exp(start + np.concatenate([[0.0], np.cumsum(np.log(ratios))]))
+
+
+# --------------------------------------------------------------------------- frequency domain
+def _freq_case(family: str, seed: int, rng: np.random.Generator) -> HardCase:
+    u = rng.uniform
+    n_lines = int(rng.choice([1025, 2049, 4097, 8193])) if family not in (
+        "dense_log", "dense_uniform") else int(rng.choice([4097, 8193]))
+    f0 = float(u(1, 20)) if family == "quantity" else 0.0
+    f_top = float(np.exp(u(np.log(150), np.log(3000))))
+    df = (f_top - f0) / (n_lines - 1)
+    freq = f0 + df * np.arange(n_lines)
+    hi = f_top * u(0.85, 0.95)
+    lo = max(f0 + 4 * df, freq[3], f_top * u(0.01, 0.05))
+    W = hi - lo
+    flo, fhi = lo + 0.03 * W, hi - 0.03 * W
+    n_in, n_out, roving, shape_kind = 1, int(rng.integers(2, 7)), False, "beam"
+    snr, prop = u(35, 55), u(40, 60)
+    zlo, zhi = 0.003, 0.02
+    quantity = "accelerance"
+    pair_of: list[tuple[int, int]] = []
+    if family in ("baseline", "damping", "snr", "quantity"):
+        n = int(rng.integers(3, 7))
+        rmin = 1.35 if family == "damping" else 1.15
+        fn = _spaced_log(rng, n, flo, fhi, rmin, 2.5)
+        if family == "damping":
+            zlo, zhi = 0.03, 0.08
+        if family == "snr":
+            snr, prop = u(15, 25), u(25, 35)
+        if family == "quantity":
+            quantity = str(rng.choice(["mobility", "receptance"]))
+            shape_kind = str(rng.choice(["random", "beam"]))
+    elif family == "dense_log":
+        n = int(rng.integers(20, 41))
+        fn = _spaced_log(rng, n, flo, fhi, 1.02, 1.06)
+        n_out = int(rng.integers(3, 7))
+        zlo, zhi = 0.002, 0.008
+        snr, prop = u(35, 50), u(40, 55)
+        shape_kind = str(rng.choice(["random", "beam"]))
+    elif family == "dense_uniform":
+        n = int(rng.integers(20, 41))
+        step = (fhi - flo) / (n - 1)
+        fn = flo + step * (np.arange(n) + u(-0.2, 0.2, n))
+        fn = np.clip(np.sort(fn), flo, fhi)
+        n_out = int(rng.integers(3, 7))
+        zlo, zhi = 0.002, 0.008
+        snr, prop = u(35, 50), u(40, 55)
+        shape_kind = str(rng.choice(["random", "beam"]))
+    elif family in ("close_1ref", "close_2ref"):
+        n_single = int(rng.integers(2, 5))
+        base = _spaced_log(rng, n_single + 2, flo, fhi / 1.02, 1.2, 2.0)
+        # pairs only where the lines resolve them: half-power band >= 3 lines
+        # with a modal overlap <= 1, i.e. f >= 3 df / (sep - 1)
+        seps = u(1.005, 1.02, 2)
+        fn_list = list(base)
+        order_hi = np.argsort(base)[::-1]
+        for sep in seps:
+            ok = [i for i in range(base.size) if base[i] >= 3 * df / (sep - 1)
+                  and all(i != a for a, _ in pair_of)]
+            i = int(rng.choice(ok)) if ok else int(next(
+                k for k in order_hi if all(k != a for a, _ in pair_of)))
+            sep = max(sep, 1 + 3 * df / base[i])
+            fn_list.append(base[i] * sep)
+            pair_of.append((i, len(fn_list) - 1))
+        fn = np.array(fn_list)
+        n_out = int(rng.integers(6, 11))
+        n_in = 2 if family == "close_2ref" else 1
+        zlo, zhi = 0.001, 0.004
+        snr, prop = u(40, 50), u(45, 55)
+        shape_kind = "random"
+    elif family in ("mimo", "roving"):
+        n = int(rng.integers(4, 11))
+        fn = _spaced_log(rng, n, flo, fhi, 1.05, 1.6)
+        if family == "mimo":
+            n_in, n_out = int(rng.integers(2, 4)), int(rng.integers(6, 11))
+        else:
+            n_in, n_out, roving = int(rng.integers(8, 13)), 1, True
+        shape_kind = str(rng.choice(["random", "beam"]))
+        snr, prop = u(35, 50), u(40, 55)
+    else:  # pragma: no cover
+        raise ValueError(f"unknown family {family!r}")
+    n = fn.size
+    zeta = np.exp(u(np.log(zlo), np.log(zhi), n))
+    zeta = np.maximum(zeta, 1.5 * df / fn)  # half-power band >= 3 lines
+    for i, j in pair_of:  # a close pair: modal overlap <= 1
+        sep = fn[j] / fn[i] - 1
+        zeta[[i, j]] = np.minimum(zeta[[i, j]], np.maximum(sep / 2, 1.5 * df / fn[i]))
+    # one or two modes above the band (in the data, not in the truth)
+    n_above = int(rng.integers(0, 3))
+    f_above = hi * u(1.08, 1.6, n_above)
+    f_all = np.concatenate([fn, f_above])
+    z_all = np.concatenate([zeta, np.full(n_above, 0.01)])
+    n_modes = f_all.size
+    pole = _poles(f_all, z_all)
+    if roving:
+        n_pts = n_in + 1
+        out, ref = np.array([n_pts - 1]), np.arange(n_in)
+    else:
+        n_pts = n_out
+        out = np.arange(n_out)
+        ref = rng.choice(n_out, n_in, replace=False)
+    phi = _shapes(rng, n_pts, n_modes, shape_kind)
+    for _i, j in pair_of:  # different shapes in a pair
+        phi[:, j] = rng.standard_normal(n_pts)
+    phi = _observable(phi, ref if not roving else out, rng)
+    if roving:  # the fixed response must see every mode, each hammer point is a "reference"
+        phi = _observable(phi, out, rng)
+    mass = np.exp(u(np.log(0.1), np.log(10.0), n_modes))
+    q = _Q[quantity]
+    A = _residues(pole, phi, mass, out, ref)
+    H0 = _synth(freq, pole, A, q)
+    std = _noise_std(H0, snr, prop)
+    A = _boost_weak(freq, pole, A, q, std)
+    H0 = _synth(freq, pole, A, q)
+    std = _noise_std(H0, snr, prop)
+    H = H0 + _cnoise(rng, std)
+    dofs = [DOF(int(k) + 1, 3) for k in range(n_pts)]
+    frf = FRFSet(
+        freq_hz=freq,
+        H=H,
+        response_dofs=tuple(dofs[k] for k in out),
+        reference_dofs=tuple(dofs[k] for k in ref),
+        quantity=quantity,  # type: ignore[arg-type]
+        configuration=f"{family}-{seed}",
+    )
+    order = np.argsort(fn)
+    return HardCase(family, seed, frf, (float(lo), float(hi)), fn[order], zeta[order],
+                    phi[:, :n][:, order], roving)
+
+
+# --------------------------------------------------------------------------- time domain
+def _modal_pulse_response(t: np.ndarray, pole: np.ndarray, tp: float, f0: float) -> np.ndarray:
+    """y_r(t) = int_0^t exp(lambda_r (t - s)) f(s) ds for the half-sine pulse
+    f(s) = f0 sin(pi s / tp), 0 <= s <= tp (exact; t measured from the impact)."""
+    wp = np.pi / tp
+    lam = pole[:, None]
+    tt = np.clip(t, 0.0, tp)[None, :]
+    e = np.exp(lam * tt)
+    y = f0 / 2j * ((np.exp(1j * wp * tt) - e) / (1j * wp - lam)
+                   - (np.exp(-1j * wp * tt) - e) / (-1j * wp - lam))
+    after = np.exp(lam * np.clip(t - tp, 0.0, None)[None, :])
+    y = np.where(t[None, :] > tp, y * after, y)
+    return np.where(t[None, :] >= 0, y, 0.0)
+
+
+def _impact_case(seed: int, rng: np.random.Generator) -> HardCase:
+    """Roving-free impact test: 1 hammer point, 1-4 accelerometers, 3-5 hits."""
+    from scipy.signal import decimate
+
+    u = rng.uniform
+    fs = 2560.0
+    T = float(rng.choice([2.0, 3.2, 4.0, 6.4]))
+    N = int(round(fs * T))
+    over = 4
+    n_out = int(rng.integers(1, 5))
+    n_avg = int(rng.integers(3, 6))
+    n = int(rng.integers(4, 11))
+    fn = _spaced_log(rng, n, 12.0, 780.0, 1.08, 2.5)
+    zeta = np.exp(u(np.log(0.002), np.log(0.02), n))
+    pole = _poles(fn, zeta)
+    n_pts = n_out + 1
+    out, ref = np.arange(n_out), np.array([n_out])
+    phi = _observable(_shapes(rng, n_pts, n, str(rng.choice(["random", "beam"]))), ref, rng)
+    phi = _observable(phi, out, rng) if n_out == 1 else phi
+    mass = np.exp(u(np.log(0.1), np.log(3.0), n))
+    A = _residues(pole, phi, mass, out, ref)[:, :, 0]  # (n_modes, n_out)
+    D = np.sum(2 * np.real(A * pole[:, None]), axis=0)  # accelerance feed-through
+    tp = u(0.5e-3, 1.0e-3)
+    t0 = 0.01 * T
+    tau = T / u(4.0, 7.0)
+    t_sim = np.arange(N * over) / (fs * over) - t0
+    t = np.arange(N) / fs - t0
+    resp_snr, force_snr = u(50, 65), u(45, 60)
+    w_exp = np.where(t >= 0, np.exp(-np.clip(t, 0, None) / tau), 1.0)
+    w_force = ((t >= -0.002) & (t <= tp + 0.003)).astype(float) * w_exp
+    X = np.empty((n_avg, n_out, N // 2 + 1), dtype=complex)
+    F = np.empty((n_avg, N // 2 + 1), dtype=complex)
+    for k in range(n_avg):
+        f_amp = u(50, 200)
+        tpk = tp * u(0.9, 1.1)
+        force = np.where((t_sim >= 0) & (t_sim <= tpk), f_amp * np.sin(np.pi * np.clip(
+            t_sim, 0, tpk) / tpk), 0.0)
+        y = _modal_pulse_response(t_sim, pole, tpk, f_amp)  # (n_modes, n_sim)
+        acc = 2 * np.real((A * pole[:, None] ** 2).T @ y) + D[:, None] * force[None, :]
+        fd = decimate(force, over, ftype="fir", zero_phase=True)
+        ad = decimate(acc, over, ftype="fir", zero_phase=True, axis=-1)
+        fd = fd + rng.standard_normal(N) * f_amp * 10 ** (-force_snr / 20)
+        ad = ad + rng.standard_normal(ad.shape) * (
+            np.max(np.abs(ad), axis=1, keepdims=True) * 10 ** (-resp_snr / 20))
+        F[k] = np.fft.rfft(fd * w_force)
+        X[k] = np.fft.rfft(ad * w_exp[None, :], axis=-1)
+    Gff = np.mean(np.abs(F) ** 2, axis=0)
+    Gxf = np.mean(X * np.conj(F)[:, None, :], axis=0)
+    Gxx = np.mean(np.abs(X) ** 2, axis=0)
+    H1 = Gxf / Gff[None, :]
+    coh = np.abs(Gxf) ** 2 / (Gff[None, :] * Gxx)
+    freq = np.fft.rfftfreq(N, 1 / fs)
+    keep = freq <= 1000.0
+    dofs = [DOF(int(k) + 1, 3) for k in range(n_pts)]
+    frf = FRFSet(
+        freq_hz=freq[keep],
+        H=H1[:, None, keep],
+        coherence=np.clip(coh[:, None, keep], 0.0, 1.0),
+        response_dofs=tuple(dofs[k] for k in out),
+        reference_dofs=(dofs[n_out],),
+        quantity="accelerance",
+        acquisition=AcquisitionInfo(
+            sample_rate_hz=fs, n_samples=N, n_averages=n_avg,
+            force_window="rect + exponential", response_window="exponential",
+            exp_window_tau_s=float(tau), estimator="H1"),
+        configuration=f"impact-{seed}",
+    )
+    band = (float(max(2.0, 4 * fs / N)), 900.0)
+    return HardCase("impact", seed, frf, band, fn, zeta, phi[:, :n])
+
+
+# --------------------------------------------------------------------------- API
+def make_case(family: str, seed: int) -> HardCase:
+    """The hard case ``seed`` of ``family`` (deterministic)."""
+    if family not in _FAMILY_ID:
+        raise ValueError(f"unknown family {family!r}; known: {', '.join(FAMILIES)}")
+    rng = np.random.default_rng([11, _FAMILY_ID[family], int(seed)])
+    if family == "impact":
+        return _impact_case(seed, rng)
+    return _freq_case(family, seed, rng)
+
+
+def cases(family: str, seeds: range | list[int]) -> list[HardCase]:
+    """``make_case(family, s)`` for every seed."""
+    return [make_case(family, int(s)) for s in seeds]

@@ -1,0 +1,158 @@
+"""Issue 11 acceptance tests on the hard cases of ``tests/hardcases.py``.
+
+PREPARED, NOT YET PASSING: the asserts on the targets fail on today's
+identification (fixed highest order, clustering, calibrated sigmas) and are
+marked ``xfail(strict=False, reason="issue 11 pending")`` so the branch stays
+green; remove the marks when the issue-11 identification lands. The checks of
+the generator itself are real tests and must pass now.
+
+Targets (issue 11), at the defaults (only the band given):
+each family <= 2 % of the true modes missed and <= 2 % spurious, a match being
+|f_id - f_true| <= (zeta_true + 0.005) f_true one-to-one; over the matched
+modes 90-98 % of the errors within 2 sigma and the 68th percentile of
+|error| / sigma in 0.75-1.35, for f_n and zeta separately.
+
+Budget: a few seeds per family (the whole file must stay well under a minute
+or two on a loaded 2-core machine); the seeds here (1-3) are not those of
+``benchmarks/eval_identification.py`` (100+).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import hardcases  # noqa: E402
+
+from ema_pipeline.identification import identify  # noqa: E402
+
+SEEDS = (1, 2, 3)
+PENDING = pytest.mark.xfail(strict=False, reason="issue 11 pending")
+
+
+def _identify(case: hardcases.HardCase) -> dict[str, np.ndarray]:
+    """The one call of the identification (adapt to identify(frf, options))."""
+    frf = case.frf.reciprocal() if case.roving else case.frf
+    res = identify(frf, band_hz=case.band_hz)
+    m = res.modes
+    return {"fn_hz": m.fn_hz, "zeta": m.zeta, "fn_std_hz": m.fn_std_hz, "zeta_std": m.zeta_std}
+
+
+def _match(f_true: np.ndarray, z_true: np.ndarray, f_id: np.ndarray) -> list[tuple[int, int]]:
+    from scipy.optimize import linear_sum_assignment
+
+    if f_true.size == 0 or f_id.size == 0:
+        return []
+    d = np.abs(f_id[None, :] - f_true[:, None]) / ((z_true + 0.005) * f_true)[:, None]
+    rows, cols = linear_sum_assignment(np.where(d <= 1, d, 1e6))
+    return [(i, j) for i, j in zip(rows, cols, strict=True) if d[i, j] <= 1]
+
+
+_CACHE: dict[str, dict] = {}
+
+
+def _family_scores(family: str) -> dict:
+    if family in _CACHE:
+        return _CACHE[family]
+    n_true = missed = spurious = 0
+    rf: list[float] = []
+    rz: list[float] = []
+    for seed in SEEDS:
+        case = hardcases.make_case(family, seed)
+        out = _identify(case)
+        pairs = _match(case.fn_hz, case.zeta, out["fn_hz"])
+        n_true += case.fn_hz.size
+        missed += case.fn_hz.size - len(pairs)
+        spurious += out["fn_hz"].size - len(pairs)
+        for i, j in pairs:
+            sf, sz = out["fn_std_hz"][j], out["zeta_std"][j]
+            rf.append(abs(out["fn_hz"][j] - case.fn_hz[i]) / sf if sf > 0 else np.inf)
+            rz.append(abs(out["zeta"][j] - case.zeta[i]) / sz if sz > 0 else np.inf)
+    _CACHE[family] = {"n_true": n_true, "missed": missed, "spurious": spurious,
+                      "rf": np.nan_to_num(np.array(rf), nan=np.inf),
+                      "rz": np.nan_to_num(np.array(rz), nan=np.inf)}
+    return _CACHE[family]
+
+
+# --------------------------------------------------------------------------- generator
+@pytest.mark.parametrize("family", hardcases.FAMILIES)
+def test_generator_truth_is_in_the_data(family: str) -> None:
+    """Deterministic, modes inside the band, and each true mode visible as a
+    peak: the noise-free model is what the FRF shows within the noise."""
+    a = hardcases.make_case(family, 1)
+    b = hardcases.make_case(family, 1)
+    np.testing.assert_array_equal(a.frf.H, b.frf.H)
+    lo, hi = a.band_hz
+    assert np.all((a.fn_hz > lo) & (a.fn_hz < hi))
+    assert np.all((a.zeta > 0) & (a.zeta < 0.1))
+    assert a.frf.freq_hz.size >= 1000
+    if family == "impact":
+        assert a.frf.acquisition.exp_window_tau_s > 0
+        assert a.frf.coherence is not None and a.frf.acquisition.n_averages >= 3
+    if family == "roving":
+        assert a.frf.n_out == 1 and 8 <= a.frf.n_in <= 12
+
+
+def test_generator_frf_matches_pole_residue_model() -> None:
+    """An exact LS fit with the true poles leaves only noise (frequency-domain
+    case at 35-55 dB): residual below 3 % of the FRF norm."""
+    case = hardcases.make_case("baseline", 1)
+    frf = case.frf.band(*case.band_hz)
+    wn = 2 * np.pi * case.fn_hz
+    lam = -case.zeta * wn + 1j * wn * np.sqrt(1 - case.zeta**2)
+    jw = 2j * np.pi * frf.freq_hz[:, None]
+    B = np.concatenate([jw**2 / (jw - lam), jw**2 / (jw - lam.conj()),
+                        np.ones_like(jw), jw**2, jw**4], axis=1)
+    for h in frf.H[:, 0, :]:
+        x = np.linalg.lstsq(B, h, rcond=None)[0]
+        assert np.linalg.norm(h - B @ x) < 0.03 * np.linalg.norm(h)
+
+
+def test_impact_case_window_shift_is_exact() -> None:
+    """Time-domain impact case: with the poles shifted by 1/tau the true model
+    fits the H1 estimate to within 1 % (window theory and simulation agree)."""
+    case = hardcases.make_case("impact", 1)
+    frf = case.frf
+    tau = frf.acquisition.exp_window_tau_s
+    wn = 2 * np.pi * case.fn_hz
+    lam = -case.zeta * wn + 1j * wn * np.sqrt(1 - case.zeta**2) - 1.0 / tau
+    sel = (frf.freq_hz > 5) & (frf.freq_hz < 900)
+    jw = 2j * np.pi * frf.freq_hz[sel, None]
+    B = np.concatenate([1 / (jw - lam), 1 / (jw - lam.conj()), np.ones_like(jw)], axis=1)
+    for h in frf.H[:, 0, sel]:
+        x = np.linalg.lstsq(B, h, rcond=None)[0]
+        assert np.linalg.norm(h - B @ x) < 0.01 * np.linalg.norm(h)
+
+
+# --------------------------------------------------------------------------- targets
+@PENDING
+@pytest.mark.parametrize("family", hardcases.FAMILIES)
+def test_no_mode_missed_or_invented(family: str) -> None:
+    s = _family_scores(family)
+    assert s["missed"] <= 0.02 * s["n_true"], s
+    assert s["spurious"] <= 0.02 * s["n_true"], s
+
+
+@PENDING
+@pytest.mark.parametrize("family", hardcases.FAMILIES)
+def test_sigmas_are_calibrated_per_family(family: str) -> None:
+    """68th percentile of |error|/sigma in 0.75-1.35 (f and zeta); with ~15
+    modes per family the coverage is only checked loosely here (>= 80 %)."""
+    s = _family_scores(family)
+    for key in ("rf", "rz"):
+        r = s[key]
+        assert r.size >= 5
+        assert 0.75 <= np.percentile(r, 68) <= 1.35, (key, np.percentile(r, 68))
+        assert np.mean(r <= 2) >= 0.80, (key, np.mean(r <= 2))
+
+
+@PENDING
+def test_sigma_coverage_over_all_families() -> None:
+    """90-98 % of the errors within 2 sigma over all families (~150 modes)."""
+    for key in ("rf", "rz"):
+        r = np.concatenate([_family_scores(f)[key] for f in hardcases.FAMILIES])
+        assert 0.90 <= np.mean(r <= 2) <= 0.98, (key, np.mean(r <= 2))
