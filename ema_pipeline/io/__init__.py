@@ -21,6 +21,8 @@ from ema_pipeline.io.experiment import experiment_file_path, read_experiment
 from ema_pipeline.io.files import (
     atomic_path,
     check_readable,
+    disk_full_error,
+    open_regular,
     read_csv,
     sha256_file,
     write_bytes,
@@ -29,9 +31,11 @@ from ema_pipeline.io.files import (
 )
 from ema_pipeline.io.hdf5 import (
     HDF5_SUFFIXES,
+    MAX_DATASET_BYTES,
     SCHEMA_FRF,
     SCHEMA_RESULTS,
     SCHEMA_VERSION,
+    check_hdf5,
     completed_result_sha256,
     read_frf_from_results,
     read_frf_group,
@@ -62,7 +66,7 @@ def frf_format(path: str | os.PathLike[str]) -> str:
     if suffix in HDF5_SUFFIXES:
         return "h5"
     check_readable(path, "an FRF file")
-    with open(path, "rb") as fh:
+    with open_regular(path, "an FRF file") as fh:
         head = fh.read(8)
     if head.startswith(b"\x89HDF"):
         return "h5"
@@ -72,8 +76,13 @@ def frf_format(path: str | os.PathLike[str]) -> str:
 
 
 def read_frf(path: str | os.PathLike[str]) -> FRFSet:
-    """Read an FRF file: UFF dataset 58 (ASCII or binary) or the project's HDF5."""
+    """Read an FRF file: UFF dataset 58 (ASCII or binary) or the project's HDF5.
+
+    Anything but a non-empty regular file (a FIFO, a device, a folder, a
+    symlink loop) is refused before it is opened, whatever its name.
+    """
     path = Path(path)
+    check_readable(path, "an FRF file (UFF or HDF5)")
     if frf_format(path) == "uff":
         return read_frf_uff(path)
     return read_frf_h5(path)
@@ -122,13 +131,17 @@ __all__ = [
     "SCHEMA_RESULTS",
     "SCHEMA_VERSION",
     "UFF_SUFFIXES",
+    "MAX_DATASET_BYTES",
     "atomic_path",
+    "check_hdf5",
     "check_readable",
     "completed_result_sha256",
+    "disk_full_error",
     "experiment_file_path",
     "find_frf_files",
     "frf_format",
     "frf_format_for_writing",
+    "open_regular",
     "read_csv",
     "read_experiment",
     "read_frf",
