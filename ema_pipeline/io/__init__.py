@@ -23,6 +23,8 @@ from ema_pipeline.io.experiment import experiment_file_path, read_experiment
 from ema_pipeline.io.files import (
     atomic_path,
     check_readable,
+    disk_full_error,
+    open_regular,
     read_csv,
     sha256_file,
     write_bytes,
@@ -31,9 +33,11 @@ from ema_pipeline.io.files import (
 )
 from ema_pipeline.io.hdf5 import (
     HDF5_SUFFIXES,
+    MAX_DATASET_BYTES,
     SCHEMA_FRF,
     SCHEMA_RESULTS,
     SCHEMA_VERSION,
+    check_hdf5,
     completed_result_sha256,
     read_frf_from_results,
     read_frf_group,
@@ -79,7 +83,7 @@ def frf_format(path: str | os.PathLike[str]) -> str:
     if suffix in HDF5_SUFFIXES:
         return "h5"
     check_readable(path, "an FRF file")
-    with open(path, "rb") as fh:
+    with open_regular(path, "an FRF file") as fh:
         head = fh.read(8)
     if head.startswith(b"\x89HDF"):
         return "h5"
@@ -93,8 +97,12 @@ def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
 
     ``min_lines``: refuse FRFs with fewer frequency lines; pass
     :data:`ema_pipeline.data.MIN_FRF_LINES` when the FRFs are to be identified.
+
+    Anything but a non-empty regular file (a FIFO, a device, a folder, a
+    symlink loop) is refused before it is opened, whatever its name.
     """
     path = Path(path)
+    check_readable(path, "an FRF file (UFF or HDF5)")
     if frf_format(path) == "uff":
         return read_frf_uff(path, min_lines=min_lines)
     frf = read_frf_h5(path)
@@ -155,14 +163,18 @@ __all__ = [
     "SCHEMA_RESULTS",
     "SCHEMA_VERSION",
     "UFF_SUFFIXES",
+    "MAX_DATASET_BYTES",
     "atomic_path",
     "axis_is_uniform",
+    "check_hdf5",
     "check_readable",
     "completed_result_sha256",
+    "disk_full_error",
     "experiment_file_path",
     "find_frf_files",
     "frf_format",
     "frf_format_for_writing",
+    "open_regular",
     "parse_unit_label",
     "read_csv",
     "read_experiment",

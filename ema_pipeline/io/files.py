@@ -1,42 +1,189 @@
-"""Generic file helpers: content hashes, atomic writes, CSV tables.
+"""Generic file helpers: safe opening of inputs, content hashes, atomic writes, CSV.
 
-Everything ema-pipeline writes goes through :func:`atomic_path`: a temporary
-file beside the target, renamed into place only when complete.
+Inputs
+    Every input file is treated as hostile. :func:`check_readable` refuses
+    anything but a non-empty regular file *before* it is opened, with a message
+    naming the file and what it is instead: a missing file, a dangling symlink,
+    a symlink loop, a folder, a FIFO (reading one blocks until someone writes),
+    a device (``/dev/zero`` never ends), a socket. :func:`open_regular` opens
+    with ``O_NONBLOCK`` and checks the *open* descriptor again with ``fstat``
+    (no race between the check and the open), so :func:`sha256_file` never
+    blocks on a FIFO or hashes a device forever.
+
+Outputs
+    Everything ema-pipeline writes goes through :func:`atomic_path`: a
+    temporary file beside the target, renamed into place only when complete
+    and removed on any failure. A full disk (``ENOSPC``), an exceeded quota
+    (``EDQUOT``) or file-size limit (``EFBIG``) becomes one :class:`OSError`
+    whose ``filename`` is the target and whose ``strerror`` says what happened;
+    no partial file is left behind.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
+import fcntl
 import hashlib
 import os
+import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
+from typing import BinaryIO
 
 import pandas as pd
 
 from ema_pipeline.data import DataError
 
+#: errno values that mean "the disk (or the allowed file size) is full".
+DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT})
+
+
+def _not_regular(mode: int) -> str | None:
+    """What a non-regular file is, for messages (None for a regular file)."""
+    if stat.S_ISREG(mode):
+        return None
+    if stat.S_ISDIR(mode):
+        return "a folder"
+    if stat.S_ISFIFO(mode):
+        return "a named pipe (FIFO)"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "not a regular file"
+
+
+def check_readable(path: str | os.PathLike[str], kind: str) -> os.stat_result:
+    """Raise a DataError naming ``path`` unless it is a non-empty regular file.
+
+    Nothing is opened: a FIFO, a device, a folder, a symlink loop or a dangling
+    symlink is refused from its ``stat`` alone. ``kind`` says what the file
+    should be, for the message. Returns the ``stat`` result.
+
+    Examples
+    --------
+    >>> check_readable("/dev/zero", "an FRF file")
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: /dev/zero: is a device, expected an FRF file
+    """
+    path = Path(path)
+    try:
+        st = os.stat(path)
+    except FileNotFoundError:
+        if os.path.islink(path):
+            raise DataError(f"{path}: broken symbolic link (its target does not exist)") from None
+        raise DataError(f"{path}: no such file") from None
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise DataError(f"{path}: symbolic link loop, expected {kind}") from None
+        raise DataError(f"{path}: cannot access ({exc.strerror})") from None
+    what = _not_regular(st.st_mode)
+    if what is not None:
+        raise DataError(f"{path}: is {what}, expected {kind}")
+    if st.st_size == 0:
+        raise DataError(f"{path}: empty file, expected {kind}")
+    return st
+
+
+def open_regular(path: str | os.PathLike[str], kind: str = "a regular file") -> BinaryIO:
+    """Open a regular file for binary reading, never blocking on a FIFO.
+
+    The file is opened with ``O_NONBLOCK`` and its descriptor checked with
+    ``fstat`` before anything is read; a non-regular file raises DataError.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.NamedTemporaryFile() as tmp:
+    ...     _ = tmp.write(b"abc"); tmp.flush()
+    ...     with open_regular(tmp.name) as fh:
+    ...         fh.read()
+    b'abc'
+    """
+    path = Path(path)
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_NOCTTY | os.O_CLOEXEC)
+    except OSError as exc:
+        check_readable(path, kind)  # the precise message for a missing file, a loop, ...
+        raise DataError(f"{path}: cannot open ({exc.strerror})") from exc
+    try:
+        what = _not_regular(os.fstat(fd).st_mode)
+        if what is not None:
+            raise DataError(f"{path}: is {what}, expected {kind}")
+        flags = fcntl.fcntl(fd, fcntl.F_GETFL)
+        fcntl.fcntl(fd, fcntl.F_SETFL, flags & ~os.O_NONBLOCK)
+        return os.fdopen(fd, "rb")
+    except BaseException:
+        os.close(fd)
+        raise
+
 
 def sha256_file(path: str | os.PathLike[str]) -> str:
-    """SHA-256 of a file's content, hex."""
+    """SHA-256 of a regular file's content, hex (DataError for FIFOs, devices, folders).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.NamedTemporaryFile() as tmp:
+    ...     _ = tmp.write(b"abc"); tmp.flush()
+    ...     sha256_file(tmp.name)[:16]
+    'ba7816bf8f01cfea'
+    """
     digest = hashlib.sha256()
-    with open(path, "rb") as fh:
+    with open_regular(path, "a file to hash") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             digest.update(chunk)
     return digest.hexdigest()
+
+
+def disk_full_error(exc: OSError, target: str | os.PathLike[str]) -> OSError:
+    """``exc`` as one clear OSError naming ``target`` when it means a full disk.
+
+    Other errors are returned unchanged.
+
+    Examples
+    --------
+    >>> import errno
+    >>> e = disk_full_error(OSError(errno.ENOSPC, "No space left on device"), "out/a.csv")
+    >>> e.filename, e.strerror
+    ('out/a.csv', 'cannot write: no space left on device (disk full, quota or file-size limit)')
+    """
+    if exc.errno not in DISK_FULL_ERRNOS:
+        return exc
+    return OSError(
+        exc.errno,
+        "cannot write: no space left on device (disk full, quota or file-size limit)",
+        str(target),
+    )
 
 
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
 
-    On an exception the temporary file is removed and ``path`` is untouched.
+    On an exception the temporary file is removed and ``path`` is untouched; a
+    full disk is re-raised as one clear OSError naming ``path``
+    (:func:`disk_full_error`).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> target = pathlib.Path(tempfile.mkdtemp()) / "a.txt"
+    >>> with atomic_path(target) as tmp:
+    ...     _ = tmp.write_text("done")
+    >>> target.read_text(), sorted(p.name for p in target.parent.iterdir())
+    ('done', ['a.txt'])
     """
     target = Path(path)
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    os.close(fd)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        os.close(fd)
+    except OSError as exc:
+        raise disk_full_error(exc, target) from exc
     tmp_path = Path(tmp)
     try:
         yield tmp_path
@@ -45,6 +192,12 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
             os.umask(umask)
             tmp_path.chmod(0o666 & ~umask)
         os.replace(tmp_path, target)
+    except OSError as exc:
+        tmp_path.unlink(missing_ok=True)
+        full = disk_full_error(exc, target)
+        if full is exc:
+            raise
+        raise full from exc
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
@@ -74,10 +227,10 @@ def write_csv(table: pd.DataFrame, path: str | os.PathLike[str]) -> Path:
 def read_csv(path: str | os.PathLike[str], required: tuple[str, ...] = ()) -> pd.DataFrame:
     """Read a CSV table and check that it has the ``required`` columns."""
     path = Path(path)
-    if not path.is_file():
-        raise DataError(f"{path}: no such file")
+    check_readable(path, "a CSV table")
     try:
-        table = pd.read_csv(path)
+        with open_regular(path, "a CSV table") as fh:
+            table = pd.read_csv(fh)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not a readable CSV table ({exc})") from exc
     missing = [c for c in required if c not in table.columns]
@@ -87,12 +240,3 @@ def read_csv(path: str | os.PathLike[str], required: tuple[str, ...] = ()) -> pd
             f"found {', '.join(map(str, table.columns))}"
         )
     return table
-
-
-def check_readable(path: Path, kind: str) -> None:
-    """Raise a DataError naming ``path`` when it is missing or empty (``kind``: what
-    the file should be, for the message)."""
-    if not path.is_file():
-        raise DataError(f"{path}: no such file")
-    if path.stat().st_size == 0:
-        raise DataError(f"{path}: empty file, expected {kind}")

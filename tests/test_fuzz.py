@@ -1,0 +1,154 @@
+"""Issue 15: nothing a user gives ema-pipeline crashes it, hangs it, fools it or
+costs them earlier results.
+
+The corpus (``tests/fuzz_cases.py``: byte flips and truncations of HDF5 and UFF
+files, malformed HDF5 structures, experiment-file mutations, hostile names,
+special files, abusive options, a batch of bad files, a full disk) is generated
+once per session in a temporary folder and run through ``python -m
+ema_pipeline`` in subprocesses with timeouts. Three tests per case group:
+
+* ``test_no_crash``: no death by signal, no hang, no Python traceback;
+* ``test_verdict``: garbage is never reported as success, stderr names the
+  file, no temporary files left, earlier results byte-identical, nothing
+  written outside the output folder, no unescaped markup, batch tables right;
+* ``test_exit_status``: exit 2 for input errors, 1 for runtime failures.
+
+Groups that need the phase-2 changes of issue 15 (experiment-file schema,
+atomic results swap in ``pipeline/study.py``, CLI exit codes and resource
+guards, batch tables, name sanitising, HTML escaping) are marked xfail
+(``strict=False``); the reason names the file that must change. By default the
+quick subset of the corpus runs (fewer flips, one or two ``run`` mutations per
+group: most of them run the whole study until the experiment file is validated
+up front); ``EMA_FUZZ_FULL=1`` runs all of it.
+"""
+
+from __future__ import annotations
+
+import fuzz_cases as fc
+import pytest
+
+PHASE2 = "issue 15 phase 2"
+CLI = f"{PHASE2}: cli.py exit codes (input error -> 2)"
+EXPERIMENT = f"{PHASE2}: io/experiment.py typed schema validated before anything runs"
+STUDY = f"{PHASE2}: pipeline/study.py validates every input up front, atomic results swap"
+NAMES = f"{PHASE2}: configuration names sanitised (study.py/report.py), HTML escaped"
+GUARDS = f"{PHASE2}: cli.py/identification options: order, band and memory guards"
+BATCH = f"{PHASE2}: pipeline/batch failures.csv with sha256, skips its own outputs"
+UFF = f"{PHASE2}: io/uff.py plausibility of the abscissa (df, n lines)"
+
+#: group -> {test: reason} for the checks still expected to fail.
+XFAIL: dict[str, dict[str, str]] = {
+    **{g: {"exit_status": CLI} for g in (
+        "h5_flip_gcol", "h5_flip_vlen", "h5_flip_head", "h5_flip_tail", "h5_flip_any",
+        "h5_trunc", "h5_malformed_dtype", "h5_malformed_shape", "h5_malformed_plausible",
+        "h5_malformed_missing", "h5_malformed_object", "h5_malformed_external",
+        "h5_malformed_size", "h5_malformed_attr", "uff_flip", "uff_trunc", "special")},
+    "uff_header": {"verdict": UFF},
+    "experiment_type": {"no_crash": EXPERIMENT, "verdict": EXPERIMENT, "exit_status": EXPERIMENT},
+    "experiment_range": {"no_crash": EXPERIMENT, "verdict": EXPERIMENT,
+                         "exit_status": EXPERIMENT},
+    "experiment_unknown": {"verdict": EXPERIMENT, "exit_status": EXPERIMENT},
+    "experiment_float_node": {"verdict": EXPERIMENT, "exit_status": EXPERIMENT},
+    "experiment_late": {"no_crash": STUDY, "verdict": STUDY, "exit_status": STUDY},
+    "experiment_name": {"no_crash": NAMES, "verdict": NAMES, "exit_status": NAMES},
+    "experiment_syntax": {},
+    "cli_option": {"no_crash": GUARDS, "verdict": GUARDS, "exit_status": GUARDS},
+    "batch": {"verdict": BATCH},
+    "disk_full_identify": {},
+    "disk_full_run": {"verdict": STUDY, "no_crash": STUDY},
+    "disk_full_batch": {"no_crash": BATCH, "verdict": BATCH},
+}
+
+CHECKS = {
+    "no_crash": {"signal", "hang", "traceback"},
+    "verdict": {"exit0", "message", "litter", "results", "escape", "html", "table"},
+    "exit_status": {"exit_code"},
+}
+
+
+@pytest.fixture(scope="session")
+def fuzz(tmp_path_factory):
+    root = tmp_path_factory.mktemp("fuzz")
+    cases = fc.build_cases(root)
+    outcomes = fc.run_cases(cases, root / "work")
+    return cases, outcomes
+
+
+def _params(test: str):
+    for group, marks in XFAIL.items():
+        reason = marks.get(test)
+        yield pytest.param(
+            group, id=group,
+            marks=[pytest.mark.xfail(strict=False, reason=reason)] if reason else [],
+        )
+
+
+def _failures(fuzz, group: str, test: str) -> list[str]:
+    cases, outcomes = fuzz
+    mine = [c for c in cases if c.group == group]
+    assert mine, f"no cases in group {group}"
+    out = []
+    for c in mine:
+        bad = set(fc.verdict(c, outcomes[c.name])) & CHECKS[test]
+        if bad:
+            o = outcomes[c.name]
+            out.append(f"{c.name}: {','.join(sorted(bad))} (rc={o.rc}, signal={o.signal}, "
+                       f"stderr={o.stderr.strip()[-300:]!r})")
+    return out
+
+
+@pytest.mark.parametrize("group", list(_params("no_crash")))
+def test_no_crash(fuzz, group):
+    bad = _failures(fuzz, group, "no_crash")
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("group", list(_params("verdict")))
+def test_verdict(fuzz, group):
+    bad = _failures(fuzz, group, "verdict")
+    assert not bad, "\n".join(bad)
+
+
+@pytest.mark.parametrize("group", list(_params("exit_status")))
+def test_exit_status(fuzz, group):
+    bad = _failures(fuzz, group, "exit_status")
+    assert not bad, "\n".join(bad)
+
+
+def test_corpus_is_deterministic(tmp_path):
+    """Same seeds, same bytes: two generations of the file cases are identical."""
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir(), b.mkdir()
+    for root in (a, b):
+        fc.h5_flip_cases(root)
+        fc.uff_cases(root)
+    files_a = {p.name: p.read_bytes() for p in a.iterdir()}
+    files_b = {p.name: p.read_bytes() for p in b.iterdir()}
+    assert files_a == files_b and len(files_a) > 50
+
+
+def testvlen_targets_found():
+    """The structure-aware flips find the string attribute references and types."""
+    refs, dtypes = fc.vlen_targets((fc.EXAMPLES / "larger_tank.h5").read_bytes())
+    assert len(refs) >= 10 and len(dtypes) >= 5
+
+
+def test_check_hdf5_refuses_a_looping_file_quickly(tmp_path):
+    """A corrupted global heap makes libhdf5 loop forever: the child is killed and
+    the file refused, within the timeout, naming the file."""
+    import time
+
+    from ema_pipeline.data import DataError
+    from ema_pipeline.io import check_hdf5
+
+    src = bytearray((fc.EXAMPLES / "larger_tank.h5").read_bytes())
+    size_fields = [off for off, n in fc.gcol_fields(bytes(src)) if n == 8]
+    src[size_fields[2]] ^= 0xFF  # the size of the second string in the global heap
+    path = tmp_path / "loops.h5"
+    path.write_bytes(bytes(src))
+    start = time.perf_counter()
+    with pytest.raises(DataError, match="loops.h5"):
+        check_hdf5(path, timeout_s=2.0)
+    assert time.perf_counter() - start < 10.0
+    check_hdf5(fc.EXAMPLES / "larger_tank.h5")  # and a good file passes
+
