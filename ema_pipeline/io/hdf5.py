@@ -87,7 +87,7 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import fields, is_dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 import h5py
 import numpy as np
@@ -278,6 +278,16 @@ _ACQUISITION_KINDS = {
     "exp_window_tau_s": "float",
     "estimator": "str",
 }
+
+
+@overload
+def _dataset(group: h5py.Group, name: str, path: Path, ndim: int, kinds: str,
+             required: Literal[True] = ...) -> np.ndarray: ...
+
+
+@overload
+def _dataset(group: h5py.Group, name: str, path: Path, ndim: int, kinds: str,
+             required: bool) -> np.ndarray | None: ...
 
 
 def _dataset(group: h5py.Group, name: str, path: Path, ndim: int, kinds: str,
