@@ -33,7 +33,6 @@ EXPERIMENT = f"{PHASE2}: io/experiment.py typed schema validated before anything
 STUDY = f"{PHASE2}: pipeline/study.py validates every input up front, atomic results swap"
 NAMES = f"{PHASE2}: configuration names sanitised (study.py/report.py), HTML escaped"
 GUARDS = f"{PHASE2}: cli.py/identification options: order, band and memory guards"
-BATCH = f"{PHASE2}: pipeline/batch failures.csv with sha256, skips its own outputs"
 UFF = f"{PHASE2}: io/uff.py plausibility of the abscissa (df, n lines)"
 
 #: group -> {test: reason} for the checks still expected to fail.
@@ -45,18 +44,17 @@ XFAIL: dict[str, dict[str, str]] = {
         "h5_malformed_size", "h5_malformed_attr", "uff_flip", "uff_trunc", "special")},
     "uff_header": {"verdict": UFF},
     "experiment_type": {"no_crash": EXPERIMENT, "verdict": EXPERIMENT, "exit_status": EXPERIMENT},
-    "experiment_range": {"no_crash": EXPERIMENT, "verdict": EXPERIMENT,
-                         "exit_status": EXPERIMENT},
-    "experiment_unknown": {"verdict": EXPERIMENT, "exit_status": EXPERIMENT},
-    "experiment_float_node": {"verdict": EXPERIMENT, "exit_status": EXPERIMENT},
-    "experiment_late": {"no_crash": STUDY, "verdict": STUDY, "exit_status": STUDY},
+    "experiment_range": {"verdict": EXPERIMENT, "exit_status": EXPERIMENT},
+    "experiment_unknown": {"verdict": EXPERIMENT},
+    "experiment_float_node": {"verdict": EXPERIMENT},
+    "experiment_late": {"verdict": STUDY, "exit_status": STUDY},
     "experiment_name": {"no_crash": NAMES, "verdict": NAMES, "exit_status": NAMES},
     "experiment_syntax": {},
     "cli_option": {"no_crash": GUARDS, "verdict": GUARDS, "exit_status": GUARDS},
-    "batch": {"verdict": BATCH},
+    "batch": {},
     "disk_full_identify": {},
-    "disk_full_run": {"verdict": STUDY, "no_crash": STUDY},
-    "disk_full_batch": {"no_crash": BATCH, "verdict": BATCH},
+    "disk_full_run": {},
+    "disk_full_batch": {},
 }
 
 CHECKS = {

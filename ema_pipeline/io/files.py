@@ -133,7 +133,7 @@ def sha256_file(path: str | os.PathLike[str]) -> str:
     'ba7816bf8f01cfea'
     """
     digest = hashlib.sha256()
-    with open_regular(path, "a file to hash") as fh:
+    with open_regular(path, "an input file") as fh:
         for chunk in iter(lambda: fh.read(1 << 20), b""):
             digest.update(chunk)
     return digest.hexdigest()

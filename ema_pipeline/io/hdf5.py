@@ -240,6 +240,13 @@ def _attr(obj: h5py.HLObject, key: str, default: Any = None, path: Path | None =
             raise DataError(f"{path}: attribute {key!r} of {obj.name} is not UTF-8") from exc
     if isinstance(value, np.generic):
         value = value.item()
+    if isinstance(value, str):
+        try:
+            value.encode("utf-8")  # h5py keeps undecodable bytes as surrogates
+        except UnicodeEncodeError as exc:
+            raise DataError(
+                f"{path}: attribute {key!r} of {obj.name} is not valid UTF-8 text"
+            ) from exc
     return value
 
 
@@ -414,8 +421,12 @@ def walk_hdf5(path: str | os.PathLike[str], max_bytes: int = MAX_DATASET_BYTES) 
 
     Examples
     --------
-    >>> walk_hdf5("raw_frf/larger_tank.h5")  # doctest: +SKIP
-    8
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "a.h5")
+    >>> with h5py.File(path, "w") as h5:
+    ...     h5["g/x"] = [1.0, 2.0]
+    >>> walk_hdf5(path)  # the group g and the dataset x
+    2
     """
     path = Path(path)
     count = 0
@@ -632,6 +643,11 @@ def _store(group: h5py.Group, name: str, value: Any) -> None:
     attributes, dataclasses and dicts as sub-groups, DataFrames column by column."""
     if value is None:
         return
+    if not name or "/" in name or name in (".", ".."):
+        raise DataError(
+            f"cannot store {name!r} in HDF5: a member name must be non-empty, not '.' or "
+            "'..', and contain no '/' (it would become a path)"
+        )
     if isinstance(value, FRFSet):
         write_frf_group(group.create_group(name), value)
     elif isinstance(value, pd.DataFrame):
