@@ -1,4 +1,5 @@
-"""Least-squares frequency-domain (LSFD) residues and the fit indicators (MPC, FRAC, error).
+"""Least-squares frequency-domain (LSFD) residues and the fit indicators (MPC, MPD,
+FRAC, error).
 
 Pole-residue model of every FRF channel c = (output, reference), in the FRF's
 own quantity (receptance, mobility or accelerance)::
@@ -118,13 +119,50 @@ def lsfd(
     return LSFDFit(a=a, lower=low, upper=up, H_fit=H_fit)
 
 
-def batched_qr(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Thin QR of a stack of tall matrices (..., n, K) by CholeskyQR2.
+def batched_qr(A: np.ndarray, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:
+    """Thin factorisation A = Q R of a stack of tall matrices (..., n, K), for
+    least squares: X = solve(R, Q^T Y) and the projector Q Q^T.
 
-    Two rounds of Q = A R^-1 with R^T R = A^T A: as accurate as Householder
-    for the moderately conditioned, column-scaled design matrices here, and
-    all matrix products (numpy's batched Householder QR is ~20x slower).
+    CholeskyQR2 (two rounds of Q = A R^-1 with R^T R = A^T A): as accurate as
+    Householder for the moderately conditioned, column-scaled design matrices
+    here, and all matrix products (numpy's batched Householder QR is ~20x
+    slower). When the Gram matrix is numerically singular -- near-coincident
+    poles give nearly equal columns -- the Cholesky factorisation fails or its
+    diagonal spans more than 1e6; then the stack is factorised by SVD instead,
+    A = U S V^T: Q = U with the columns of singular values below ``rcond``
+    times the largest set to zero, R = max(S, rcond S_max) V^T. ``solve(R, Q^T Y)``
+    is then the minimum-norm (truncated-SVD) least-squares solution and Q Q^T
+    the projector on the numerical range of A, so callers need no special case.
+
+    Examples
+    --------
+    Two equal columns (a coincident pole): no exception, and the fit is exact.
+
+    >>> A = np.array([[[1.0, 1.0], [2.0, 2.0], [0.0, 0.0]]])
+    >>> Q, R = batched_qr(A)
+    >>> y = np.array([[2.0], [4.0], [0.0]])
+    >>> x = np.linalg.solve(R[0], Q[0].T @ y)
+    >>> x.ravel().round(6), (A[0] @ x).ravel().round(6)
+    (array([1., 1.]), array([2., 4., 0.]))
     """
+    try:
+        with np.errstate(all="ignore"):
+            Q, R = _cholesky_qr2(A)
+        d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
+        if np.all(np.isfinite(Q)) and np.all(d >= 1e-6 * np.max(d, axis=-1, keepdims=True)):
+            return Q, R
+    except np.linalg.LinAlgError:
+        pass
+    U, s, Vt = np.linalg.svd(A, full_matrices=False)
+    floor = rcond * s[..., :1]
+    Q = U * (s > floor)[..., None, :]
+    R = np.maximum(s, floor)[..., :, None] * Vt
+    return Q, R
+
+
+def _cholesky_qr2(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """CholeskyQR2 of :func:`batched_qr` (raises ``LinAlgError`` when A^T A is
+    not numerically positive definite)."""
     Q = A
     R = None
     for _ in range(2):
@@ -158,6 +196,43 @@ def mpc(phi: np.ndarray) -> np.ndarray:
     den = (sxx + syy) ** 2
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(den > 0, ((sxx - syy) ** 2 + 4 * sxy**2) / den, 0.0)
+
+
+def mpd(phi: np.ndarray) -> np.ndarray:
+    """Mean phase deviation per mode in degrees (0 = real/normal mode; 45 or more
+    for scattered phases), NaN for an all-zero shape.
+
+    The standard definition (Reynders, Houbrechts and De Roeck 2012, "Fully
+    automated (operational) modal analysis", MSSP 29): the magnitude-weighted
+    mean angle between each component phi_o and the straight line through the
+    origin that best fits the shape in the complex plane (its principal axis,
+    from the SVD of [Re phi, Im phi]),
+
+        MPD = sum_o |phi_o| arccos(|Re(phi_o e^-j theta)| / |phi_o|) / sum_o |phi_o|,
+
+    theta = 1/2 atan2(2 S_xy, S_xx - S_yy), the principal axis with the sums of
+    :func:`mpc` (the same rotation as :func:`real_normalised`).
+
+    Parameters
+    ----------
+    phi : (n_dof, n_modes) complex shapes.
+
+    Examples
+    --------
+    >>> phi = np.array([[1.0 + 1.0j, 1.0, 1.0], [2.0 + 2.0j, 1.0j, 1.0 + 0.1j]])
+    >>> mpd(phi).round(3)  # real mode (rotated), two components 90 deg apart, one 5.7 deg off
+    array([ 0.   , 45.   ,  2.855])
+    """
+    phi = np.asarray(phi, dtype=complex)
+    x, y = phi.real, phi.imag
+    theta = 0.5 * np.arctan2(2 * np.sum(x * y, axis=0), np.sum(x * x - y * y, axis=0))
+    mag = np.abs(phi)
+    along = np.abs(np.real(phi * np.exp(-1j * theta)[None, :]))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cos = np.clip(np.where(mag > 0, along / mag, 1.0), 0.0, 1.0)
+        total = np.sum(mag, axis=0)
+        return np.where(total > 0, np.sum(mag * np.degrees(np.arccos(cos)), axis=0) / total,
+                        np.nan)
 
 
 def real_normalised(phi: np.ndarray) -> np.ndarray:
