@@ -156,11 +156,16 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
         raise ConfigError(f"--band needs LO_HZ < HI_HZ, got {args.band[0]} {args.band[1]}")
     if args.max_order is not None and args.max_order < 2:
         raise ConfigError(f"--max-order must be at least 2, got {args.max_order}")
+    tau = args.exp_window_tau
+    if tau is not None and not 0 < tau < float("inf"):
+        raise ConfigError(f"--exp-window-tau needs the exponential window's time constant in "
+                          f"seconds, finite and > 0; got {tau:g}")
     return IdentificationOptions(
         band_hz=None if args.band is None else (args.band[0], args.band[1]),
         max_order=args.max_order,
         method=args.method,
         expect_hz=tuple(args.expect or ()),
+        exp_window_tau_s=args.exp_window_tau,
     )
 
 
@@ -317,6 +322,15 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="F1,F2,...",
         help="approximate natural frequencies in Hz: pick the nearest stable modes",
+    )
+    p.add_argument(
+        "--exp-window-tau",
+        type=float,
+        default=None,
+        metavar="SECONDS",
+        help="time constant of the exponential window applied to the responses, for "
+        "files that do not record it (UFF has no field for it); the identified damping "
+        "is corrected by 1/tau (default: the value stored in the file, else none)",
     )
     p.add_argument("--quiet", action="store_true", help="print only errors")
 

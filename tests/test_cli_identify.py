@@ -1,0 +1,122 @@
+"""`identify` / `batch` options of issue 11: the exponential window's time
+constant for files that do not carry it, roving sets in the Python API, the
+minimum number of lines and input suffixes in any letter case."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ema_pipeline import io
+from ema_pipeline.acquisition import modal_frf
+from ema_pipeline.cli import main
+from ema_pipeline.data import DOF, MIN_FRF_LINES, FRFSet, ModalParameters
+from ema_pipeline.identification import identify
+from ema_pipeline.pipeline.batch import run_batch
+from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
+from ema_pipeline.pipeline.single import identify_file, identify_frf
+
+TAU_S = 8.192 / 5  # the simulated test's window: tau = T / 5
+
+
+@pytest.fixture(scope="module")
+def foreign_uff(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The paper's simulated impact test (exponential window, tau = 1.64 s)
+    written as UFF without the window record, as another tool would."""
+    frf = simulate_paper_test("genuine", seed=5)
+    assert frf.acquisition.exp_window_tau_s == pytest.approx(TAU_S)
+    bare = replace(frf, acquisition=replace(frf.acquisition, exp_window_tau_s=None))
+    path = tmp_path_factory.mktemp("foreign") / "windowed.uff"
+    io.write_frf(bare, path, "uff")
+    assert io.read_frf(path).acquisition.exp_window_tau_s is None
+    return path
+
+
+def _zeta_pct(out: Path) -> np.ndarray:
+    table = pd.read_csv(out / "windowed_modes.csv")
+    return table["zeta_pct"].to_numpy()
+
+
+def test_exp_window_tau_gives_structural_damping(foreign_uff: Path, tmp_path: Path) -> None:
+    truth = 100 * paper_modes("genuine").zeta[:4]  # 0.50 0.67 0.29 0.38 %
+    assert main(["identify", str(foreign_uff), "--out", str(tmp_path / "tau"), "--quiet",
+                 "--exp-window-tau", str(TAU_S)]) == 0
+    with_tau = _zeta_pct(tmp_path / "tau")
+    assert with_tau.size == 4
+    np.testing.assert_allclose(with_tau, truth, rtol=0.05)  # within 5 %
+    assert main(["identify", str(foreign_uff), "--out", str(tmp_path / "raw"), "--quiet"]) == 0
+    raw = _zeta_pct(tmp_path / "raw")
+    # without it the window's 1/tau = 0.61 1/s is taken as structural damping:
+    # zeta' = zeta + 1/(tau w_n): mode 1 (18 Hz) 0.50 % -> 1.04 %
+    np.testing.assert_allclose(raw, truth + 100 / (TAU_S * 2 * np.pi * paper_modes(
+        "genuine").fn_hz[:4]), rtol=0.05)
+    assert raw[0] > 1.9 * truth[0]
+
+
+@pytest.mark.parametrize("bad", ["0", "-1.5", "nan", "inf"])
+@pytest.mark.parametrize("command", ["identify", "batch"])
+def test_exp_window_tau_must_be_positive(bad: str, command: str, foreign_uff: Path,
+                                         tmp_path: Path, capsys: pytest.CaptureFixture[str]
+                                         ) -> None:
+    target = str(foreign_uff if command == "identify" else foreign_uff.parent)
+    code = main([command, target, "--out", str(tmp_path / "o"), f"--exp-window-tau={bad}"])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--exp-window-tau" in err[0] and "> 0" in err[0], err
+    assert not (tmp_path / "o").exists()
+
+
+def _two_mode_frf(n_out: int, n_in: int, n_lines: int = 401) -> tuple[FRFSet, ModalParameters]:
+    """Receptance of 30 Hz / 1 % and 70 Hz / 2 % at n_out x n_in points, noise-free."""
+    f = np.linspace(0.0, 100.0, n_lines)
+    truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    x = np.linspace(0.1, 0.9, max(n_out, n_in))
+    phi = np.stack([np.sin(np.pi * x), np.sin(2 * np.pi * x)], axis=1)
+    H = modal_frf(f, truth, phi[:n_out], phi[-n_in:], quantity="receptance")
+    frf = FRFSet(freq_hz=f, H=H, quantity="receptance",
+                 response_dofs=tuple(DOF(k + 1) for k in range(n_out)),
+                 reference_dofs=tuple(DOF(20 + k) for k in range(n_in)))
+    return frf, truth
+
+
+def test_identify_frf_applies_reciprocity_to_roving_sets() -> None:
+    roving, truth = _two_mode_frf(1, 8)  # one accelerometer, 8 hammer points
+    res = identify_frf(roving)
+    ref = identify(roving.reciprocal())
+    np.testing.assert_allclose(res.fn_hz, truth.fn_hz, rtol=1e-6)
+    np.testing.assert_allclose(res.zeta, truth.zeta, rtol=1e-3)
+    np.testing.assert_allclose(res.fn_hz, ref.fn_hz, rtol=1e-12)
+    assert res.modes.shapes.shape == (8, 2)  # one row per hammer point
+    assert res.modes.dofs == roving.reference_dofs
+    assert res.settings.max_order == ref.settings.max_order
+
+
+def test_identify_file_refuses_too_few_lines(tmp_path: Path) -> None:
+    frf, _ = _two_mode_frf(2, 1, n_lines=MIN_FRF_LINES - 4)
+    path = io.write_frf(frf, tmp_path / "short.uff", "uff")
+    outcome = identify_file(path, tmp_path / "out")
+    assert outcome.status == "failed"
+    assert str(path) in outcome.reason and f"at least {MIN_FRF_LINES}" in outcome.reason
+
+
+def test_batch_takes_suffixes_in_any_letter_case(tmp_path: Path) -> None:
+    frf, truth = _two_mode_frf(2, 1)
+    folder = tmp_path / "in"
+    folder.mkdir()
+    names = {"A.UFF": "uff", "b.Unv": "uff", "c.UFB": "uff-binary", "d.H5": "h5", "e.FRF": "h5",
+             "f.Frf": "uff"}
+    for name, fmt in names.items():
+        io.write_frf(frf, folder / name, fmt)
+    (folder / "notes.TXT").write_text("not an FRF file")
+    report = run_batch(folder, tmp_path / "out", workers=1, progress=False)
+    summary = pd.read_csv(tmp_path / "out" / "summary.csv")
+    assert sorted(summary["file"]) == sorted(names)
+    assert report.n_failed == 0 and set(summary["status"]) == {"ok"}
+    for name in names:
+        stem = Path(name).stem
+        modes = pd.read_csv(tmp_path / "out" / f"{stem}_modes.csv")
+        np.testing.assert_allclose(modes["fn_hz"], truth.fn_hz, rtol=1e-5)
