@@ -180,6 +180,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
             failed += 1
             print(f"ema-pipeline identify: error: {outcome.reason}", file=sys.stderr)
             continue
+        for warning in outcome.warnings:  # shown even with --quiet
+            print(f"ema-pipeline identify: warning: {warning}", file=sys.stderr)
         page = None
         if args.report:
             from ema_pipeline.pipeline.reports import write_identify_report

@@ -9,6 +9,7 @@ imports this module.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Any
@@ -22,6 +23,7 @@ from ema_pipeline.identification.common import (
     resolve_band,
     source_prefix,
 )
+from ema_pipeline.identification.expect import match_expected, not_found_message
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult
@@ -114,4 +116,9 @@ def identify(
             f"expected frequencies {expect_hz} must lie inside the band [{lo:g}, {hi:g}] Hz"
         )
     checked = replace(options, band_hz=(lo, hi), expect_hz=tuple(expect_hz))
-    return backend(frf, checked)
+    result = backend(frf, checked)
+    if expect_hz.size:  # a guess no mode answers: say so (UserWarning)
+        message = not_found_message(expect_hz, match_expected(result.fn_hz, expect_hz))
+        if message:
+            warnings.warn(f"{where}{message}", stacklevel=2)
+    return result

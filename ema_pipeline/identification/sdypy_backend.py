@@ -11,6 +11,14 @@ Known trap handled here: ``select_closest_poles`` narrows a search window that
 starts at ``f_window`` Hz wide; for a guess below ``f_window / 2`` the window
 reaches 0 Hz, where its table of stable poles is zero-padded, and it silently
 returns 0 Hz. The window is therefore at most 1.5 x the lowest guess.
+It also returns, for a guess with no stable pole near it, whatever pole is
+nearest -- the same pole for several guesses, or an unstable one. Here each
+pole is kept once, only with positive (window-corrected) damping, and only when
+it answers a guess within the tolerance of
+:func:`ema_pipeline.identification.expect.match_expected`; a guess left
+unanswered is a warning (from :func:`identify`), never a distant mode. Orders
+too low to hold the modes looked for (``max_order`` below
+:func:`min_sdypy_order`) are refused.
 """
 
 from __future__ import annotations
@@ -23,12 +31,32 @@ from dataclasses import replace
 import numpy as np
 
 from ema_pipeline.data import DataError, FRFSet
-from ema_pipeline.identification.common import finish_identification, resolve_band
+from ema_pipeline.identification.common import (
+    finish_identification,
+    resolve_band,
+    source_prefix,
+)
+from ema_pipeline.identification.expect import EXPECT_TOL_PCT, match_expected
 from ema_pipeline.identification.lsfd import frac, normalised_error
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
 from ema_pipeline.identification.stabilization import StabilizationData
+
+
+def min_sdypy_order(n_modes: int) -> int:
+    """Lowest ``pol_order_high`` accepted for ``n_modes`` modes looked for:
+    max(10, 2 n_modes). sdypy-EMA's LSCF of order n gives n poles (n / 2
+    conjugate pairs); every mode needs a pair at the top orders, with room for
+    the computational poles, and its stability check needs the mode repeated
+    over several orders.
+
+    Examples
+    --------
+    >>> min_sdypy_order(4), min_sdypy_order(14)
+    (10, 28)
+    """
+    return max(10, 2 * int(n_modes))
 
 
 def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
@@ -57,6 +85,13 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             raise DataError("sdypy-lscf: the automatic selection found no mode to look for")
     else:
         guesses = np.sort(np.asarray(options.expect_hz, dtype=float))
+    where = source_prefix(frf)
+    if p < min_sdypy_order(guesses.size):
+        raise DataError(
+            f"{where}sdypy-lscf: max_order {p} is too low for {guesses.size} mode(s) in the band "
+            f"[{lo:g}, {hi:g}] Hz; sdypy-EMA's LSCF needs at least "
+            f"{min_sdypy_order(guesses.size)} (default 100)"
+        )
     n_out, n_in, n_freq = frf.H.shape
     # sdypy-EMA cuts the axis at the line nearest ``upper`` (exclusive): pass the
     # axis up to one line above the band top.
@@ -72,14 +107,21 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         model.get_poles(show_progress=False)
         f_window = float(min(50.0, 1.5 * np.min(guesses)))
         model.select_closest_poles(list(guesses), f_window=f_window)
-        poles = np.array(
-            [model.all_poles[i][j] for i, j in np.asarray(model.pole_ind, dtype=int)],
-            dtype=complex,
-        )
+        # several guesses can get the same pole: keep each (order, index) once
+        pole_ind = np.unique(np.asarray(model.pole_ind, dtype=int).reshape(-1, 2), axis=0)
+        poles = np.array([model.all_poles[i][j] for i, j in pole_ind], dtype=complex)
         H_sdypy, _ = model.get_constants(
             method="lsfd", whose_poles="own", lower_r=lower_residual, upper_r=upper_residual
         )
     poles = np.where(poles.imag < 0, poles.conj(), poles)
+    poles = poles[(poles.real + decay < 0) & (poles.imag > 0)]  # structural damping > 0
+    match = match_expected(poles.imag / (2 * np.pi), guesses, EXPECT_TOL_PCT)
+    poles = poles[np.unique(match[match >= 0])]
+    if poles.size == 0:
+        raise DataError(
+            f"{where}sdypy-lscf found no stable pole within {EXPECT_TOL_PCT:g} % of "
+            f"{', '.join(f'{g:g}' for g in guesses)} Hz; raise max_order or check the guesses"
+        )
     if np.any(np.abs(poles.imag) < 2 * np.pi * lo):
         raise DataError(
             f"sdypy-lscf returned a pole below the band for guesses {guesses} Hz "

@@ -25,6 +25,11 @@ from ema_pipeline.identification import (
     identify,
     modes_table,
 )
+from ema_pipeline.identification.expect import (
+    match_expected,
+    not_found_message,
+    with_expected_rows,
+)
 
 
 @dataclass
@@ -36,6 +41,7 @@ class FileOutcome:
     configuration: str = ""
     status: str = "ok"  # ok | skipped | failed
     reason: str = ""
+    warnings: list[str] = field(default_factory=list)  # e.g. an expected mode not found
     n_modes: int = 0
     fn_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
     zeta: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -129,6 +135,12 @@ def identify_file(
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_table(result)
+        if options.expect_hz:  # one row per guess; guesses not found with empty values
+            table = with_expected_rows(table, options.expect_hz)
+            message = not_found_message(options.expect_hz, match_expected(
+                result.fn_hz, options.expect_hz))
+            if message:
+                outcome.warnings.append(f"{path}: {message}")
         io.write_csv(table, modes_csv)
         io.write_results_h5(
             {
