@@ -1,12 +1,18 @@
 """Command-line interface of ema-pipeline (thin: parses, calls the library, prints).
 
-Exit status: 0 success, 1 some input failed (the rest is still processed and
-written), 2 usage error or unreadable configuration.
+Exit status: 0 success; 2 input or usage error (bad option, bad experiment
+file, unreadable or implausible input file, settings the data cannot support);
+1 runtime failure (disk full, out of memory, a study with problems, a batch with
+failed files). Every error is one line on stderr; warnings of the libraries
+(numpy, h5py, pyuff, sdypy) go to the ``py.warnings`` log (a file when
+``EMA_PIPELINE_LOG`` names one), not to the terminal.
 """
 
 from __future__ import annotations
 
 import argparse
+import logging
+import os
 import sys
 from collections.abc import Callable
 from pathlib import Path
@@ -19,10 +25,34 @@ if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.options import IdentificationOptions
 
 EXIT_OK, EXIT_INPUT, EXIT_USAGE = 0, 1, 2
+EXIT_RUNTIME = EXIT_INPUT  # 1: runtime failure; input errors exit with EXIT_USAGE (2)
+#: Environment variable naming a log file for library warnings (default: discarded).
+LOG_ENV = "EMA_PIPELINE_LOG"
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse exits with 2 on usage errors, which is our contract too."""
+    """argparse exits with 2 on usage errors, which is our contract too; the
+    error is one line (no usage block)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+
+
+def _capture_warnings() -> None:
+    """Route ``warnings`` (numpy, h5py, pyuff, sdypy) into the ``py.warnings``
+    logger: a file when ``$EMA_PIPELINE_LOG`` is set, else nowhere."""
+    logging.captureWarnings(True)
+    log = logging.getLogger("py.warnings")
+    log.propagate = False
+    if not log.handlers:
+        target = os.environ.get(LOG_ENV)
+        handler: logging.Handler = logging.NullHandler()
+        if target:
+            try:
+                handler = logging.FileHandler(target, delay=True)
+            except OSError:
+                pass
+        log.addHandler(handler)
 
 
 def _floats(text: str) -> tuple[float, ...]:
@@ -150,10 +180,18 @@ def _simulate_added_mass(args: argparse.Namespace) -> int:
 
 def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
     """The ``identify`` / ``batch`` arguments as one options object."""
+    import math
+
     from ema_pipeline.identification.options import IdentificationOptions
 
-    if args.band is not None and not args.band[0] < args.band[1]:
-        raise ConfigError(f"--band needs LO_HZ < HI_HZ, got {args.band[0]} {args.band[1]}")
+    if args.band is not None and not (
+        all(math.isfinite(b) for b in args.band) and 0 <= args.band[0] < args.band[1]
+    ):
+        raise ConfigError(f"--band needs finite 0 <= LO_HZ < HI_HZ, got {args.band[0]} "
+                          f"{args.band[1]}")
+    if args.expect is not None and not all(math.isfinite(f) and f > 0 for f in args.expect):
+        raise ConfigError(f"--expect needs positive frequencies in Hz, got {list(args.expect)}")
+    _memory_limit(args)
     if args.max_order is not None and args.max_order < 2:
         raise ConfigError(f"--max-order must be at least 2, got {args.max_order}")
     tau = args.exp_window_tau
@@ -173,11 +211,12 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     from ema_pipeline.pipeline.single import identify_file
 
     options = _identify_options(args)
-    failed = 0
+    failed = runtime = 0
     for path in args.files:
         outcome = identify_file(path, args.out, options, keep=args.report)
         if outcome.status == "failed":
             failed += 1
+            runtime += outcome.runtime
             print(f"ema-pipeline identify: error: {outcome.reason}", file=sys.stderr)
             continue
         for warning in outcome.warnings:  # shown even with --quiet
@@ -194,7 +233,18 @@ def _cmd_identify(args: argparse.Namespace) -> int:
                 + (f"and {page} " if page else "")
                 + f"({outcome.seconds:.1f} s)"
             )
-    return EXIT_INPUT if failed else EXIT_OK
+    return EXIT_RUNTIME if runtime else EXIT_USAGE if failed else EXIT_OK
+
+
+def _memory_limit(args: argparse.Namespace) -> None:
+    """``--memory-limit-gb``: checked, and passed on (also to batch workers) as
+    ``$EMA_MEMORY_LIMIT_GB``."""
+    from ema_pipeline.identification.resources import MEMORY_LIMIT_ENV, memory_limit_bytes
+
+    limit = getattr(args, "memory_limit_gb", None)
+    memory_limit_bytes(limit)  # refuse a bad value (or a bad environment variable) now
+    if limit is not None:
+        os.environ[MEMORY_LIMIT_ENV] = repr(float(limit))
 
 
 def _cmd_batch(args: argparse.Namespace) -> int:
@@ -231,13 +281,23 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from ema_pipeline.pipeline import study
 
     experiment_path = args.experiment or args.raw / "experiment.toml"
+    _memory_limit(args)
     experiment = study.load_experiment(experiment_path)
+    frfs = study.prepare_study(experiment, experiment_path)  # every input checked: exit 2
 
     def say(message: str) -> None:
         if not args.quiet and not args.json:
             print(message, file=sys.stderr, flush=True)
 
-    result = study.run_study(experiment, progress=say, progress_bars=not (args.quiet or args.json))
+    result = study.run_study(experiment, progress=say, progress_bars=not (args.quiet or args.json),
+                             frfs=frfs)
+    if not result.ok and Path(args.results).exists():
+        for problem in result.problems:
+            print(f"ema-pipeline run: {problem}", file=sys.stderr)
+        print(f"ema-pipeline run: error: the study has problems; the earlier results in "
+              f"{args.results} are kept unchanged (use a new --results folder to see the "
+              "incomplete ones)", file=sys.stderr)
+        return EXIT_RUNTIME
     study.write_study(
         result, args.results, say, figures=not args.no_figures, experiment_file=experiment_path
     )
@@ -335,6 +395,18 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         "is corrected by 1/tau (default: the value stored in the file, else none)",
     )
     p.add_argument("--quiet", action="store_true", help="print only errors")
+    _add_memory_limit(p)
+
+
+def _add_memory_limit(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--memory-limit-gb",
+        type=float,
+        default=None,
+        metavar="GB",
+        help="refuse settings whose estimated memory exceeds this (GiB; default "
+        "$EMA_MEMORY_LIMIT_GB or 4)",
+    )
 
 
 def _add_no_figures(p: argparse.ArgumentParser) -> None:
@@ -489,9 +561,11 @@ def build_parser() -> argparse.ArgumentParser:
         "configuration (Table 1), modal added mass (Table 2), FE model, update and local "
         "added mass (Tables 3-6); write RESULTS/tables/*.csv, RESULTS/ema_results.h5, "
         "RESULTS/report.md, RESULTS/report.html and RESULTS/figures/*.svg (not with "
-        "--no-figures). Exit status 1 "
-        "when some input failed (what could be computed is still written), 2 for an "
-        "unreadable experiment file.",
+        "--no-figures). Every input is checked first: a bad experiment file, FRF file or "
+        "setting exits with 2 and writes nothing. Exit status 1 when the study has problems "
+        "(the incomplete results are written only if RESULTS does not exist yet) or on a "
+        "runtime failure such as a full disk; RESULTS is replaced atomically and only by a "
+        "complete run.",
     )
     p.add_argument(
         "--raw",
@@ -514,6 +588,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="print only problems")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     _add_no_figures(p)
+    _add_memory_limit(p)
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser(
@@ -533,24 +608,32 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
+    _capture_warnings()
     parser = build_parser()
     args = parser.parse_args(argv)
     func: Callable[[argparse.Namespace], int] = args.func
     try:
         return func(args)
-    except DataError as exc:
-        print(f"ema-pipeline {args.command}: error: {exc}", file=sys.stderr)
-        return EXIT_INPUT
-    except EMAError as exc:
-        print(f"ema-pipeline {args.command}: error: {exc}", file=sys.stderr)
+    except EMAError as exc:  # bad input or settings (DataError, ConfigError)
+        print(f"ema-pipeline {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as exc:  # unwritable output folder, disk full, ...
-        where = f" {exc.filename}" if getattr(exc, "filename", None) else ""
-        print(f"ema-pipeline {args.command}: error:{where} {exc.strerror or exc}", file=sys.stderr)
-        return EXIT_INPUT
+        where = f" {exc.filename}:" if getattr(exc, "filename", None) else ""
+        print(f"ema-pipeline {args.command}: error:{where} {_one_line(exc.strerror or exc)}",
+              file=sys.stderr)
+        return EXIT_RUNTIME
+    except MemoryError:
+        print(f"ema-pipeline {args.command}: error: out of memory; lower the order or narrow "
+              "the band (see --memory-limit-gb)", file=sys.stderr)
+        return EXIT_RUNTIME
     except KeyboardInterrupt:
         print(f"ema-pipeline {args.command}: interrupted", file=sys.stderr)
         return 130
+
+
+def _one_line(message: object) -> str:
+    """An error message on one line."""
+    return " ".join(str(message).split())
 
 
 if __name__ == "__main__":

@@ -432,7 +432,7 @@ def uff_cases(root: Path, n_flips: int = 8) -> list[Case]:
     text = (EXAMPLES / "genuine.uff").read_text()
     lines = text.split("\n")
     for k, line in enumerate(lines):
-        if re.match(r"^\s+\d+\s+\d+\s+\d+\s+[-+.\dE]+\s+[-+.\dE]+\s+[-+.\dE]+\s*$", line):
+        if re.match(r"^\s+\d+\s+\d+\s+\d+\s+[-+.\deE]+\s+[-+.\deE]+\s+[-+.\deE]+\s*$", line):
             parts = line.split()
             if len(parts) == 6 and parts[2] == "1":  # ord type, n, even spacing, x0, dx, z
                 lines[k] = line.replace(parts[4], "1.00000E-30", 1)

@@ -13,10 +13,7 @@ ema_pipeline`` in subprocesses with timeouts. Three tests per case group:
   written outside the output folder, no unescaped markup, batch tables right;
 * ``test_exit_status``: exit 2 for input errors, 1 for runtime failures.
 
-Groups that need the phase-2 changes of issue 15 (experiment-file schema,
-atomic results swap in ``pipeline/study.py``, CLI exit codes and resource
-guards, batch tables, name sanitising, HTML escaping) are marked xfail
-(``strict=False``); the reason names the file that must change. By default the
+No group is expected to fail any more (issue 15 phase 2). By default the
 quick subset of the corpus runs (fewer flips, one or two ``run`` mutations per
 group: most of them run the whole study until the experiment file is validated
 up front); ``EMA_FUZZ_FULL=1`` runs all of it.
@@ -27,35 +24,19 @@ from __future__ import annotations
 import fuzz_cases as fc
 import pytest
 
-PHASE2 = "issue 15 phase 2"
-CLI = f"{PHASE2}: cli.py exit codes (input error -> 2)"
-EXPERIMENT = f"{PHASE2}: io/experiment.py typed schema validated before anything runs"
-STUDY = f"{PHASE2}: pipeline/study.py validates every input up front, atomic results swap"
-NAMES = f"{PHASE2}: configuration names sanitised (study.py/report.py), HTML escaped"
-GUARDS = f"{PHASE2}: cli.py/identification options: order, band and memory guards"
-UFF = f"{PHASE2}: io/uff.py plausibility of the abscissa (df, n lines)"
-
-#: group -> {test: reason} for the checks still expected to fail.
-XFAIL: dict[str, dict[str, str]] = {
-    **{g: {"exit_status": CLI} for g in (
-        "h5_flip_gcol", "h5_flip_vlen", "h5_flip_head", "h5_flip_tail", "h5_flip_any",
-        "h5_trunc", "h5_malformed_dtype", "h5_malformed_shape", "h5_malformed_plausible",
-        "h5_malformed_missing", "h5_malformed_object", "h5_malformed_external",
-        "h5_malformed_size", "h5_malformed_attr", "uff_flip", "uff_trunc", "special")},
-    "uff_header": {"verdict": UFF},
-    "experiment_type": {"no_crash": EXPERIMENT, "verdict": EXPERIMENT, "exit_status": EXPERIMENT},
-    "experiment_range": {"verdict": EXPERIMENT, "exit_status": EXPERIMENT},
-    "experiment_unknown": {"verdict": EXPERIMENT},
-    "experiment_float_node": {"verdict": EXPERIMENT},
-    "experiment_late": {"verdict": STUDY, "exit_status": STUDY},
-    "experiment_name": {"no_crash": NAMES, "verdict": NAMES, "exit_status": NAMES},
-    "experiment_syntax": {},
-    "cli_option": {"no_crash": GUARDS, "verdict": GUARDS, "exit_status": GUARDS},
-    "batch": {},
-    "disk_full_identify": {},
-    "disk_full_run": {},
-    "disk_full_batch": {},
-}
+#: group -> {test: reason} for checks still expected to fail (none since issue 15
+#: phase 2: experiment schema, atomic results swap, exit codes, order/band/memory
+#: guards, batch tables, name checks, UFF axis plausibility).
+GROUPS = (
+    "h5_flip_gcol", "h5_flip_vlen", "h5_flip_head", "h5_flip_tail", "h5_flip_any",
+    "h5_trunc", "h5_malformed_dtype", "h5_malformed_shape", "h5_malformed_plausible",
+    "h5_malformed_missing", "h5_malformed_object", "h5_malformed_external",
+    "h5_malformed_size", "h5_malformed_attr", "uff_flip", "uff_trunc", "special",
+    "uff_header", "experiment_type", "experiment_range", "experiment_unknown",
+    "experiment_float_node", "experiment_late", "experiment_name", "experiment_syntax",
+    "cli_option", "batch", "disk_full_identify", "disk_full_run", "disk_full_batch",
+)
+XFAIL: dict[str, dict[str, str]] = {g: {} for g in GROUPS}
 
 CHECKS = {
     "no_crash": {"signal", "hang", "traceback"},

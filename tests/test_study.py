@@ -155,20 +155,23 @@ def _copy_example(example_dir: Path, dest: Path) -> Path:
     return dest / "experiment.toml"
 
 
-def test_missing_frf_file_is_reported_and_the_rest_written(tmp_path, example_dir, capsys):
-    toml = _copy_example(example_dir, tmp_path / "raw")
+def test_missing_frf_file_is_an_input_error_and_keeps_earlier_results(tmp_path, example_dir,
+                                                                       capsys):
+    """Every input is checked before anything runs: exit 2, one line naming the
+    experiment file, the configuration and the missing file; earlier results untouched."""
+    _copy_example(example_dir, tmp_path / "raw")
     (tmp_path / "raw" / "smaller_tank.uff").unlink()
-    code = main(["run", "--raw", str(tmp_path / "raw"), "--results", str(tmp_path / "res"),
-                 "--json"])
-    assert code == 1
-    out = json.loads(capsys.readouterr().out)
-    assert any("smaller_tank" in p and "no such file" in p for p in out["problems"])
-    t1 = pd.read_csv(tmp_path / "res" / "tables" / "table1_modal_parameters.csv")
-    assert set(t1["configuration"]) == {"genuine", "larger_tank"}
-    t6 = pd.read_csv(tmp_path / "res" / "tables" / "table6_local_added_mass.csv")
-    assert set(t6["configuration"]) == {"larger_tank"}
-    assert "no such file" in (tmp_path / "res" / "report.html").read_text()
-    assert toml.exists()
+    res = tmp_path / "res"
+    (res / "tables").mkdir(parents=True)
+    (res / "report.md").write_text("earlier")
+    code = main(["run", "--raw", str(tmp_path / "raw"), "--results", str(res), "--quiet"])
+    assert code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "experiment.toml" in err[0] and "smaller_tank.uff" in err[0]
+    assert "no such file" in err[0]
+    assert sorted(p.name for p in res.rglob("*")) == ["report.md", "tables"]
+    assert (res / "report.md").read_text() == "earlier"
+    assert not list(tmp_path.glob(".res.*"))
 
 
 def test_unknown_configuration_name_is_a_usage_error(tmp_path, example_dir, capsys):

@@ -104,14 +104,51 @@ def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     path = Path(path)
     check_readable(path, "an FRF file (UFF or HDF5)")
     if frf_format(path) == "uff":
-        return read_frf_uff(path, min_lines=min_lines)
-    frf = read_frf_h5(path)
+        frf = read_frf_uff(path, min_lines=min_lines)
+    else:
+        frf = read_frf_h5(path)
     if frf.freq_hz.size < min_lines:
         raise DataError(
             f"{path}: the FRFs have {frf.freq_hz.size} frequency lines; at least {min_lines} "
             "are needed for identification"
         )
+    check_frequency_axis(frf.freq_hz, str(path))
     return frf
+
+
+#: Plausible frequency axes: line spacing at least this (Hz; a 11.6-day record) ...
+MIN_DF_HZ = 1e-6
+#: ... and no line above this (Hz).
+MAX_AXIS_HZ = 1e7
+
+
+def check_frequency_axis(freq_hz: object, source: str = "") -> None:
+    """Refuse an implausible frequency axis: not finite, negative, not strictly
+    increasing, a spacing below :data:`MIN_DF_HZ` or lines above :data:`MAX_AXIS_HZ`.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> check_frequency_axis(np.arange(8) * 1e-30, "x.uff")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: x.uff: implausible frequency axis: line spacing 1e-30 Hz ...
+    """
+    import numpy as np
+
+    f = np.asarray(freq_hz, dtype=float)
+    where = f"{source}: " if source else ""
+    if f.size == 0 or not np.all(np.isfinite(f)) or f[0] < 0:
+        raise DataError(f"{where}implausible frequency axis: values must be finite and >= 0")
+    steps = np.diff(f)
+    if steps.size and not np.all(steps > 0):
+        raise DataError(f"{where}implausible frequency axis: not strictly increasing")
+    if steps.size and steps.min() < MIN_DF_HZ:
+        raise DataError(f"{where}implausible frequency axis: line spacing {steps.min():.3g} Hz "
+                        f"(at least {MIN_DF_HZ:g} Hz expected)")
+    if f[-1] > MAX_AXIS_HZ:
+        raise DataError(f"{where}implausible frequency axis: lines up to {f[-1]:.3g} Hz "
+                        f"(at most {MAX_AXIS_HZ:g} Hz expected)")
 
 
 def write_frf(
@@ -170,6 +207,7 @@ __all__ = [
     "check_readable",
     "completed_result_sha256",
     "disk_full_error",
+    "check_frequency_axis",
     "experiment_file_path",
     "find_frf_files",
     "frf_format",

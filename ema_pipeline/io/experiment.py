@@ -1,114 +1,347 @@
-"""The experiment description (TOML, read with ``tomllib``).
+"""The experiment description (TOML, read with ``tomllib``), checked against a typed schema.
 
 See ``raw_frf/experiment.toml`` for a commented example.
+
+:func:`read_experiment` validates the whole file before anything else runs:
+every table and key against :data:`SCHEMA` (unknown keys are errors, with a
+"did you mean" hint from :mod:`difflib`), every value's type (``3.7`` is not a
+node number, ``true`` is not a number) and range, configuration names from a
+safe character set (they become file names and report text), and every
+referenced FRF file present, a regular file and readable (``stat`` only: a
+FIFO or a device is refused without being opened). Every problem is one
+:class:`~ema_pipeline.data.DataError` line naming the file and the key
+(``experiment.toml: [identification] band_hz: ...``).
+
+The schema is a small table of checkers written here rather than a schema
+library (jsonschema, pydantic): none is a dependency, and the checks that
+matter (node ranges from the beam, names that are safe file names, the
+"did you mean" hint) are project-specific anyway.
 """
 
 from __future__ import annotations
 
+import difflib
+import math
 import os
+import re
 import tomllib
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 from ema_pipeline.data import Beam, ConfigurationSpec, DataError, Experiment
 from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.io.files import check_readable
+
+#: Configuration names: letters, digits, ``_-.``, no leading dot, at most 64 characters.
+SAFE_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_\-.]{0,63}")
+#: Identification methods the experiment file may name (the backends of identify()).
+METHOD_NAMES = ("plscf", "sdypy-lscf")
+#: Upper bound of ``max_order`` in the file (the data may refuse less: see resources).
+MAX_ORDER_LIMIT = 1000
+#: Largest sensible frequency in Hz for a band or an expected frequency.
+MAX_FREQ_HZ = 1e6
+
+Check = Callable[[Any], Any]  # returns the normalised value or raises ValueError(reason)
 
 
-def _get(table: Mapping[str, Any], key: str, kind: type, path: Path, default: Any = ...) -> Any:
-    if key not in table:
-        if default is ...:
-            raise DataError(f"{path}: missing required key {key!r}")
-        return default
-    value = table[key]
-    if kind is float and isinstance(value, int) and not isinstance(value, bool):
-        value = float(value)
-    if not isinstance(value, kind) or isinstance(value, bool) and kind is not bool:
-        raise DataError(f"{path}: {key!r} must be {kind.__name__}, got {value!r}")
-    return value
+def _number(lo: float | None = None, hi: float | None = None, *, strict_lo: bool = True) -> Check:
+    def check(v: Any) -> float:
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            raise ValueError(f"must be a number, got {v!r}")
+        v = float(v)
+        if not math.isfinite(v):
+            raise ValueError(f"must be a finite number, got {v!r}")
+        if lo is not None and (v <= lo if strict_lo else v < lo):
+            raise ValueError(f"must be {'>' if strict_lo else '>='} {lo:g}, got {v!r}")
+        if hi is not None and v > hi:
+            raise ValueError(f"must be <= {hi:g}, got {v!r}")
+        return v
+
+    return check
 
 
-def read_experiment(path: str | os.PathLike[str]) -> Experiment:
-    """Read an experiment description (TOML). See ``raw_frf/experiment.toml``."""
+def _integer(lo: int | None = None, hi: int | None = None) -> Check:
+    def check(v: Any) -> int:
+        if isinstance(v, bool) or not isinstance(v, int):
+            raise ValueError(f"must be an integer, got {v!r}")
+        if lo is not None and v < lo or hi is not None and v > hi:
+            bounds = f"{lo if lo is not None else ''}..{hi if hi is not None else ''}"
+            raise ValueError(f"must be an integer in {bounds}, got {v!r}")
+        return v
+
+    return check
+
+
+def _text(v: Any) -> str:
+    if not isinstance(v, str):
+        raise ValueError(f"must be a string, got {v!r}")
+    return v
+
+
+def _flag(v: Any) -> bool:
+    if not isinstance(v, bool):
+        raise ValueError(f"must be true or false, got {v!r}")
+    return v
+
+
+def _choice(*options: str) -> Check:
+    def check(v: Any) -> str:
+        if v not in options:
+            raise ValueError(f"must be one of {', '.join(map(repr, options))}, got {v!r}")
+        return str(v)
+
+    return check
+
+
+def _list(item: Check, *, min_len: int = 0, max_len: int | None = None) -> Check:
+    def check(v: Any) -> tuple:
+        if not isinstance(v, list):
+            raise ValueError(f"must be a list, got {v!r}")
+        if len(v) < min_len or max_len is not None and len(v) > max_len:
+            n = f"{min_len}" if max_len == min_len else f"{min_len}..{max_len or ''}"
+            raise ValueError(f"must have {n} entries, got {len(v)}")
+        out = []
+        for k, x in enumerate(v):
+            try:
+                out.append(item(x))
+            except ValueError as exc:
+                raise ValueError(f"entry {k + 1} {exc}") from None
+        return tuple(out)
+
+    return check
+
+
+def _band(v: Any) -> tuple[float, float]:
+    lo, hi = _list(_number(0.0, MAX_FREQ_HZ, strict_lo=False), min_len=2, max_len=2)(v)
+    if not lo < hi:
+        raise ValueError(f"must be [low, high] with low < high, got {list(v)}")
+    return lo, hi
+
+
+def name_is_safe(name: str) -> bool:
+    """Whether ``name`` may be a configuration name (it becomes part of file names).
+
+    Examples
+    --------
+    >>> [name_is_safe(n) for n in ("larger_tank", "run-2.b", "../x", ".hidden", "a/b", "")]
+    [True, True, False, False, False, False]
+    """
+    return bool(SAFE_NAME.fullmatch(name))
+
+
+def _name(v: Any) -> str:
+    v = _text(v)
+    if not name_is_safe(v):
+        raise ValueError(
+            f"{v!r} is not a safe name: use 1-64 letters, digits, '_', '-', '.', "
+            "not starting with a dot"
+        )
+    return v
+
+
+def _direction(v: Any) -> int:
+    v = _integer(-3, 3)(v)
+    if v == 0:
+        raise ValueError("must be 1, 2 or 3 (x, y, z; negative: minus), got 0")
+    return v
+
+
+#: table -> key -> checker. ``configurations`` entries are checked per entry.
+SCHEMA: dict[str, dict[str, Check]] = {
+    "experiment": {"name": _text, "genuine": _text},
+    "beam": {
+        "length_m": _number(0.0, 1e3),
+        "width_m": _number(0.0, 1e2),
+        "thickness_m": _number(0.0, 1e2),
+        "youngs_modulus_pa": _number(0.0, 1e13),
+        "density_kg_m3": _number(0.0, 1e5),
+        "n_elements": _integer(1, 10_000),
+        "n_measurement_elements": _integer(1, 1_000),
+    },
+    "sensors": {
+        "response_nodes": _list(_integer(), min_len=1, max_len=1000),
+        "hammer_node": _integer(),
+        "direction": _direction,
+    },
+    "identification": {
+        "band_hz": _band,
+        "max_order": _integer(2, MAX_ORDER_LIMIT),
+        "method": _choice(*METHOD_NAMES),
+        "expect_hz": _list(_number(0.0, MAX_FREQ_HZ), max_len=1000),
+        "weighting": _choice("none", "coherence"),
+        "tol_freq": _number(0.0, 1.0),
+        "tol_zeta": _number(0.0, 10.0),
+        "tol_mac": _number(0.0, 1.0),
+        "min_fraction": _number(0.0, 1.0),
+        "refine": _flag,
+        "lower_residual": _flag,
+        "upper_residual": _flag,
+    },
+    "fe": {
+        "immersed_elements": _list(_integer(), min_len=1, max_len=1000),
+        "n_modes": _integer(1, 50),
+        "update_repeats": _integer(1, 1000),
+        "seed": _integer(0, 2**32 - 1),
+    },
+}
+
+
+#: keys of a ``[[configurations]]`` entry read from a file / simulated on the FE beam.
+FILE_CONFIGURATION: dict[str, Check] = {
+    "name": _name,
+    "file": _text,
+    "description": _text,
+    "exp_window_tau_s": _number(0.0, 1e4),
+}
+SIMULATED_CONFIGURATION: dict[str, Check] = {
+    "name": _name,
+    "added_mass": lambda v: v,  # checked with the beam below
+    "description": _text,
+    "zeta_pct": _list(_number(0.0, 100.0), min_len=1, max_len=100),
+    "snr_db": _number(None, 400.0),
+    "seed": _integer(0, 2**32 - 1),
+}
+
+
+def _hint(key: str, known: list[str]) -> str:
+    close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else f" (known: {', '.join(known)})"
+
+
+def _check_table(
+    table: Any, schema: Mapping[str, Check], where: str, required: tuple[str, ...] = ()
+) -> dict[str, Any]:
+    """The keys of ``table`` checked against ``schema`` (normalised values)."""
+    if not isinstance(table, dict):
+        raise DataError(f"{where}: must be a table, got {table!r}")
+    for key in table:
+        if key not in schema:
+            raise DataError(f"{where} {key}: unknown key{_hint(key, list(schema))}")
+    for key in required:
+        if key not in table:
+            raise DataError(f"{where}: missing required key {key!r}")
+    out = {}
+    for key, value in table.items():
+        try:
+            out[key] = schema[key](value)
+        except ValueError as exc:
+            raise DataError(f"{where} {key}: {exc}") from None
+    return out
+
+
+def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -> Experiment:
+    """Read and validate an experiment description (TOML). See ``raw_frf/experiment.toml``.
+
+    ``check_files=False`` skips the check that every referenced FRF file is a
+    readable regular file. Raises :class:`~ema_pipeline.data.DataError` (one
+    line naming the file and the key) on any problem.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     toml = pathlib.Path(tmp) / "experiment.toml"
+    ...     _ = toml.write_text('[identification]\\nbandhz = [5, 400]\\n')
+    ...     read_experiment(toml)  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: ...[identification] bandhz: unknown key (did you mean 'band_hz'?)
+    """
     path = Path(path)
-    if not path.is_file():
-        raise DataError(f"{path}: experiment file not found")
+    check_readable(path, "an experiment file (TOML)")
     try:
         doc = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise DataError(f"{path}: not valid TOML ({exc})") from exc
-    beam_t = doc.get("beam", {})
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from exc
+    known = [*SCHEMA, "configurations"]
+    for key in doc:
+        if key not in known:
+            raise DataError(f"{path}: [{key}]: unknown table{_hint(key, known)}")
+    t = {name: _check_table(doc.get(name, {}), schema, f"{path}: [{name}]")
+         for name, schema in SCHEMA.items()}
     try:
-        beam = Beam(
-            length_m=_get(beam_t, "length_m", float, path, 0.65),
-            width_m=_get(beam_t, "width_m", float, path, 0.05),
-            thickness_m=_get(beam_t, "thickness_m", float, path, 0.01),
-            youngs_modulus_pa=_get(beam_t, "youngs_modulus_pa", float, path, 210e9),
-            density_kg_m3=_get(beam_t, "density_kg_m3", float, path, 7800.0),
-            n_elements=_get(beam_t, "n_elements", int, path, 100),
-            n_measurement_elements=_get(beam_t, "n_measurement_elements", int, path, 10),
-        )
+        beam = Beam(**t["beam"])
     except DataError as exc:
         raise DataError(f"{path}: [beam] {exc}") from exc
-    sensors = doc.get("sensors", {})
-    ident = doc.get("identification", {})
-    fe = doc.get("fe", {})
     configs = doc.get("configurations", [])
     if not isinstance(configs, list) or not configs:
         raise DataError(f"{path}: needs at least one [[configurations]] entry")
     specs = []
     for k, c in enumerate(configs, start=1):
+        where = f"{path}: [[configurations]] {k}"
         if isinstance(c, dict) and "name" in c and "added_mass" in c:
             specs.append(read_simulated_configuration(c, k, beam, path))
             continue
         if not isinstance(c, dict) or "name" not in c or "file" not in c:
             raise DataError(
-                f"{path}: configuration {k} needs 'name' and 'file' (or 'added_mass' for a "
+                f"{where}: configuration {k} needs 'name' and 'file' (or 'added_mass' for a "
                 "simulated one)"
             )
-        tau = c.get("exp_window_tau_s")
+        entry = _check_table(c, FILE_CONFIGURATION, where)
         specs.append(
             ConfigurationSpec(
-                name=str(c["name"]),
-                file=str(c["file"]),
-                description=str(c.get("description", "")),
-                exp_window_tau_s=None if tau is None else float(tau),
+                name=entry["name"],
+                file=entry["file"],
+                description=entry.get("description", ""),
+                exp_window_tau_s=entry.get("exp_window_tau_s"),
             )
         )
     names = [s.name for s in specs]
     if len(set(names)) != len(names):
-        raise DataError(f"{path}: configuration names repeat: {names}")
-    genuine = str(doc.get("experiment", {}).get("genuine", names[0]))
+        raise DataError(f"{path}: [[configurations]] name: names repeat: {names}")
+    genuine = t["experiment"].get("genuine", names[0])
     if genuine not in names:
-        raise DataError(f"{path}: genuine configuration {genuine!r} is not among {names}")
-    identification = read_identification_options(ident, path)
+        raise DataError(
+            f"{path}: [experiment] genuine: genuine configuration {genuine!r} is not among {names}"
+        )
     n_nodes = beam.n_measurement_elements + 1
-    immersed = tuple(int(e) for e in fe.get("immersed_elements", [beam.n_measurement_elements]))
+    fe = t["fe"]
+    immersed = fe.get("immersed_elements", (beam.n_measurement_elements,))
     for e in immersed:
         if not 1 <= e <= beam.n_measurement_elements:
             raise DataError(
-                f"{path}: immersed element {e} does not exist (1..{beam.n_measurement_elements})"
+                f"{path}: [fe] immersed_elements: immersed element {e} does not exist "
+                f"(1..{beam.n_measurement_elements})"
             )
-    response_nodes = tuple(int(n) for n in sensors.get("response_nodes", [3, 6]))
-    hammer = int(sensors.get("hammer_node", 8))
-    for node in (*response_nodes, hammer):
-        if not 1 <= node <= n_nodes:
-            raise DataError(f"{path}: sensor node {node} does not exist (1..{n_nodes})")
-    return Experiment(
-        name=str(doc.get("experiment", {}).get("name", path.stem)),
+    sensors = t["sensors"]
+    response_nodes = sensors.get("response_nodes", (3, 6))
+    hammer = sensors.get("hammer_node", 8)
+    for key, nodes in (("response_nodes", response_nodes), ("hammer_node", (hammer,))):
+        for node in nodes:
+            if not 1 <= node <= n_nodes:
+                raise DataError(
+                    f"{path}: [sensors] {key}: sensor node {node} does not exist (1..{n_nodes})"
+                )
+    if len(set(response_nodes)) != len(response_nodes):
+        raise DataError(f"{path}: [sensors] response_nodes: nodes repeat: {list(response_nodes)}")
+    experiment = Experiment(
+        name=t["experiment"].get("name", path.stem),
         beam=beam,
         configurations=tuple(specs),
         base_dir=str(path.parent),
         genuine=genuine,
-        response_nodes=response_nodes,
+        response_nodes=tuple(response_nodes),
         hammer_node=hammer,
-        direction=int(sensors.get("direction", 3)),
-        identification=identification,
-        immersed_elements=immersed,
-        n_modes=int(fe.get("n_modes", 4)),
-        update_repeats=int(fe.get("update_repeats", 5)),
-        seed=int(fe.get("seed", 0)),
+        direction=sensors.get("direction", 3),
+        identification=read_identification_options(doc.get("identification", {}), path),
+        immersed_elements=tuple(immersed),
+        n_modes=fe.get("n_modes", 4),
+        update_repeats=fe.get("update_repeats", 5),
+        seed=fe.get("seed", 0),
     )
+    if check_files:
+        for k, spec in enumerate(specs, start=1):
+            if spec.added_mass is None:
+                try:
+                    check_readable(experiment_file_path(experiment, spec), "an FRF file")
+                except DataError as exc:
+                    raise DataError(
+                        f"{path}: [[configurations]] {k} file ({spec.name}): {exc}"
+                    ) from None
+    return experiment
 
 
 def read_simulated_configuration(
@@ -126,6 +359,7 @@ def read_simulated_configuration(
     where = f"{path}: configuration {position} ({table.get('name')!r})"
     if "file" in table:
         raise DataError(f"{where}: give either 'file' or 'added_mass', not both")
+    entry = _check_table(table, SIMULATED_CONFIGURATION, where)
     added = table["added_mass"]
     if not isinstance(added, dict):
         raise DataError(f"{where}: added_mass must be a table such as {{10 = 0.3}}, got {added!r}")
@@ -140,25 +374,21 @@ def read_simulated_configuration(
                 f"{where}: added_mass element {el_i} does not exist "
                 f"(1..{beam.n_measurement_elements})"
             )
-        if isinstance(frac, bool) or not isinstance(frac, int | float) or not frac > -1:
+        if (isinstance(frac, bool) or not isinstance(frac, int | float)
+                or not (math.isfinite(frac) and -1 < frac <= 1e3)):
             raise DataError(f"{where}: added_mass of element {el_i} must be a number > -1, "
                             f"got {frac!r}")
         pairs.append((el_i, float(frac)))
-    zeta = table.get("zeta_pct")
-    if zeta is not None and (
-        not isinstance(zeta, list)
-        or not all(isinstance(z, int | float) and not isinstance(z, bool) for z in zeta)
-    ):
-        raise DataError(f"{where}: zeta_pct must be a list of numbers (percent), got {zeta!r}")
-    snr = _get(table, "snr_db", float, path, 40.0)
+    snr = entry.get("snr_db", 40.0)
+    zeta = entry.get("zeta_pct")
     return ConfigurationSpec(
-        name=str(table["name"]),
+        name=entry["name"],
         file="",
-        description=str(table.get("description", "")),
+        description=entry.get("description", ""),
         added_mass=tuple(sorted(pairs)),
-        zeta_pct=None if zeta is None else tuple(float(z) for z in zeta),
+        zeta_pct=zeta,
         snr_db=snr if snr > 0 else None,
-        seed=_get(table, "seed", int, path, position),
+        seed=entry.get("seed", position),
     )
 
 
@@ -173,22 +403,10 @@ def read_identification_options(
     missing key keeps the option's default. (The exponential window's time
     constant is per configuration: ``[[configurations]] exp_window_tau_s``.)
     """
-    default = IdentificationOptions()
-    band = table.get("band_hz")
-    if band is not None and (len(band) != 2 or not float(band[0]) < float(band[1])):
-        raise DataError(f"{path}: identification.band_hz must be [low, high], got {band}")
-    max_order = table.get("max_order")
-    floats = ("tol_freq", "tol_zeta", "tol_mac", "min_fraction")
-    flags = ("refine", "lower_residual", "upper_residual")
-    return IdentificationOptions(
-        band_hz=None if band is None else (float(band[0]), float(band[1])),
-        max_order=None if max_order is None else int(max_order),
-        method=str(table.get("method", default.method)),  # type: ignore[arg-type]
-        expect_hz=tuple(float(f) for f in table.get("expect_hz", [])),
-        weighting=_get(table, "weighting", str, path, default.weighting),
-        **{key: _get(table, key, float, path, getattr(default, key)) for key in floats},
-        **{key: _get(table, key, bool, path, getattr(default, key)) for key in flags},
-    )
+    values = _check_table(table, SCHEMA["identification"], f"{path}: [identification]")
+    if "expect_hz" in values:
+        values["expect_hz"] = tuple(values["expect_hz"])
+    return IdentificationOptions(**values)
 
 
 def experiment_file_path(experiment: Experiment, spec: ConfigurationSpec) -> Path:

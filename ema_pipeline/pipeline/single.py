@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ema_pipeline import io
-from ema_pipeline.data import MIN_FRF_LINES, DataError, FRFSet
+from ema_pipeline.data import MIN_FRF_LINES, DataError, EMAError, FRFSet
 from ema_pipeline.identification import (
     IdentificationOptions,
     IdentificationResult,
@@ -30,6 +30,7 @@ from ema_pipeline.identification.expect import (
     not_found_message,
     with_expected_rows,
 )
+from ema_pipeline.identification.resources import check_identification
 
 
 @dataclass
@@ -42,6 +43,7 @@ class FileOutcome:
     status: str = "ok"  # ok | skipped | failed
     reason: str = ""
     warnings: list[str] = field(default_factory=list)  # e.g. an expected mode not found
+    runtime: bool = False  # failed for a runtime reason (disk full, ...), not the input
     n_modes: int = 0
     fn_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
     zeta: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -131,6 +133,7 @@ def identify_file(
             return outcome
         frf = load_frf(path, options)
         outcome.configuration = frf.configuration
+        check_identification(frf, options, source=str(path))
         result = identify_frf(frf, options)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
@@ -159,10 +162,11 @@ def identify_file(
         outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
         if keep:
             outcome.frf, outcome.result = frf, result
-    except DataError as exc:
+    except EMAError as exc:
         outcome.status, outcome.reason = "failed", str(exc)
-    except (OSError, ValueError, np.linalg.LinAlgError) as exc:
+    except (OSError, ValueError, MemoryError, np.linalg.LinAlgError) as exc:
         outcome.status, outcome.reason = "failed", f"{path}: {type(exc).__name__}: {exc}"
+        outcome.runtime = isinstance(exc, OSError | MemoryError)  # else: the input's fault
     finally:
         outcome.seconds = time.perf_counter() - start
     return outcome

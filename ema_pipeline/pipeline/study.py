@@ -8,13 +8,29 @@ Markdown/HTML report and its figures.
 Failures are collected, not raised: a missing FRF file, an unknown
 configuration or too few identified modes becomes a *problem* that is printed
 and written into the report, and everything that can still be computed is.
-The results folder is written into a temporary sibling folder and swapped in
-at the end, so an interrupted run never leaves a half-written results folder;
-the numbers are reproducible (fixed seeds, no time stamps in the outputs).
+Inputs are validated before anything is computed or written
+(:func:`prepare_study`): the experiment file against its schema, every FRF
+file read and checked (sensor DOFs, band, orders, window, memory estimate); any
+problem there is an input error (exit 2) and nothing is written.
+
+Results are never lost. The results folder is written into a fresh sibling
+folder ``.NAME.partial-PID-XXXX`` and swapped in only when complete
+(:func:`swap_in`): with Linux ``renameat2(RENAME_EXCHANGE)`` the old and the new
+folder trade places in one atomic step, then the old one is removed; where
+that call is unavailable, two renames (old -> ``.NAME.old-PID``, new -> NAME)
+and a killed run's backup is put back by the next run. A failure anywhere
+(settings, inputs, a full disk) leaves an existing results folder
+byte-identical; a run whose study has *problems* (exit 1) writes its incomplete
+results only when there is no earlier results folder to lose. Partial folders
+of killed runs (their process is gone) are removed by the next run
+(:func:`remove_stale_partials`). The numbers are reproducible (fixed seeds, no
+time stamps in the outputs).
 """
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import json
 import os
 import shutil
@@ -37,6 +53,7 @@ from ema_pipeline.data import (
     FRFSet,
     ModalParameters,
 )
+from ema_pipeline.identification.resources import check_identification
 from ema_pipeline.pipeline.simulate import simulate_configuration
 from ema_pipeline.pipeline.single import identify_frf, load_frf
 
@@ -90,7 +107,50 @@ def table1(measured: dict[str, ModalParameters]) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=columns)
 
 
-def _identify_all(exp: Experiment, result: StudyResult, say: Progress) -> None:
+def _check_sensors(exp: Experiment, frf: FRFSet, path: Path, experiment_file: str) -> None:
+    """The FRF file's DOFs must be the experiment's sensors (or, after reciprocity
+    of a roving-hammer set, the other way round)."""
+    resp = sorted({d.node for d in frf.response_dofs})
+    ref = sorted({d.node for d in frf.reference_dofs})
+    want_resp, want_ref = sorted(set(exp.response_nodes)), [exp.hammer_node]
+    if (resp, ref) in ((want_resp, want_ref), (want_ref, want_resp)):
+        return
+    raise DataError(
+        f"{path}: its FRFs are measured at response nodes {resp}, reference nodes {ref}; "
+        f"{experiment_file} [sensors] says response_nodes {want_resp}, hammer_node "
+        f"{exp.hammer_node}"
+    )
+
+
+def prepare_study(
+    experiment: Experiment, experiment_file: str | os.PathLike[str] = "experiment.toml"
+) -> dict[str, FRFSet]:
+    """Read and check every configuration's FRF file before anything is computed.
+
+    Each file is read (HDF5 checked in a child process first, see
+    :func:`ema_pipeline.io.check_hdf5`), its sensors compared with the
+    experiment's, and the identification settings checked against it
+    (:func:`ema_pipeline.identification.resources.check_identification`: band,
+    orders, window time constant, memory). Returns the FRF sets by
+    configuration name; raises DataError / ConfigError (input errors) naming
+    the file.
+    """
+    frfs: dict[str, FRFSet] = {}
+    for spec in experiment.configurations:
+        options = replace(experiment.identification, exp_window_tau_s=spec.exp_window_tau_s)
+        if spec.added_mass is not None:
+            continue
+        path = io.experiment_file_path(experiment, spec)
+        frf = replace(load_frf(path, options), configuration=spec.name)
+        _check_sensors(experiment, frf, path, str(experiment_file))
+        check_identification(frf, options, source=f"{path} ({spec.name})")
+        frfs[spec.name] = frf
+    return frfs
+
+
+def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
+                  loaded: dict[str, FRFSet] | None = None) -> None:
+    loaded = loaded or {}
     for k, spec in enumerate(exp.configurations, start=1):
         # a configuration declared with added_mass has no file: simulated on the FE beam
         path = None if spec.added_mass is not None else io.experiment_file_path(exp, spec)
@@ -99,8 +159,11 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress) -> None:
         say(f"[identify {k}/{len(exp.configurations)}] {spec.name}: {source}")
         try:
             options = replace(exp.identification, exp_window_tau_s=spec.exp_window_tau_s)
-            frf = simulate_configuration(exp, spec) if path is None else replace(
-                load_frf(path, options), configuration=spec.name)
+            if spec.name in loaded:
+                frf = loaded[spec.name]
+            else:
+                frf = simulate_configuration(exp, spec) if path is None else replace(
+                    load_frf(path, options), configuration=spec.name)
             ident = identify_frf(frf, options)
         except DataError as exc:
             result.problems.append(f"configuration {spec.name!r}: {exc}")
@@ -194,16 +257,18 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
 
 
 def run_study(
-    experiment: Experiment, *, progress: Progress | None = None, progress_bars: bool = False
+    experiment: Experiment, *, progress: Progress | None = None, progress_bars: bool = False,
+    frfs: dict[str, FRFSet] | None = None,
 ) -> StudyResult:
-    """Run identification, added mass and the FE stage for an experiment."""
+    """Run identification, added mass and the FE stage for an experiment
+    (``frfs``: the FRF sets :func:`prepare_study` read, by configuration)."""
     say = progress or (lambda _msg: None)
     result = StudyResult(experiment=experiment)
     names = [c.name for c in experiment.configurations]
     if experiment.genuine_name not in names:
         raise ConfigError(f"genuine configuration {experiment.genuine_name!r} not in {names}")
     start = time.perf_counter()
-    _identify_all(experiment, result, say)
+    _identify_all(experiment, result, say, frfs)
     result.tables["table1_modal_parameters"] = table1(result.measured)
     _fe_stage(experiment, result, say, progress_bars)
     result.seconds["total"] = time.perf_counter() - start
@@ -322,15 +387,87 @@ def summary(result: StudyResult) -> dict[str, Any]:
     return out
 
 
-def _swap_in(tmp_dir: Path, results_dir: Path) -> None:
-    """Replace ``results_dir`` by the finished ``tmp_dir`` (two renames)."""
-    old = None
-    if results_dir.exists():
-        old = results_dir.with_name(f".{results_dir.name}.old-{os.getpid()}")
-        os.replace(results_dir, old)
-    os.replace(tmp_dir, results_dir)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
+_RENAME_EXCHANGE, _AT_FDCWD = 2, -100
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Atomically exchange two paths (Linux ``renameat2``); False if unsupported."""
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError, TypeError):
+        return False
+    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
+                          ctypes.c_uint]
+    if renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
+        return True
+    err = ctypes.get_errno()
+    if err in (22, 38, 95):  # EINVAL, ENOSYS, EOPNOTSUPP: this filesystem cannot
+        return False
+    raise OSError(err, os.strerror(err), str(b))
+
+
+def swap_in(new_dir: Path, results_dir: Path) -> None:
+    """Replace ``results_dir`` by the finished ``new_dir`` in one atomic step.
+
+    With ``renameat2(RENAME_EXCHANGE)`` the two folders trade places atomically
+    and the old one (now at ``new_dir``) is removed; otherwise old ->
+    ``.NAME.old-PID``, new -> NAME, remove the backup (a run killed between the
+    two renames leaves the backup, which :func:`remove_stale_partials` restores).
+    """
+    if not results_dir.exists():
+        os.rename(new_dir, results_dir)
+        return
+    if _exchange(new_dir, results_dir):
+        shutil.rmtree(new_dir, ignore_errors=True)
+        return
+    old = results_dir.with_name(f".{results_dir.name}.old-{os.getpid()}")
+    os.rename(results_dir, old)
+    try:
+        os.rename(new_dir, results_dir)
+    except BaseException:
+        os.rename(old, results_dir)
+        raise
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
+def remove_stale_partials(results_dir: str | os.PathLike[str]) -> int:
+    """Remove the ``.NAME.partial-PID-*`` folders of runs whose process is gone,
+    and put back a ``.NAME.old-PID`` backup when NAME is missing (a run killed
+    between the two renames of :func:`swap_in`). Returns how many were removed."""
+    results_dir = Path(results_dir).absolute()
+    parent, name = results_dir.parent, results_dir.name
+    if not parent.is_dir():
+        return 0
+    removed = 0
+    for p in parent.glob(f".{name}.old-*"):
+        pid = p.name.rsplit("-", 1)[-1]
+        if pid.isdigit() and not _pid_alive(int(pid)):
+            if not results_dir.exists():
+                os.rename(p, results_dir)
+            else:
+                shutil.rmtree(p, ignore_errors=True)
+                removed += 1
+    for p in parent.glob(f".{name}.partial-*"):
+        pid = p.name[len(f".{name}.partial-"):].split("-", 1)[0]
+        if not pid.isdigit() or not _pid_alive(int(pid)) or int(pid) == os.getpid():
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p, ignore_errors=True)
+            else:
+                p.unlink(missing_ok=True)
+            removed += 1
+    return removed
 
 
 def write_study(
@@ -344,15 +481,18 @@ def write_study(
     """Write tables, HDF5 store, figures (SVG, unless ``figures=False``) and
     reports; returns the files written.
 
-    Everything goes to a temporary folder beside ``results_dir`` first, which
-    replaces ``results_dir`` only when complete.
+    Everything goes to a fresh folder beside ``results_dir`` first, which
+    replaces ``results_dir`` only when complete (:func:`swap_in`); on any
+    failure it is removed and ``results_dir`` is untouched.
     """
     from ema_pipeline import report
 
     say = say or (lambda _msg: None)
     results_dir = Path(results_dir).resolve()
     results_dir.parent.mkdir(parents=True, exist_ok=True)
-    tmp_dir = Path(tempfile.mkdtemp(prefix=f".{results_dir.name}.partial-", dir=results_dir.parent))
+    remove_stale_partials(results_dir)
+    tmp_dir = Path(tempfile.mkdtemp(prefix=f".{results_dir.name}.partial-{os.getpid()}-",
+                                    dir=results_dir.parent))
     try:
         for name, table in result.tables.items():
             io.write_csv(table, tmp_dir / "tables" / f"{name}.csv")
@@ -378,7 +518,7 @@ def write_study(
             tmp_dir / "ema_results.h5",
         )
         tmp_dir.chmod(0o755)
-        _swap_in(tmp_dir, results_dir)
+        swap_in(tmp_dir, results_dir)
     except BaseException:
         shutil.rmtree(tmp_dir, ignore_errors=True)
         raise

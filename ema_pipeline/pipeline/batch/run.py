@@ -23,8 +23,9 @@ from typing import Any, Protocol
 
 from tqdm import tqdm
 
-from ema_pipeline.data import ConfigError
+from ema_pipeline.data import ConfigError, EMAError
 from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.io import sha256_file
 from ema_pipeline.pipeline.batch.dask import DaskBackend
 from ema_pipeline.pipeline.batch.local import LocalBackend, default_workers
 from ema_pipeline.pipeline.batch.resume import batch_lock, remove_stale_temporaries
@@ -301,7 +302,7 @@ class _Loop:
                 continue
             self.summary.writerow(summary_row(rec, self.report.out))
             if rec.status == "failed":
-                self.failures.writerow([rec.file, rec.sha256, rec.reason])
+                self.failures.writerow([rec.file, rec.sha256 or "-", rec.reason])
 
 
 def run_tasks(
@@ -359,4 +360,9 @@ def _collect(future: cf.Future[FileRecord], slot: _Slot) -> FileRecord | None:
         reason = "the worker process died while processing this file (crash or out of memory?)"
     else:
         reason = f"{type(exc).__name__}: {exc}"
-    return FileRecord(file=slot.task.file, status="failed", reason=naming(reason, slot.task))
+    try:  # regular files only: never blocks on a FIFO or reads a device
+        sha256 = sha256_file(slot.task.path)
+    except (EMAError, OSError):
+        sha256 = "-"
+    return FileRecord(file=slot.task.file, status="failed", sha256=sha256,
+                      reason=naming(reason, slot.task))

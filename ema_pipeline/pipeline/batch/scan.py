@@ -22,9 +22,11 @@ def is_inside(path: Path, folder: Path) -> bool:
 
 
 def find_inputs(folder: Path, out: Path) -> list[Path]:
-    """The FRF files under ``folder`` (sorted), without those inside ``out``."""
+    """The FRF files under ``folder`` (sorted), without those inside ``out`` and
+    without result stores of ``identify`` / ``batch`` (``*_result.h5``): a batch
+    never ingests its own outputs."""
     folder, out = folder.absolute(), out.absolute()
-    files = io.find_frf_files(folder)
+    files = [p for p in io.find_frf_files(folder) if not p.name.endswith("_result.h5")]
     if is_inside(out, folder):
         files = [p for p in files if not is_inside(p, out)]
     return files

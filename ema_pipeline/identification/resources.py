@@ -1,0 +1,180 @@
+"""Resource guard and plausibility of the identification settings, checked up front.
+
+:func:`check_identification` is called by the pipeline (``identify``, ``batch``,
+``run``) once the size of the FRF set is known and *before* the identification
+allocates anything: it refuses orders the data cannot support (more
+unknowns than equations, fewer than six diagram orders), a band outside the
+frequency axis or with too few lines, and settings whose estimated memory
+(:func:`estimate_memory_bytes`) exceeds a limit (default
+:data:`DEFAULT_MEMORY_LIMIT_GB` GiB; ``--memory-limit-gb`` or the environment
+variable ``EMA_MEMORY_LIMIT_GB``). Every refusal is a
+:class:`~ema_pipeline.data.ConfigError` with the number and a hint.
+
+The estimate is a plain operation count of the arrays the methods build (see
+:func:`estimate_memory_bytes`), not a measurement: a measurement would need the
+allocation it is meant to prevent.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from ema_pipeline.data import ConfigError, FRFSet
+from ema_pipeline.identification.options import IdentificationOptions
+
+#: Default memory limit of one identification, GiB.
+DEFAULT_MEMORY_LIMIT_GB = 4.0
+#: Environment variable that overrides the default limit (GiB).
+MEMORY_LIMIT_ENV = "EMA_MEMORY_LIMIT_GB"
+#: Lowest ``max_order`` per method: a stabilization diagram needs at least six orders
+#: (pLSCF with one reference computes every second order).
+MIN_ORDER = {"plscf": 12, "sdypy-lscf": 10}
+#: Fewest frequency lines in the band.
+MIN_BAND_LINES = 16
+#: Largest companion matrix (poles) of a fixed-order pLSCF run.
+MAX_POLES = 480
+_GIB = 1 << 30
+
+
+def order_cap(n_lines: int, n_in: int, max_poles: int = MAX_POLES) -> int:
+    """Highest fixed ``max_order`` the lines in the band support.
+
+    The model of order p has p n_in poles and (p + 1) n_in real numerator
+    coefficients per output; the 2 n_lines real equations of each output must
+    outnumber them at least 2:1 (p <= n_lines / n_in - 1, taken as n_lines / 4
+    for one reference), and the companion matrix stays below ``max_poles``
+    rows (p <= max_poles / n_in).
+
+    Examples
+    --------
+    >>> order_cap(8000, 1), order_cap(8000, 3), order_cap(400, 1)
+    (480, 160, 100)
+    """
+    by_lines = (n_lines // 2 - 1) // max(n_in, 1) if n_in > 1 else n_lines // 4
+    return int(max(2, min(by_lines, max_poles // max(n_in, 1))))
+
+
+def memory_limit_bytes(limit_gb: float | None = None) -> int:
+    """The memory limit in bytes: ``limit_gb``, else ``$EMA_MEMORY_LIMIT_GB``, else 4 GiB.
+
+    Examples
+    --------
+    >>> memory_limit_bytes(0.5)
+    536870912
+    """
+    if limit_gb is None:
+        text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+        if text:
+            try:
+                limit_gb = float(text)
+            except ValueError:
+                raise ConfigError(f"{MEMORY_LIMIT_ENV}={text!r} is not a number (GiB)") from None
+        else:
+            limit_gb = DEFAULT_MEMORY_LIMIT_GB
+    if not (math.isfinite(limit_gb) and limit_gb > 0):
+        raise ConfigError(f"memory limit must be a positive number of GiB, got {limit_gb!r}")
+    return int(limit_gb * _GIB)
+
+
+def estimate_memory_bytes(n_lines: int, n_in: int, n_out: int, max_order: int,
+                          method: str = "plscf") -> int:
+    """Estimated peak memory (bytes) of one identification at ``max_order``.
+
+    pLSCF (Peeters et al. 2004): the complex basis and the per-output
+    regression blocks, ``n_lines * (p + 1) * n_in * n_out`` complex numbers
+    (twice, for the normal equations' products), the reduced normal matrices
+    ``(p + 1)^2 * n_in^2 * n_out`` reals (R, S, T per output), the companion
+    matrix of the highest order ``(p n_in)^2`` complex with LAPACK's workspace
+    (x4), and LSFD ``n_lines * n_out * n_in * 2 p n_in`` complex. sdypy-EMA's
+    LSCF solves up to order ``2 p``.
+
+    Examples
+    --------
+    >>> round(estimate_memory_bytes(3200, 1, 2, 40) / 2**20, 1)  # MiB
+    16.0
+    >>> estimate_memory_bytes(3200, 1, 2, 2000) > estimate_memory_bytes(3200, 1, 2, 500)
+    True
+    """
+    p = 2 * max_order if method == "sdypy-lscf" else max_order
+    c, r = 16, 8  # bytes of a complex128 and a float64
+    regression = 2 * c * n_lines * (p + 1) * n_in * n_out
+    normal = 3 * r * (p + 1) ** 2 * n_in**2 * n_out
+    companion = 4 * c * (p * n_in) ** 2
+    lsfd = c * n_lines * n_out * n_in * 2 * p * n_in
+    return int(regression + normal + companion + lsfd)
+
+
+def check_identification(frf: FRFSet, options: IdentificationOptions, *,
+                         memory_limit_gb: float | None = None, source: str = "") -> None:
+    """Refuse settings that cannot work on ``frf`` before identifying it.
+
+    Checks the band against the frequency axis (inside it, at least
+    :data:`MIN_BAND_LINES` lines), ``max_order`` against :data:`MIN_ORDER` and
+    :func:`order_cap` (pLSCF),
+    ``expect_hz`` inside the band, the window time constant (> 0), and the
+    memory estimate against the limit. Raises ConfigError naming ``source``.
+
+    Examples
+    --------
+    >>> frf = FRFSet(freq_hz=np.arange(0.0, 100.0, 0.5), H=np.ones((1, 1, 200), complex))
+    >>> check_identification(frf, IdentificationOptions(band_hz=(5.0, 1e9)),
+    ...                      source="x.h5")  # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.ConfigError: x.h5: band 5..1e+09 Hz reaches beyond the frequency axis ...
+    """
+    where = f"{source}: " if source else ""
+    f = np.asarray(frf.freq_hz, dtype=float)
+    lo_axis, hi_axis = float(f[0]), float(f[-1])
+    lo, hi = options.band_hz if options.band_hz is not None else (lo_axis, hi_axis)
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
+        raise ConfigError(f"{where}band {lo:g}..{hi:g} Hz must be finite with 0 <= LO < HI")
+    if options.band_hz is not None and (lo < lo_axis - frf.df_hz or hi > hi_axis + frf.df_hz):
+        raise ConfigError(
+            f"{where}band {lo:g}..{hi:g} Hz reaches beyond the frequency axis "
+            f"{lo_axis:g}..{hi_axis:g} Hz"
+        )
+    n_lines = int(np.count_nonzero((f >= lo) & (f <= hi)))
+    if n_lines < MIN_BAND_LINES:
+        raise ConfigError(
+            f"{where}band {lo:g}..{hi:g} Hz holds {n_lines} frequency lines; at least "
+            f"{MIN_BAND_LINES} are needed"
+        )
+    for fx in options.expect_hz:
+        if not (math.isfinite(fx) and lo <= fx <= hi):
+            raise ConfigError(f"{where}expected frequency {fx:g} Hz is outside the band "
+                              f"{lo:g}..{hi:g} Hz")
+    tau = options.exp_window_tau_s
+    if tau is not None and not (math.isfinite(tau) and tau > 0):
+        raise ConfigError(f"{where}exp_window_tau_s must be a positive time in s, got {tau!r}")
+    p = options.max_order
+    if p is None:
+        return
+    method = str(options.method)
+    low = MIN_ORDER.get(method, 2)
+    if p < low:
+        raise ConfigError(
+            f"{where}max order {p} is too low for {method}: a stabilization diagram needs at "
+            f"least {low}"
+        )
+    n_in = 1 if frf.n_out == 1 and frf.n_in > 1 else frf.n_in  # roving hammer: reciprocity
+    n_out = frf.n_in if n_in != frf.n_in else frf.n_out
+    cap = order_cap(n_lines, n_in)
+    if method == "plscf" and p > cap:
+        raise ConfigError(
+            f"{where}max order {p} is more than the {n_lines} lines in the band support "
+            f"(at most {cap} for {n_in} reference(s)); lower --max-order / max_order or widen "
+            "the band"
+        )
+    need = estimate_memory_bytes(n_lines, n_in, n_out, p, method)
+    limit = memory_limit_bytes(memory_limit_gb)
+    if need > limit:
+        raise ConfigError(
+            f"{where}max order {p} on {n_lines} lines x {n_out} outputs x {n_in} inputs needs "
+            f"about {need / _GIB:.1f} GiB, more than the limit of {limit / _GIB:.1f} GiB; "
+            f"lower the order or narrow the band, or raise the limit (--memory-limit-gb or "
+            f"{MEMORY_LIMIT_ENV})"
+        )
