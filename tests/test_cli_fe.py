@@ -47,10 +47,10 @@ def test_fe_command_writes_tables_2_to_6_matching_the_paper(paper_table1, tmp_pa
 def test_fe_command_bad_table(tmp_path, capsys):
     bad = tmp_path / "t1.csv"
     bad.write_text("configuration,mode,fd_hz\ngenuine,1,18.1\n")
-    assert main(["fe", str(bad), "--out", str(tmp_path / "o")]) == 1
+    assert main(["fe", str(bad), "--out", str(tmp_path / "o")]) == 2  # input error
     assert "missing column(s) zeta_pct" in capsys.readouterr().err
     bad.write_text("configuration,mode,fd_hz,zeta_pct\nair,1,18.1,0.5\n")
-    assert main(["fe", str(bad), "--out", str(tmp_path / "o")]) == 1
+    assert main(["fe", str(bad), "--out", str(tmp_path / "o")]) == 2  # input error
     assert "genuine" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
 

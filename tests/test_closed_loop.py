@@ -101,7 +101,7 @@ def test_simulate_added_mass_usage_errors(tmp_path, capsys):
     assert "--fd-hz" in capsys.readouterr().err
     assert main(["simulate", "--added-mass", "ten=0.3", "--out", out]) == 2
     assert "ELEMENT=FRACTION" in capsys.readouterr().err
-    assert main(["simulate", "--added-mass", "11=0.3", "--out", out]) == 1
+    assert main(["simulate", "--added-mass", "11=0.3", "--out", out]) == 2  # input error
     assert "element 11" in capsys.readouterr().err
     assert not (tmp_path / "x.uff").exists()
 
