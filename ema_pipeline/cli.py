@@ -55,6 +55,15 @@ def _capture_warnings() -> None:
         log.addHandler(handler)
 
 
+def _verbose_logging() -> None:
+    """``--verbose``: the package's INFO messages (skipped UFF datasets, ...) on stderr."""
+    log = logging.getLogger("ema_pipeline")
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(logging.Formatter("ema-pipeline: %(message)s"))
+    log.addHandler(handler)
+    log.setLevel(logging.INFO)
+
+
 def _floats(text: str) -> tuple[float, ...]:
     try:
         values = tuple(float(v) for v in text.replace(" ", "").split(",") if v)
@@ -213,7 +222,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     options = _identify_options(args)
     failed = runtime = 0
     for path in args.files:
-        outcome = identify_file(path, args.out, options, keep=args.report)
+        outcome = identify_file(path, args.out, options, keep=args.report, uff=args.uff)
         if outcome.status == "failed":
             failed += 1
             runtime += outcome.runtime
@@ -261,6 +270,7 @@ def _cmd_batch(args: argparse.Namespace) -> int:
         scheduler=args.scheduler,
         force=args.force,
         progress=not args.quiet,
+        uff=args.uff,
     )
     print(report.summary_line(), file=sys.stderr if report.n_failed else sys.stdout)
     if args.report:
@@ -299,7 +309,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
               "incomplete ones)", file=sys.stderr)
         return EXIT_RUNTIME
     study.write_study(
-        result, args.results, say, figures=not args.no_figures, experiment_file=experiment_path
+        result, args.results, say, figures=not args.no_figures, experiment_file=experiment_path,
+        uff=args.uff,
     )
     if args.json:
         payload = study.summary(result)
@@ -406,6 +417,20 @@ def _add_memory_limit(p: argparse.ArgumentParser) -> None:
         metavar="GB",
         help="refuse settings whose estimated memory exceeds this (GiB; default "
         "$EMA_MEMORY_LIMIT_GB or 4)",
+    )
+
+
+def _add_uff_and_verbose(p: argparse.ArgumentParser, where: str) -> None:
+    p.add_argument(
+        "--uff",
+        action="store_true",
+        help=f"also write the identified modes as Universal File {where} (datasets 164, "
+        "15/82 where the geometry is known, 55 per mode, 58 with the synthesised FRFs)",
+    )
+    p.add_argument(
+        "--verbose",
+        action="store_true",
+        help="say what the readers skip (e.g. UFF datasets other than 58/151/164)",
     )
 
 
@@ -518,6 +543,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_no_figures(p)
     _add_identify_options(p)
+    _add_uff_and_verbose(p, "DIR/<stem>_modes.uff")
     p.set_defaults(func=_cmd_identify)
 
     p = sub.add_parser(
@@ -552,6 +578,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_no_figures(p)
     _add_identify_options(p)
+    _add_uff_and_verbose(p, "OUT/.../<stem>_modes.uff")
     p.set_defaults(func=_cmd_batch)
 
     p = sub.add_parser(
@@ -589,6 +616,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     _add_no_figures(p)
     _add_memory_limit(p)
+    _add_uff_and_verbose(p, "RESULTS/modes/<configuration>.uff (with the beam's node coordinates)")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser(
@@ -611,6 +639,8 @@ def main(argv: list[str] | None = None) -> int:
     _capture_warnings()
     parser = build_parser()
     args = parser.parse_args(argv)
+    if getattr(args, "verbose", False):
+        _verbose_logging()
     func: Callable[[argparse.Namespace], int] = args.func
     try:
         return func(args)

@@ -56,6 +56,40 @@ class FileOutcome:
     result: IdentificationResult | None = None
 
 
+def write_result_uff(
+    result: IdentificationResult,
+    frf: FRFSet,
+    path: str | Path,
+    node_coordinates: dict[int, tuple[float, float, float]] | None = None,
+) -> Path:
+    """Write identified modes as a Universal File (issue 12 export).
+
+    Dataset 164 (SI), 15 and 82 when ``node_coordinates`` (m) are known, one
+    55 per mode (fn, zeta, complex shape at the response DOFs) and 58 with the
+    synthesised FRFs of the band; see :func:`ema_pipeline.io.write_modes_uff`.
+    """
+    if result.modes.shapes is None:
+        raise DataError(f"{path}: the result has no mode shapes to export")
+    fit = FRFSet(
+        freq_hz=result.freq_hz,
+        H=result.H_fit,
+        response_dofs=frf.response_dofs,
+        reference_dofs=frf.reference_dofs,
+        quantity=frf.quantity,
+        configuration=frf.configuration,
+    )
+    return io.write_modes_uff(
+        path,
+        result.modes.fn_hz,
+        result.modes.zeta,
+        result.modes.shapes,
+        result.modes.dofs,
+        node_coordinates=node_coordinates,
+        frf_fit=fit,
+        description=f"ema-pipeline modes {frf.configuration}".strip(),
+    )
+
+
 def output_paths(path: Path, out_dir: Path) -> tuple[Path, Path]:
     """``(<out>/<stem>_modes.csv, <out>/<stem>_result.h5)`` for an input file.
 
@@ -111,6 +145,7 @@ def identify_file(
     force: bool = True,
     sha256: str | None = None,
     keep: bool = False,
+    uff: bool = False,
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
@@ -145,6 +180,8 @@ def identify_file(
             if message:
                 outcome.warnings.append(f"{path}: {message}")
         io.write_csv(table, modes_csv)
+        if uff:  # <stem>_modes.uff beside <stem>_modes.csv
+            write_result_uff(result, frf, modes_csv.with_suffix(".uff"))
         io.write_results_h5(
             {
                 "frf": frf,

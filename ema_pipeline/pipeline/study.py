@@ -55,7 +55,7 @@ from ema_pipeline.data import (
 )
 from ema_pipeline.identification.resources import check_identification
 from ema_pipeline.pipeline.simulate import simulate_configuration
-from ema_pipeline.pipeline.single import identify_frf, load_frf
+from ema_pipeline.pipeline.single import identify_frf, load_frf, write_result_uff
 
 Progress = Callable[[str], None]
 
@@ -470,6 +470,27 @@ def remove_stale_partials(results_dir: str | os.PathLike[str]) -> int:
     return removed
 
 
+def write_modes_uff_files(result: StudyResult, folder: Path) -> list[Path]:
+    """``folder/<configuration>.uff`` for every identified configuration, with
+    the measurement nodes' coordinates along the beam (x in m, y = z = 0)."""
+    beam = result.experiment.beam
+    written = []
+    for name, ident in result.identification.items():
+        frf = result.frfs.get(name)
+        if frf is None or ident is None:
+            continue
+        nodes = sorted({abs(d.node) for d in ident.modes.dofs})
+        coords = {
+            n: (beam.node_x_m(n), 0.0, 0.0)
+            for n in nodes
+            if 1 <= n <= beam.n_measurement_elements + 1
+        }
+        written.append(
+            write_result_uff(ident, frf, folder / f"{name}.uff", node_coordinates=coords or None)
+        )
+    return written
+
+
 def write_study(
     result: StudyResult,
     results_dir: str | os.PathLike[str],
@@ -477,9 +498,12 @@ def write_study(
     *,
     figures: bool = True,
     experiment_file: str | os.PathLike[str] | None = None,
+    uff: bool = False,
 ) -> list[Path]:
     """Write tables, HDF5 store, figures (SVG, unless ``figures=False``) and
-    reports; returns the files written.
+    reports; with ``uff`` also ``modes/<configuration>.uff`` per identified
+    configuration (modes, beam node coordinates, synthesised FRFs); returns
+    the files written.
 
     Everything goes to a fresh folder beside ``results_dir`` first, which
     replaces ``results_dir`` only when complete (:func:`swap_in`); on any
@@ -505,6 +529,8 @@ def write_study(
         io.write_text(report.render_html(rin, drawn), tmp_dir / "report.html")
         reproducible = {k: v for k, v in summary(result).items() if k != "seconds"}
         io.write_text(json.dumps(reproducible, indent=2) + "\n", tmp_dir / "summary.json")
+        if uff:
+            write_modes_uff_files(result, tmp_dir / "modes")
         say("[store] ema_results.h5")
         io.write_results_h5(
             {

@@ -99,15 +99,16 @@ def run_batch(
     scheduler: str | None = None,
     force: bool = False,
     progress: bool = True,
+    uff: bool = False,
 ) -> BatchReport:
     """Identify every FRF file under ``folder``; write per-file results, the
     summary and the failures under ``out``.
 
     Parameters
     ----------
-    folder : searched recursively for UFF-58 (.uff, .unv, .58) and HDF5
-        (.h5, .hdf5, .hdf) files; hidden files and files inside ``out`` are not
-        inputs.
+    folder : searched recursively for FRF files (:data:`ema_pipeline.io.FRF_SUFFIXES`,
+        any letter case); hidden files, our own ``*_result.h5`` outputs and
+        files inside ``out`` are not inputs.
     out : output folder (created). Per file ``<stem>_modes.csv`` and
         ``<stem>_result.h5`` in the mirrored sub-folder (see the module
         docstring), plus ``summary.csv`` and ``failures.csv``.
@@ -120,6 +121,7 @@ def run_batch(
         to run on instead of local processes.
     force : recompute files that already have a complete result.
     progress : show a progress bar with rate and ETA on stderr.
+    uff : also write ``<stem>_modes.uff`` (identified modes as UFF 164/55/58).
 
     Returns
     -------
@@ -156,7 +158,7 @@ def run_batch(
         files = find_inputs(folder, out)
         report.n_files = len(files)
         tasks = (
-            FileTask(path=p, file=name, out_dir=target, options=options, force=force)
+            FileTask(path=p, file=name, out_dir=target, options=options, force=force, uff=uff)
             for p, (name, target) in zip(files, output_dirs(files, folder, out), strict=True)
         )
 

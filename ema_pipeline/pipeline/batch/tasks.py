@@ -30,6 +30,7 @@ class FileTask:
     out_dir: Path
     options: IdentificationOptions
     force: bool
+    uff: bool = False  # also write <stem>_modes.uff
 
 
 @dataclass(frozen=True)
@@ -64,7 +65,9 @@ def process_file(task: FileTask) -> FileRecord:
     """Identify one file (in a worker) and return its summary row; never raises."""
     start = time.perf_counter()
     try:
-        outcome = identify_file(task.path, task.out_dir, task.options, force=task.force)
+        outcome = identify_file(
+            task.path, task.out_dir, task.options, force=task.force, uff=task.uff
+        )
     except Exception as exc:  # one file must never stop the batch
         frames = traceback.extract_tb(exc.__traceback__)
         where = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""
