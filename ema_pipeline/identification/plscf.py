@@ -102,6 +102,30 @@ def lag_sums(freq_hz: np.ndarray, C: np.ndarray, dt: float, p: int) -> np.ndarra
     return C @ E
 
 
+def gram_cholesky(R: np.ndarray) -> np.ndarray:
+    """Lower Cholesky factor of the Gram matrix R of the numerator basis.
+
+    R = Re(Gamma^H Gamma) of the basis z^0 .. z^p is positive definite in exact
+    arithmetic, but numerically singular at high order when the band covers
+    only a small arc of the unit circle (a band starting well above 0 Hz). A
+    ridge of 1e-13, 1e-11, ... times the mean diagonal is then added: it only
+    removes basis directions the data cannot distinguish.
+
+    Examples
+    --------
+    >>> gram_cholesky(np.array([[4.0, 2.0], [2.0, 1.0]])).shape  # singular
+    (2, 2)
+    """
+    scale = float(np.mean(np.diag(R))) or 1.0
+    ridge = 0.0
+    for _ in range(8):
+        try:
+            return np.linalg.cholesky(R + ridge * scale * np.eye(R.shape[0]))
+        except np.linalg.LinAlgError:
+            ridge = 1e-13 if ridge == 0 else ridge * 100
+    raise DataError("pLSCF numerator basis is singular (band too narrow for the model order)")
+
+
 def plscf_normal_matrix(
     freq_hz: np.ndarray,
     H: np.ndarray,
@@ -149,10 +173,10 @@ def plscf_normal_matrix(
     r = lag_sums(freq_hz, w2o.astype(complex), dt, p)  # (n_out or 1, 2p+1)
     R = np.real(r[:, idx])  # (n_out or 1, q, q)
     if per_output:
-        X = np.stack([linalg.solve_triangular(np.linalg.cholesky(R[o]), S[o], lower=True)
+        X = np.stack([linalg.solve_triangular(gram_cholesky(R[o]), S[o], lower=True)
                       for o in range(n_out)])
     else:
-        Lr = np.linalg.cholesky(R[0])
+        Lr = gram_cholesky(R[0])
         X = linalg.solve_triangular(Lr, S.transpose(1, 0, 2).reshape(q, -1), lower=True)
         X = X.reshape(q, n_out, q * n_in).transpose(1, 0, 2)
     Xs = X.reshape(n_out * q, q * n_in)
