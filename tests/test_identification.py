@@ -118,11 +118,23 @@ def test_modes_table_columns(noise_free):
     _, _, res = noise_free
     table = modes_table(res)
     assert list(table.columns) == ["mode", "fn_hz", "fd_hz", "zeta_pct", "fn_std_hz",
-                                   "zeta_std_pct"]
+                                   "zeta_std_pct", "mpc", "mpd_deg", "stable_from_order",
+                                   "n_stable_orders", "doubtful"]
     assert list(table["mode"]) == [1, 2, 3, 4]
     assert np.all(np.diff(table["fn_hz"]) > 0)
     np.testing.assert_allclose(table["zeta_pct"], 100 * res.zeta)
     assert np.all(np.isfinite(table["fn_std_hz"])) and np.all(table["zeta_std_pct"] > 0)
+    # quality: the simulated modes are real (proportional damping), stable over many
+    # orders, and none is doubtful
+    np.testing.assert_allclose(table["mpc"], 1.0, atol=1e-3)
+    assert np.all(table["mpd_deg"] < 2.0)
+    assert np.all(table["stable_from_order"] >= 2)
+    assert np.all(table["n_stable_orders"] >= 5) and not table["doubtful"].any()
+    # the documented rule marks (does not drop) a mode whose damping is loose
+    loose = replace(res, modes=replace(res.modes, zeta_std=res.modes.zeta * np.r_[0.1, 0.1,
+                                                                                  0.9, 0.1]))
+    flagged = modes_table(loose)
+    assert len(flagged) == 4 and list(flagged["doubtful"]) == [False, False, True, False]
 
 
 def test_stabilization_data_and_figures(noise_free):

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from ema_pipeline.data import ModalParameters
+from ema_pipeline.identification.lsfd import mpd
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.stabilization import StabilizationData
 
@@ -116,11 +117,69 @@ class IdentificationResult:
         return self.modes.zeta
 
 
+#: A mode is marked ``doubtful`` (kept, never dropped) when its pole is stable
+#: at fewer model orders than this ...
+MIN_STABLE_ORDERS = 5
+#: ... or its damping is poorly determined (zeta_std above this fraction of zeta)
+MAX_REL_ZETA_STD = 0.5
+#: ... or its shape is strongly complex (MPC below this, with 3 or more responses).
+MIN_MPC = 0.5
+
+
+def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per mode (result order): the lowest and the highest model order at which
+    its pole is stable and the number of orders that hold it (zeros without
+    cluster data, e.g. for the sdypy backend).
+
+    Examples
+    --------
+    >>> from ema_pipeline.acquisition import synthesize_frf_set
+    >>> from ema_pipeline.identification import identify
+    >>> from ema_pipeline.pipeline.simulate import paper_modes
+    >>> res = identify(synthesize_frf_set(paper_modes("genuine")), band_hz=(5, 900))
+    >>> first, last, count = stable_orders(res)
+    >>> bool(first.min() > 0 and count.min() >= MIN_STABLE_ORDERS)
+    True
+    """
+    n = result.modes.n_modes
+    first, last, count = (np.zeros(n, dtype=int) for _ in range(3))
+    sel, stab = result.selected, result.stabilization
+    if sel is None or stab.order.size == 0:
+        return first, last, count
+    for k in range(min(n, sel.cluster.size)):
+        members = stab.order[stab.cluster == sel.cluster[k]]
+        if members.size:
+            first[k], last[k] = int(members.min()), int(members.max())
+            count[k] = np.unique(members).size
+    return first, last, count
+
+
+def doubtful_modes(result: IdentificationResult) -> np.ndarray:
+    """Modes to look at twice (result order), by the documented rule: stable at
+    fewer than :data:`MIN_STABLE_ORDERS` orders (where cluster data exist),
+    ``zeta_std > MAX_REL_ZETA_STD * zeta``, or ``mpc < MIN_MPC`` with three or
+    more responses. Such modes are reported with ``doubtful = True``, not dropped.
+    """
+    m = result.modes
+    _, _, count = stable_orders(result)
+    few = (count < MIN_STABLE_ORDERS) & (result.selected is not None) & (count > 0)
+    zeta_std = np.asarray(m.zeta_std, dtype=float)
+    loose = np.isfinite(zeta_std) & (zeta_std > MAX_REL_ZETA_STD * np.abs(m.zeta))
+    mpc = np.asarray(result.mpc, dtype=float)
+    complex_shape = (mpc < MIN_MPC) if len(m.dofs) >= 3 else np.zeros(m.n_modes, bool)
+    return np.asarray(few | loose | complex_shape, dtype=bool)
+
+
 def modes_table(result: IdentificationResult) -> pd.DataFrame:
-    """One row per mode, ascending frequency:
-    ``mode, fn_hz, fd_hz, zeta_pct, fn_std_hz, zeta_std_pct`` (zeta in percent)."""
+    """One row per mode, ascending frequency: ``mode, fn_hz, fd_hz, zeta_pct,
+    fn_std_hz, zeta_std_pct`` (zeta in percent) and the quality columns ``mpc``
+    (modal phase collinearity, 1 = real), ``mpd_deg`` (mean phase deviation,
+    degrees), ``stable_from_order``, ``n_stable_orders`` (see
+    :func:`stable_orders`) and ``doubtful`` (see :func:`doubtful_modes`)."""
     m = result.modes
     order = np.argsort(m.fn_hz)
+    first, _, count = stable_orders(result)
+    mpd_deg = mpd(m.shapes) if m.shapes is not None else np.full(m.n_modes, np.nan)
     return pd.DataFrame(
         {
             "mode": np.arange(1, m.n_modes + 1),
@@ -129,5 +188,10 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
             "zeta_pct": 100 * m.zeta[order],
             "fn_std_hz": m.fn_std_hz[order],
             "zeta_std_pct": 100 * m.zeta_std[order],
+            "mpc": np.asarray(result.mpc, dtype=float)[order],
+            "mpd_deg": np.asarray(mpd_deg, dtype=float)[order],
+            "stable_from_order": first[order],
+            "n_stable_orders": count[order],
+            "doubtful": doubtful_modes(result)[order],
         }
     )

@@ -134,41 +134,32 @@ def report_tables(report: ReportInput) -> dict[str, pd.DataFrame]:
 def stable_order_range(result: IdentificationResult) -> list[str]:
     """Per selected mode (ascending frequency) the model orders at which its pole
     cluster is stable, ``"lo-hi (n of N)"``; empty strings without cluster data."""
-    sel, stab = result.selected, result.stabilization
-    order = np.argsort(result.modes.fn_hz)
-    if sel is None or stab.order.size == 0:
+    from ema_pipeline.identification.result import stable_orders
+
+    if result.selected is None or result.stabilization.order.size == 0:
         return [""] * result.modes.n_modes
-    n_orders = np.unique(stab.order).size
-    out = []
-    for k in order:
-        members = stab.order[stab.cluster == sel.cluster[k]] if k < sel.cluster.size else []
-        if len(members) == 0:
-            out.append("")
-            continue
-        out.append(
-            f"{int(np.min(members))}-{int(np.max(members))} "
-            f"({np.unique(members).size} of {n_orders})"
-        )
-    return out
+    first, last, count = stable_orders(result)
+    n_orders = np.unique(result.stabilization.order).size
+    return [
+        f"{first[k]}-{last[k]} ({count[k]} of {n_orders})" if count[k] else ""
+        for k in np.argsort(result.modes.fn_hz)
+    ]
 
 
 def mode_table(result: IdentificationResult) -> pd.DataFrame:
     """The modal table of one identification, ascending frequency: ``mode,
     fn_hz, fn_std_hz, fd_hz, zeta_pct, zeta_std_pct, sigma_1_s`` (decay rate
-    -Re(lambda), 1/s), ``mpc``, ``mpd_deg`` (when the result has MPD) and
-    ``stable_orders``."""
+    -Re(lambda), 1/s), ``mpc``, ``mpd_deg``, ``doubtful`` and ``stable_orders``
+    (first-last order, count)."""
     from ema_pipeline.identification.result import modes_table
 
     table = modes_table(result)
     order = np.argsort(result.modes.fn_hz)
     table["sigma_1_s"] = -np.real(np.asarray(result.pole))[order]
-    if getattr(result, "mpc", None) is not None:
-        table["mpc"] = np.asarray(result.mpc, dtype=float)[order]
-    mpd = getattr(result, "mpd", None)
-    if mpd is not None:
-        table["mpd_deg"] = np.asarray(mpd, dtype=float)[order]
     table["stable_orders"] = stable_order_range(result)
-    return table
+    columns = ["mode", "fn_hz", "fn_std_hz", "fd_hz", "zeta_pct", "zeta_std_pct", "sigma_1_s",
+               "mpc", "stable_orders", "mpd_deg", "doubtful"]
+    return table[columns]
 
 
 def mode_table_html(result: IdentificationResult) -> str:
@@ -183,6 +174,7 @@ _COLUMN_TITLES = {
     "sigma_1_s": "decay rate sigma = zeta omega_n = -Re(lambda), 1/s",
     "mpc": "modal phase collinearity (1 = real mode)",
     "mpd_deg": "mean phase deviation, degrees (0 = real mode)",
+    "doubtful": "marked for a second look: few stable orders, loose damping or complex shape",
     "stable_orders": "model orders at which the pole is stable (count of orders computed)",
     "frac": "FRF assurance criterion of the synthesis",
     "error_pct": "normalised fit error ||H - H_fit|| / ||H||, per cent",
