@@ -109,9 +109,10 @@ def test_readme_block_runs(lang, body, directive, line, sandbox, monkeypatch):
             assert experiment.name == doc["experiment"]["name"]
     else:
         cli = f'"{sys.executable}" -m ema_pipeline.cli'
-        script = re.sub(r"(?m)(^|\s|&&\s*)ema-pipeline(?=\s)", rf"\1{cli}", body)
+        # /tmp/ first: the interpreter itself may live under /tmp (a venv there)
+        script = body.replace("/tmp/", f"{scratch}/")
+        script = re.sub(r"(?m)(^|\s|&&\s*)ema-pipeline(?=\s)", rf"\1{cli}", script)
         script = re.sub(r"(?m)(^|\s)python(?=\s)", rf'\1"{sys.executable}"', script)
-        script = script.replace("/tmp/", f"{scratch}/")
         env = dict(os.environ, PYTHONPATH=str(REPO), MPLBACKEND="Agg")
         proc = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", script], cwd=sandbox,
                               env=env, capture_output=True, text=True, timeout=600)
