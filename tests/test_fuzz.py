@@ -128,6 +128,8 @@ def test_check_hdf5_refuses_a_looping_file_quickly(tmp_path):
     start = time.perf_counter()
     with pytest.raises(DataError, match="loops.h5"):
         check_hdf5(path, timeout_s=2.0)
-    assert time.perf_counter() - start < 10.0
+    # the loop is endless without the guard; the bound is generous because the
+    # check may start a fresh interpreter (threads present) on a loaded machine
+    assert time.perf_counter() - start < 60.0
     check_hdf5(fc.EXAMPLES / "larger_tank.h5")  # and a good file passes
 
