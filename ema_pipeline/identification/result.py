@@ -133,10 +133,13 @@ def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray,
 
     Examples
     --------
-    >>> from ema_pipeline.acquisition import synthesize_frf_set
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import FRFSet
     >>> from ema_pipeline.identification import identify
-    >>> from ema_pipeline.pipeline.simulate import paper_modes
-    >>> res = identify(synthesize_frf_set(paper_modes("genuine")), band_hz=(5, 900))
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> res = identify(FRFSet(freq_hz=f, H=H))
     >>> first, last, count = stable_orders(res)
     >>> bool(first.min() > 0 and count.min() >= MIN_STABLE_ORDERS)
     True
