@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from independent_beam import truth
 
 from ema_pipeline import paper
 from ema_pipeline.cli import main
@@ -56,29 +57,9 @@ def test_fe_command_bad_table(tmp_path, capsys):
 
 
 def _independent_beam_fn_hz(added: dict[int, float], n_modes: int = 4) -> np.ndarray:
-    """Exact frequencies of the paper's beam (100 Hermite elements, consistent mass, clamped
-    at x = 0), assembled here independently of ema_pipeline.fe; extra mass delta_m on
-    measurement element j scales the mass of its ten fine elements by 1 + delta_m."""
-    import scipy.linalg
-
-    n_el, length, b, h, e_mod, rho = 100, 0.65, 0.05, 0.01, 210e9, 7800.0
-    le, ei, ra = length / n_el, e_mod * b * h**3 / 12, rho * b * h
-    ke = ei / le**3 * np.array([[12, 6 * le, -12, 6 * le],
-                                [6 * le, 4 * le**2, -6 * le, 2 * le**2],
-                                [-12, -6 * le, 12, -6 * le],
-                                [6 * le, 2 * le**2, -6 * le, 4 * le**2]])
-    me = ra * le / 420 * np.array([[156, 22 * le, 54, -13 * le],
-                                   [22 * le, 4 * le**2, 13 * le, -3 * le**2],
-                                   [54, 13 * le, 156, -22 * le],
-                                   [-13 * le, -3 * le**2, -22 * le, 4 * le**2]])
-    k, m = np.zeros((2 * n_el + 2,) * 2), np.zeros((2 * n_el + 2,) * 2)
-    for e in range(n_el):
-        s = slice(2 * e, 2 * e + 4)
-        k[s, s] += ke
-        m[s, s] += (1 + added.get(e // 10 + 1, 0.0)) * me
-    w = scipy.linalg.eigh(k[2:, 2:], m[2:, 2:], subset_by_index=[0, n_modes - 1],
-                          eigvals_only=True)
-    return np.sqrt(w) / (2 * np.pi)
+    """Exact frequencies of the paper's beam with extra mass on measurement elements
+    (the independent numpy FE beam of tests/independent_beam.py)."""
+    return truth(added, n_modes)[0]
 
 
 def test_fe_command_exact_rows_recover_a_known_added_mass(tmp_path, capsys):
