@@ -6,11 +6,9 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
-import ctypes
 import multiprocessing
 import os
 import signal
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -30,33 +28,12 @@ THREAD_VARIABLES = (
 
 
 def _init_worker(parent_pid: int) -> None:
-    """Worker start-up: leave SIGINT to the parent, and exit if the parent dies.
-
-    On Linux the kernel does the latter (``prctl(PR_SET_PDEATHSIG, SIGKILL)``), so
-    the worker stays single-threaded and can check HDF5 inputs in a cheap forked
-    child (:func:`ema_pipeline.io.check_hdf5`; a thread would force a fresh
-    interpreter per file, about 2 s under load); elsewhere a watcher thread polls.
-    """
+    """Worker start-up: leave SIGINT to the parent, and exit if the parent dies."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if _die_with_parent():
-        if os.getppid() != parent_pid:  # the parent died before prctl
-            os._exit(1)
-        return
     watcher = threading.Thread(
         target=_exit_with_parent, args=(parent_pid,), name="ema-batch-parent", daemon=True
     )
     watcher.start()
-
-
-def _die_with_parent() -> bool:
-    """Ask Linux to SIGKILL this process when its parent exits; False elsewhere."""
-    if not sys.platform.startswith("linux"):
-        return False
-    try:
-        libc = ctypes.CDLL(None, use_errno=True)
-        return int(libc.prctl(1, int(signal.SIGKILL), 0, 0, 0)) == 0  # PR_SET_PDEATHSIG
-    except (OSError, AttributeError):
-        return False
 
 
 def _exit_with_parent(parent_pid: int) -> None:
