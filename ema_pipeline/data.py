@@ -166,6 +166,24 @@ class AcquisitionInfo:
         return self.n_samples / self.sample_rate_hz
 
     @property
+    def force_window_s(self) -> float | None:
+        """Length (s) of a rectangular force window ``"rect <L> s"``, else ``None``.
+
+        Examples
+        --------
+        >>> AcquisitionInfo(force_window="rect 0.1 s").force_window_s
+        0.1
+        """
+        parts = self.force_window.split()
+        if len(parts) == 3 and parts[0] == "rect" and parts[2] == "s":
+            try:
+                length = float(parts[1])
+            except ValueError:
+                return None
+            return length if length > 0 else None
+        return None
+
+    @property
     def window_decay_rate(self) -> float:
         """Decay rate (1/s) the exponential window adds to every mode."""
         return 0.0 if not self.exp_window_tau_s else 1.0 / self.exp_window_tau_s

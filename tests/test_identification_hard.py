@@ -1,10 +1,11 @@
 """Issue 11 acceptance tests on the hard cases of ``tests/hardcases.py``.
 
-PREPARED, NOT YET PASSING: the asserts on the targets fail on today's
-identification (fixed highest order, clustering, calibrated sigmas) and are
-marked ``xfail(strict=False, reason="issue 11 pending")`` so the branch stays
-green; remove the marks when the issue-11 identification lands. The checks of
-the generator itself are real tests and must pass now.
+The families that meet a target on these seeds are plain tests; those that
+do not yet (adaptive order and trajectory selection landed, issue 11 still
+open: see the README's "Identification on hard cases") are marked
+``xfail(strict=False, reason="issue 11 pending")`` family by family, so that
+a regression of a passing family fails. The checks of the generator itself
+are real tests.
 
 Targets (issue 11), at the defaults (only the band given):
 each family <= 2 % of the true modes missed and <= 2 % spurious, a match being
@@ -32,6 +33,15 @@ from ema_pipeline.identification import identify  # noqa: E402
 
 SEEDS = (1, 2, 3)
 PENDING = pytest.mark.xfail(strict=False, reason="issue 11 pending")
+#: families that do not yet meet the detection target (missed/spurious <= 2 %)
+#: on SEEDS, and those whose sigmas are not yet calibrated on them
+DETECTION_PENDING = {"baseline", "dense_log", "dense_uniform", "close_1ref", "damping",
+                     "snr", "impact"}
+SIGMA_PENDING = {"baseline", "close_1ref", "close_2ref", "roving", "quantity"}
+
+
+def _families(pending: set[str]) -> list:
+    return [pytest.param(f, marks=PENDING) if f in pending else f for f in hardcases.FAMILIES]
 
 
 def _identify(case: hardcases.HardCase) -> dict[str, np.ndarray]:
@@ -129,16 +139,14 @@ def test_impact_case_window_shift_is_exact() -> None:
 
 
 # --------------------------------------------------------------------------- targets
-@PENDING
-@pytest.mark.parametrize("family", hardcases.FAMILIES)
+@pytest.mark.parametrize("family", _families(DETECTION_PENDING))
 def test_no_mode_missed_or_invented(family: str) -> None:
     s = _family_scores(family)
     assert s["missed"] <= 0.02 * s["n_true"], s
     assert s["spurious"] <= 0.02 * s["n_true"], s
 
 
-@PENDING
-@pytest.mark.parametrize("family", hardcases.FAMILIES)
+@pytest.mark.parametrize("family", _families(SIGMA_PENDING))
 def test_sigmas_are_calibrated_per_family(family: str) -> None:
     """68th percentile of |error|/sigma in 0.75-1.35 (f and zeta); with ~15
     modes per family the coverage is only checked loosely here (>= 80 %)."""

@@ -23,7 +23,7 @@ Modules: ``options`` (:class:`IdentificationOptions`), ``core`` (:func:`identify
 and the method table :data:`METHODS`), ``plscf_backend`` / ``sdypy_backend``
 (the methods), ``common`` (band checks and the shared finish), ``plscf``,
 ``stabilization``, ``selection``, ``refine`` (pole refinement), ``uncertainty``
-(noise and covariance model, ``STD_CALIBRATION``), ``lsfd`` (residues and fit
+(noise and covariance model), ``lsfd`` (residues and fit
 indicators), ``result``. The MAC lives in :mod:`ema_pipeline.modal`, the
 diagrams in :mod:`ema_pipeline.plots`.
 """
@@ -44,7 +44,11 @@ from ema_pipeline.identification.result import (
     ResolvedSettings,
     modes_table,
 )
-from ema_pipeline.identification.selection import SelectedPoles, cluster_poles, select_poles
+from ema_pipeline.identification.selection import (
+    SelectedPoles,
+    select_trajectories,
+    track_poles,
+)
 from ema_pipeline.identification.stabilization import (
     STABLE_DAMP,
     STABLE_FREQ,
@@ -53,21 +57,19 @@ from ema_pipeline.identification.stabilization import (
     pole_to_modal,
     stabilization,
 )
-from ema_pipeline.identification.uncertainty import STD_CALIBRATION, modal_std
+from ema_pipeline.identification.uncertainty import modal_std
 
 __all__ = [
     "METHODS",
     "STABLE_DAMP",
     "STABLE_FREQ",
     "STABLE_VECTOR",
-    "STD_CALIBRATION",
     "IdentificationOptions",
     "IdentificationResult",
     "PoleSet",
     "ResolvedSettings",
     "SelectedPoles",
     "StabilizationData",
-    "cluster_poles",
     "default_max_order",
     "frac",
     "identify",
@@ -80,6 +82,7 @@ __all__ = [
     "pole_to_modal",
     "real_normalised",
     "refine_poles",
-    "select_poles",
+    "select_trajectories",
     "stabilization",
+    "track_poles",
 ]

@@ -23,7 +23,6 @@ from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.stabilization import StabilizationData, pole_to_modal
 from ema_pipeline.identification.uncertainty import (
     MAX_REL_SIGMA_STD,
-    STD_CALIBRATION,
     modal_std,
 )
 from ema_pipeline.modal import mac
@@ -146,14 +145,17 @@ def finish_identification(
     selected: SelectedPoles | None,
     settings: ResolvedSettings,
     screen: bool = False,
+    pole_cov: np.ndarray | None = None,
 ) -> IdentificationResult:
     """LSFD, optional refinement with covariance, window correction, indicators.
 
     ``sub`` is the FRF set cut to the band, ``pole_id`` the identified poles
     (before window correction), ``decay`` the window's decay rate 1/tau (1/s).
     With ``screen`` (automatic selection) poles whose decay rate the data do
-    not determine (calibrated std(sigma)/sigma >= ``MAX_REL_SIGMA_STD``) are
-    dropped as computational before refinement.
+    not determine (std(sigma)/sigma >= ``MAX_REL_SIGMA_STD``) are
+    dropped as computational before refinement. ``pole_cov`` (n_modes, 2, 2),
+    the covariance of (sigma, omega_d) of already refined poles, gives their
+    standard deviations (with ``refine=False``).
     """
     freq = sub.freq_hz
     n_out, n_in, n_freq = sub.H.shape
@@ -162,7 +164,7 @@ def finish_identification(
     fn_std = np.full(m, np.nan)
     zeta_std = np.full(m, np.nan)
     if m and refine and screen:
-        rel = STD_CALIBRATION * pole_significance(freq, Hc, pole_id)
+        rel = pole_significance(freq, Hc, pole_id)
         keep = rel < MAX_REL_SIGMA_STD
         pole_id = pole_id[keep]
         if selected is not None:
@@ -171,10 +173,13 @@ def finish_identification(
         fn_std = fn_std[keep]
         zeta_std = zeta_std[keep]
     if m and refine:
-        ref = refine_poles(freq, Hc, pole_id)
+        ref = refine_poles(freq, Hc, pole_id, quantity=sub.quantity,
+                           window_tau_s=sub.acquisition.exp_window_tau_s,
+                           force_window_s=sub.acquisition.force_window_s)
         pole_id = ref.pole
         fn_std, zeta_std = modal_std(pole_id + decay, ref.cov)
-        fn_std, zeta_std = STD_CALIBRATION * fn_std, STD_CALIBRATION * zeta_std
+    elif m and pole_cov is not None:
+        fn_std, zeta_std = modal_std(pole_id + decay, pole_cov)
     elif m and selected is not None:
         fn_std, zeta_std = selected.scatter_fn_hz, selected.scatter_zeta
     pole = pole_id + decay

@@ -20,8 +20,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import batched_qr, real_stack
-from ema_pipeline.identification.uncertainty import correlation_factor, noise_model
+from ema_pipeline.identification.lsfd import batched_qr, lsfd, real_stack
+from ema_pipeline.identification.uncertainty import (
+    correlated_information,
+    exponential_window_correlation,
+    noise_model,
+    rect_window_correlation,
+    residual_correlation,
+)
 
 
 @dataclass(frozen=True)
@@ -49,6 +55,8 @@ def _vp_solve(
     poles: np.ndarray,
     background: np.ndarray,
     max_iter: int,
+    window_tau_s: float | None = None,
+    force_window_s: float | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
     """Variable-projection Levenberg-Marquardt fit of ``poles`` to Y (2n, n_ch).
 
@@ -123,7 +131,7 @@ def _vp_solve(
     u = np.ones(2 * n)
     for _round in range(2):
         _, R0, _ = fit(lam_of(theta), np.ones(2 * n))
-        std = noise_model(R0, Y, n_lin)
+        std, frac_b = noise_model(R0, Y, n_lin, with_fraction=True)
         # separable approximation std_ck ~ s_c u_k (one projection for all channels)
         s2 = np.mean(std**2, axis=0)
         inv_s2 = 1.0 / np.maximum(s2, np.finfo(float).tiny)
@@ -159,10 +167,38 @@ def _vp_solve(
         Finv = np.linalg.inv(F)
     except np.linalg.LinAlgError:
         Finv = np.linalg.pinv(F)
-    _, Rw, _ = fit(lam_of(theta), u)
-    Rw = Rw * np.sqrt(inv_s2)[None, :]
+    lam = lam_of(theta)
+    Qm, Rw, X = fit(lam, u)
+    sq = np.sqrt(inv_s2)
+    Rw = Rw * sq[None, :]
+    Jw = jac(lam, X) * u[:, None, None]
+    Jf = Jw.reshape(Jw.shape[0], -1)
+    Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jw.shape) * sq[None, None, :]
+    Jc = Jp[:n] + 1j * Jp[n:]  # (n, 2m, n_ch)
+    if window_tau_s is not None and window_tau_s > 0:
+        # the windows' own correlation, in full (an estimate from the residual
+        # is truncated and tapered): the additive part of the noise is that of
+        # the exponential window; the part proportional to |H| (force noise,
+        # dH = -H dF/F) that of the force window
+        df = freq_hz[1] - freq_hz[0]
+        rho = exponential_window_correlation(window_tau_s * df, n)
+        beta = frac_b if force_window_s else np.zeros_like(frac_b)
+        G = correlated_information(Jc * np.sqrt(1 - beta)[:, None, :], rho)
+        if force_window_s:
+            Hm = Y - Rw / sq[None, :] / u[:, None]  # the fitted model
+            h = Hm[:n] + 1j * Hm[n:]
+            ph = np.conj(h) / np.maximum(np.abs(h), 1e-300)
+            V = Jc * (np.sqrt(beta) * ph)[:, None, :]
+            G = G + correlated_information(V, rect_window_correlation(force_window_s * df, n))
+    else:
+        rho = residual_correlation(Rw[:n] + 1j * Rw[n:])
+        G = correlated_information(Jc, rho)
+    cov = Finv @ G @ Finv
+    # a truncated correlation estimate must never make the fit look better
+    # than independent lines would
+    cov = cov + np.diag(np.maximum(np.diag(Finv) - np.diag(cov), 0.0))
     std = np.sqrt(1.0 / inv_s2)[None, :] / u[:, None]
-    return lam_of(theta), Finv * correlation_factor(Rw), std, it_total
+    return lam, cov, std, it_total
 
 
 def refine_poles(
@@ -174,6 +210,9 @@ def refine_poles(
     min_lines: int = 40,
     max_iter: int = 30,
     max_shift: float = 0.5,
+    quantity: str | None = "accelerance",
+    window_tau_s: float | None = None,
+    force_window_s: float | None = None,
 ) -> RefinedPoles:
     """Local nonlinear least-squares refinement of each pole, with its covariance.
 
@@ -192,6 +231,12 @@ def refine_poles(
     its decay rate plus one line keeps its start value (refinement failed) and
     gets the covariance evaluated there.
 
+    The modes outside a local problem reach into its band with tails that a
+    quadratic does not follow (a heavily damped neighbour, dense modes): with
+    ``quantity`` (not ``None``) one global LSFD of all poles (with the residual
+    terms of that quantity) is computed first, and the terms of the modes that
+    are not members of the local problem are subtracted from its data.
+
     Parameters
     ----------
     freq_hz : (n_freq,) Hz.   H : (n_ch, n_freq) complex FRFs (any quantity).
@@ -207,17 +252,25 @@ def refine_poles(
     noise = np.full((m, n_ch), np.nan)
     bands = np.zeros((m, 2))
     iters = np.zeros(m, dtype=int)
+    a_all = None
+    if quantity is not None and m > 1:
+        try:
+            a_all = lsfd(freq_hz, H, poles, quantity).a
+        except (np.linalg.LinAlgError, ValueError):
+            a_all = None
     for r in range(m):
-        local = _local_problem(freq_hz, H, poles, r, half_width, min_lines)
+        local = _local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
         if local is None:
             continue
         f, Y, members, background, k, band = local
         bands[r] = band
-        lam, Finv, s, it = _vp_solve(f, Y, poles[members], background, max_iter)
+        lam, Finv, s, it = _vp_solve(f, Y, poles[members], background, max_iter,
+                                     window_tau_s, force_window_s)
         lam_r = lam[k]
         if abs(lam_r - poles[r]) > max_shift * abs(poles[r].real) + 2 * np.pi * df:
             # refinement wandered off: keep the start pole, covariance there
-            lam, Finv, s, it = _vp_solve(f, Y, poles[members], background, 0)
+            lam, Finv, s, it = _vp_solve(f, Y, poles[members], background, 0, window_tau_s,
+                                         force_window_s)
             lam_r = poles[r]
         out[r] = lam_r
         cov[r] = Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
@@ -233,8 +286,10 @@ def _local_problem(
     r: int,
     half_width: float,
     min_lines: int,
+    a_all: np.ndarray | None = None,
 ) -> tuple | None:
-    """Lines, data, member poles and background of mode r's local band."""
+    """Lines, data, member poles and background of mode r's local band
+    (less the terms of the other modes with residues ``a_all`` (m, n_ch))."""
     df = freq_hz[1] - freq_hz[0]
     f_r = poles.imag / (2 * np.pi)
     hpb = np.abs(poles.real) / np.pi  # half-power bandwidth in Hz
@@ -248,7 +303,15 @@ def _local_problem(
     members = np.union1d(np.flatnonzero((f_r + hpb > lo) & (f_r - hpb < hi)), [r])
     x = (f - f_r[r]) / width
     background = np.stack([np.ones_like(x), x, x**2], axis=1).astype(complex)
-    Y = real_stack(H[:, sel].T)
+    Hl = H[:, sel].T
+    if a_all is not None:
+        other = np.setdiff1d(np.arange(poles.size), members)
+        if other.size:
+            jw = 2j * np.pi * f[:, None]
+            lam = poles[other][None, :]
+            Hl = Hl - (1.0 / (jw - lam)) @ a_all[other] - (1.0 / (jw - lam.conj())) @ a_all[
+                other].conj()
+    Y = real_stack(Hl)
     k = int(np.flatnonzero(members == r)[0])
     return f, Y, members, background, k, (lo, hi)
 
@@ -280,3 +343,91 @@ def pole_significance(
         _, Finv, _, _ = _vp_solve(f, Y, poles[members], background, 0)
         rel[r] = np.sqrt(max(Finv[2 * k, 2 * k], 0.0)) / abs(poles[r].real)
     return rel
+
+
+def quick_significance(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    poles: np.ndarray,
+    *,
+    half_width: float = 12.0,
+    min_lines: int = 40,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cheap screen of candidate poles: std(sigma_r)/sigma_r, peak ratio and peak SNR.
+
+    The local problem of :func:`refine_poles` at the given poles, solved once
+    without iterating, with white noise per channel whose variance is the
+    residual's mean square over the degrees of freedom. The *peak ratio* is the
+    peak of the mode's own term, sqrt(sum_c |a_rc|^2) / sigma_r, relative to the
+    RMS of the data in its local band: a pole that models a small part of the
+    response (leakage, a smooth background) has a small ratio even in
+    noise-free data. The *peak SNR* is that peak over the residual's standard
+    deviation, sqrt(sum_c |a_rc|^2 / s2_c) / sigma_r: everything the local model
+    does not explain (noise, and on measured data model error) is the floor a
+    mode must stand out from. inf / 0 / 0 where the local band is too short.
+
+    Examples
+    --------
+    >>> f = np.linspace(50.0, 150.0, 401)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
+    >>> jw = 2j * np.pi * f
+    >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
+    >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
+    >>> rel, peak, snr = quick_significance(f, H, lam)
+    >>> bool(rel[0] < 0.01), bool(peak[0] > 1), bool(snr[0] > 1e3)
+    (True, True, True)
+    """
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    H = np.asarray(H)
+    rel = np.full(poles.size, np.inf)
+    peak = np.zeros(poles.size)
+    snr = np.zeros(poles.size)
+    for r in range(poles.size):
+        local = _local_problem(freq_hz, H, poles, r, half_width, min_lines)
+        if local is None:
+            continue
+        f, Y, members, background, k, _ = local
+        lam = poles[members]
+        m = lam.size
+        jw = 2j * np.pi * f[:, None]
+        g = 1.0 / (jw - lam[None, :])
+        gc = 1.0 / (jw - np.conj(lam)[None, :])
+        cols = np.empty((f.size, 2 * m + 2 * background.shape[1]), dtype=complex)
+        cols[:, 0 : 2 * m : 2] = g + gc
+        cols[:, 1 : 2 * m : 2] = 1j * (g - gc)
+        cols[:, 2 * m :: 2] = background
+        cols[:, 2 * m + 1 :: 2] = 1j * background
+        A = real_stack(cols)
+        scale = np.max(np.abs(A), axis=0)
+        scale[scale == 0] = 1.0
+        Qm, Rm = batched_qr(A / scale)
+        QtY = Qm.T @ Y
+        res = Y - Qm @ QtY
+        dof = max(Y.shape[0] - A.shape[1] - 2 * m / Y.shape[1], 1.0)
+        s2 = np.maximum(np.sum(res**2, axis=0) / dof, 1e-300)
+        try:
+            X = np.linalg.solve(Rm, QtY) / scale[:, None]  # (K, n_ch)
+        except np.linalg.LinAlgError:
+            continue
+        a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
+        t1 = (1.0 / (jw - lam[None, :]) ** 2)[:, :, None] * a[None, :, :]
+        t2 = (1.0 / (jw - np.conj(lam)[None, :]) ** 2)[:, :, None] * np.conj(a)[None, :, :]
+        J = np.empty((f.size, 2 * m, a.shape[1]), dtype=complex)
+        J[:, 0::2] = -(t1 + t2)
+        J[:, 1::2] = 1j * (t1 - t2)
+        Jr = np.concatenate([J.real, J.imag], axis=0) / np.sqrt(s2)[None, None, :]
+        Jf = Jr.reshape(Jr.shape[0], -1)
+        Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jr.shape)
+        Js = np.transpose(Jp, (0, 2, 1)).reshape(-1, 2 * m)
+        try:
+            var = np.linalg.inv(Js.T @ Js)[2 * k, 2 * k]
+        except np.linalg.LinAlgError:
+            continue
+        sigma_r = abs(lam[k].real)
+        rel[r] = np.sqrt(max(var, 0.0)) / sigma_r
+        ak = a[k]
+        n = f.size
+        data_ms = np.mean(np.sum(Y[:n] ** 2 + Y[n:] ** 2, axis=1))
+        peak[r] = np.sqrt(np.sum(np.abs(ak) ** 2) / max(data_ms, 1e-300)) / sigma_r
+        snr[r] = np.sqrt(np.sum(np.abs(ak) ** 2 / s2)) / sigma_r
+    return rel, peak, snr

@@ -1,19 +1,29 @@
-"""Automatic pole selection: clustering of the stable poles over model orders."""
+"""Automatic pole selection: pole trajectories over model orders.
+
+Every pole of a model order is linked one-to-one to a pole of one of the
+previous computed orders (:func:`track_poles`), so each physical mode becomes
+one *trajectory* through the stabilization diagram, even when its frequency
+drifts slowly with the order or when it stabilises only at high order. A
+trajectory with enough members whose settled poles are physical is a mode
+(:func:`select_trajectories`); two trajectories that coexist at the same
+orders stay two modes however close they are (close modes), unless their poles
+coincide numerically (:func:`merge_coincident`).
+
+Why written here: scipy's hierarchical clustering needs the dense all-pairs
+distance matrix of every candidate pole (O(n^2) memory: 4.8 GiB at order 400)
+and cannot use the order structure; the linking needs only one
+(poles of order n) x (open trajectories) distance matrix at a time.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.cluster.hierarchy import fcluster, linkage
-from scipy.spatial.distance import squareform
 
 from ema_pipeline.data import DataError
-from ema_pipeline.identification.stabilization import (
-    STABLE_FREQ,
-    STABLE_VECTOR,
-    StabilizationData,
-)
+from ema_pipeline.identification.plscf import PoleSet
+from ema_pipeline.identification.stabilization import pole_to_modal
 
 
 @dataclass(frozen=True)
@@ -22,10 +32,13 @@ class SelectedPoles:
 
     Attributes
     ----------
-    pole : (n_modes,) complex   identified pole (cluster median, before window correction)
-    cluster : (n_modes,) int    cluster label in :attr:`StabilizationData.cluster`
-    n_members : (n_modes,) int  number of model orders in the cluster
-    scatter_fn_hz, scatter_zeta : (n_modes,) std of f_n and zeta over the members
+    pole : (n_modes,) complex   identified pole (trajectory median, before window correction)
+    cluster : (n_modes,) int    trajectory label in :attr:`StabilizationData.cluster`
+    n_members : (n_modes,) int  number of model orders the trajectory holds
+    scatter_fn_hz, scatter_zeta : (n_modes,) std of f_n and zeta over the
+        settled (last half) members
+    first_order : (n_modes,) int  model order at which the trajectory starts
+        (the mode is stable from there on); empty when unknown
     """
 
     pole: np.ndarray
@@ -33,131 +46,222 @@ class SelectedPoles:
     n_members: np.ndarray
     scatter_fn_hz: np.ndarray
     scatter_zeta: np.ndarray
+    first_order: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+
+    def subset(self, keep: np.ndarray) -> SelectedPoles:
+        """The rows ``keep`` (boolean mask or indices) of every field."""
+        return SelectedPoles(
+            **{k: (v[keep] if v.size else v) for k, v in self.__dict__.items()}
+        )
 
 
-def _distance(fn: np.ndarray, zeta: np.ndarray, tol_freq: float, tol_zeta: float) -> np.ndarray:
-    """d_ij = |ln f_i - ln f_j| / tol_freq + |zeta_i - zeta_j| / (tol_zeta max(zeta_i, zeta_j))."""
-    lf = np.log(fn)
-    d = np.abs(lf[:, None] - lf[None, :]) / tol_freq
-    zmax = np.maximum(np.maximum(zeta[:, None], zeta[None, :]), 1e-6)
-    d += np.abs(zeta[:, None] - zeta[None, :]) / (tol_zeta * zmax)
-    np.fill_diagonal(d, 0.0)
-    return d
-
-
-def cluster_poles(
-    stab: StabilizationData,
-    band_hz: tuple[float, float],
+def track_poles(
+    poles: PoleSet,
     *,
-    tol_freq: float = 0.005,
-    tol_zeta: float = 0.5,
-    zeta_max: float = 0.2,
-    edge: tuple[float, float] = (0.005, 0.02),
+    tol_freq: float = 0.01,
+    tol_zeta: float = 0.3,
+    tol_mac: float = 0.05,
+    max_gap: int = 2,
 ) -> np.ndarray:
-    """Cluster labels (-1 = not a candidate) of the stable physical poles.
+    """Trajectory label of every pole of ``poles`` (sorted by order).
 
-    Candidates: stable in frequency and participation vector (damping
-    stability is not required: the damping of a lightly damped mode in noisy
-    data wanders more than 5 % between orders while its frequency holds), a
-    positive identified decay (sigma > 0) and window-corrected damping
-    0 < zeta < ``zeta_max``, frequency inside ``band_hz`` less the fractions
-    ``edge`` of its width at the bottom and top (poles at a band edge model the
-    truncation, e.g. a mode just above the band or an anti-aliasing roll-off). They are grouped by
-    average-linkage hierarchical clustering with the distance of
-    :func:`_distance` (1 = a relative frequency difference of ``tol_freq``, or
-    a relative damping difference of ``tol_zeta``), cut at distance 1.
+    A pole of order n is linked to the open end of a trajectory whose last
+    pole is at one of the ``max_gap`` previous computed orders, one-to-one,
+    smallest distance first, if
+
+        d = |df| / (tol_freq f) + |dzeta| / (tol_zeta max(zeta)) + (1 - MAC(l)) / tol_mac < 1,
+
+    with l the participation vectors; otherwise it starts a new trajectory.
+    Memory: one (poles of order n) x (open trajectories) matrix at a time.
+
+    Examples
+    --------
+    >>> from ema_pipeline.identification.plscf import PoleSet
+    >>> lam = np.array([-1 + 100j, -1 + 100.2j, -5 + 300j, -1 + 100.3j])
+    >>> ps = PoleSet(order=np.array([2, 4, 4, 6]), pole=lam,
+    ...              participation=np.ones((4, 1), complex), orders=np.array([2, 4, 6]), dt=1e-3)
+    >>> track_poles(ps).tolist()
+    [0, 0, 1, 0]
     """
-    need = STABLE_FREQ | STABLE_VECTOR
-    cand = (
-        ((stab.flags & need) == need)
-        & (stab.pole.real < 0)
-        & (stab.zeta > 0)
-        & (stab.zeta < zeta_max)
-        & (stab.freq_hz > band_hz[0] + edge[0] * (band_hz[1] - band_hz[0]))
-        & (stab.freq_hz < band_hz[1] - edge[1] * (band_hz[1] - band_hz[0]))
-    )
-    labels = np.full(stab.order.size, -1)
-    idx = np.flatnonzero(cand)
-    if idx.size == 0:
-        return labels
-    # Poles more than tol_freq apart in frequency can never share a cluster
-    # (their distance exceeds 1), so split the sorted candidates at such gaps
-    # first and cluster each group on its own: memory and time stay small.
-    idx = idx[np.argsort(stab.freq_hz[idx])]
-    lf = np.log(stab.freq_hz[idx])
-    cuts = np.flatnonzero(np.diff(lf) > tol_freq) + 1
-    next_label = 0
-    for group in np.split(idx, cuts):
-        if group.size == 1:
-            labels[group] = next_label
-            next_label += 1
+    fn, _, zeta = pole_to_modal(poles.pole)
+    zeta = np.abs(zeta)
+    part = poles.participation
+    pn = np.sum(np.abs(part) ** 2, axis=1)
+    traj = np.full(poles.pole.size, -1)
+    starts = np.searchsorted(poles.order, poles.orders)
+    ends = np.append(starts[1:], poles.order.size)
+    tail = np.zeros(0, dtype=int)  # last pole of each trajectory
+    tail_k = np.zeros(0, dtype=int)  # index of its order
+    for k in range(poles.orders.size):
+        cur = np.arange(starts[k], ends[k])
+        if cur.size == 0:
             continue
-        d = _distance(stab.freq_hz[group], stab.zeta[group], tol_freq, tol_zeta)
-        Z = linkage(squareform(d, checks=False), method="average")
-        sub = fcluster(Z, t=1.0, criterion="distance") - 1
-        labels[group] = sub + next_label
-        next_label += int(sub.max()) + 1
-    return labels
+        open_t = np.flatnonzero(k - tail_k <= max_gap)
+        if open_t.size:
+            tp = tail[open_t]
+            d = np.abs(fn[cur][:, None] - fn[tp][None, :]) / (tol_freq * fn[tp][None, :])
+            zmax = np.maximum(np.maximum(zeta[cur][:, None], zeta[tp][None, :]), 1e-4)
+            d += np.abs(zeta[cur][:, None] - zeta[tp][None, :]) / (tol_zeta * zmax)
+            if part.shape[1] > 1:
+                num = np.abs(part[cur].conj() @ part[tp].T) ** 2
+                den = np.maximum(pn[cur][:, None] * pn[tp][None, :], 1e-300)
+                d += (1 - num / den) / tol_mac
+            ii, jj = np.nonzero(d < 1)
+            if ii.size:
+                o = np.argsort(d[ii, jj], kind="stable")
+                ii, jj = ii[o], jj[o]
+                # greedy one-to-one matching, smallest distance first
+                used_c = np.zeros(cur.size, bool)
+                used_t = np.zeros(open_t.size, bool)
+                for i, j in zip(ii.tolist(), jj.tolist(), strict=True):
+                    if used_c[i] or used_t[j]:
+                        continue
+                    used_c[i] = used_t[j] = True
+                    t = open_t[j]
+                    traj[cur[i]] = t
+                    tail[t] = cur[i]
+                    tail_k[t] = k
+        new = cur[traj[cur] < 0]
+        traj[new] = tail.size + np.arange(new.size)
+        tail = np.concatenate([tail, new])
+        tail_k = np.concatenate([tail_k, np.full(new.size, k)])
+    return traj
 
 
-def select_poles(
-    stab: StabilizationData,
-    labels: np.ndarray,
+def select_trajectories(
+    poles: PoleSet,
+    traj: np.ndarray,
+    band_hz: tuple[float, float],
+    window_decay_rate: float = 0.0,
     *,
-    expect_hz: np.ndarray | None = None,
-    min_fraction: float = 0.3,
-    min_members: int = 4,
+    min_fraction: float = 0.1,
+    min_members: int = 6,
+    edge: tuple[float, float] = (0.005, 0.02),
+    zeta_max: float = 0.2,
+    max_scatter: float = 0.15,
+) -> SelectedPoles:
+    """The trajectories that are physical modes, ascending frequency.
+
+    A trajectory is a mode when
+
+    * it holds at least ``max(min_members, min_fraction * n_orders)`` poles
+      (however late it starts: a mode that stabilises at high order is kept);
+    * its pole -- the median of the last half of its members -- has a positive
+      decay, window-corrected damping 0 < zeta < ``zeta_max`` and a frequency
+      inside ``band_hz`` less the fractions ``edge`` of its width at the
+      bottom and top (poles at a band edge model the truncation);
+    * it has settled: over that last half f_n and zeta scatter by less than
+      ``max_scatter`` of the half-power half-width (zeta f_n) and of zeta.
+
+    Examples
+    --------
+    >>> from ema_pipeline.identification.plscf import PoleSet
+    >>> order = np.repeat(np.arange(2, 22, 2), 2)
+    >>> lam = np.tile([-2 + 2 * np.pi * 50j, -900 + 2 * np.pi * 80j], 10)
+    >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((20, 1), complex),
+    ...              orders=np.arange(2, 22, 2), dt=1 / 200)
+    >>> sel = select_trajectories(ps, track_poles(ps), (1.0, 100.0))
+    >>> (sel.pole.imag / (2 * np.pi)).round(1).tolist(), sel.n_members.tolist()
+    ([50.0], [10])
+    """
+    n_orders = poles.orders.size
+    need = max(min_members, int(np.ceil(min_fraction * n_orders)))
+    lo, hi = band_hz
+    w = hi - lo
+    rows = []
+    if traj.size:
+        ids, counts = np.unique(traj, return_counts=True)
+        order_idx = np.argsort(traj, kind="stable")
+        bounds = np.concatenate([[0], np.cumsum(counts)])
+        for t in np.flatnonzero(counts >= need):
+            m = order_idx[bounds[t] : bounds[t + 1]]  # members, ascending order
+            tail = m[m.size // 2 :]
+            rep = np.median(poles.pole[tail].real) + 1j * np.median(poles.pole[tail].imag)
+            fn, _, z = pole_to_modal(np.array([rep]), window_decay_rate)
+            if not (rep.real < 0 and 0 < z[0] < zeta_max
+                    and lo + edge[0] * w < fn[0] < hi - edge[1] * w):
+                continue
+            f_i, _, z_i = pole_to_modal(poles.pole[tail])
+            zi = max(float(np.median(z_i)), 1e-6)
+            if np.std(f_i) > max_scatter * zi * np.median(f_i) or np.std(z_i) > max_scatter * zi:
+                continue
+            f_c, _, z_c = pole_to_modal(poles.pole[tail], window_decay_rate)
+            rows.append((rep, int(ids[t]), m.size, float(np.std(f_c)), float(np.std(z_c)),
+                         int(poles.order[m[0]])))
+    rows.sort(key=lambda row: row[0].imag)
+    return _selected(rows)
+
+
+def _selected(rows: list[tuple]) -> SelectedPoles:
+    return SelectedPoles(
+        pole=np.array([r[0] for r in rows], dtype=complex),
+        cluster=np.array([r[1] for r in rows], dtype=int),
+        n_members=np.array([r[2] for r in rows], dtype=int),
+        scatter_fn_hz=np.array([r[3] for r in rows], dtype=float),
+        scatter_zeta=np.array([r[4] for r in rows], dtype=float),
+        first_order=np.array([r[5] for r in rows], dtype=int),
+    )
+
+
+def merge_coincident(sel: SelectedPoles, rel: float = 0.2) -> SelectedPoles:
+    """Drop a trajectory whose pole lies within ``rel`` of a decay rate of the
+    pole of a longer one (numerically the same pole, e.g. a trajectory broken
+    by a gap); close modes, whose poles differ by more, are kept.
+
+    Examples
+    --------
+    >>> sel = SelectedPoles(pole=np.array([-1 + 100j, -1 + 100.1j, -1 + 110j]),
+    ...                     cluster=np.arange(3), n_members=np.array([10, 4, 8]),
+    ...                     scatter_fn_hz=np.zeros(3), scatter_zeta=np.zeros(3))
+    >>> merge_coincident(sel).pole.imag.tolist()
+    [100.0, 110.0]
+    """
+    pole = sel.pole
+    keep = np.ones(pole.size, bool)
+    for a in np.argsort(-sel.n_members, kind="stable"):
+        if not keep[a]:
+            continue
+        near = np.abs(pole - pole[a]) < rel * np.abs(pole[a].real)
+        near[a] = False
+        keep &= ~near
+    return sel.subset(keep)
+
+
+def select_expected(
+    candidates: SelectedPoles,
+    expect_hz: np.ndarray,
+    window_decay_rate: float = 0.0,
+    *,
     expect_tol: float = 0.15,
 ) -> SelectedPoles:
-    """One pole per physical mode from the clusters.
+    """For each expected frequency the candidate trajectory nearest to it
+    (relative distance < ``expect_tol``, the longer one when equally near),
+    each candidate used once.
 
-    A cluster is kept when it holds poles of at least
-    ``max(min_members, min_fraction * n_orders)`` distinct model orders
-    (computational poles do not stabilise over many orders). Its representative
-    is the pole, one per order, nearest the cluster's median -- the complex
-    median of the member poles. With ``expect_hz`` the cluster nearest each
-    expected frequency (relative distance < ``expect_tol``) among those with at
-    least ``min_members`` orders is taken instead, the largest first if several.
+    Raises
+    ------
+    DataError
+        no candidate within ``expect_tol`` of an expected frequency.
+
+    Examples
+    --------
+    >>> sel = SelectedPoles(pole=np.array([-1 + 2j * np.pi * 50, -1 + 2j * np.pi * 80]),
+    ...                     cluster=np.arange(2), n_members=np.array([10, 8]),
+    ...                     scatter_fn_hz=np.zeros(2), scatter_zeta=np.zeros(2))
+    >>> (select_expected(sel, np.array([78.0])).pole.imag / (2 * np.pi)).round(1).tolist()
+    [80.0]
     """
-    n_orders = np.unique(stab.order).size
-    clusters = np.unique(labels[labels >= 0])
-    info = []
-    for c in clusters:
-        m = np.flatnonzero(labels == c)
-        # one pole per order: the one closest to the cluster median
-        med = np.median(stab.pole[m].real) + 1j * np.median(stab.pole[m].imag)
-        order_m = stab.order[m]
-        dist = np.abs(stab.pole[m] - med)
-        picked: list[int] = []
-        for o in np.unique(order_m):
-            mo = np.flatnonzero(order_m == o)
-            picked.append(m[mo[np.argmin(dist[mo])]])
-        keep = np.asarray(picked)
-        rep = np.median(stab.pole[keep].real) + 1j * np.median(stab.pole[keep].imag)
-        info.append(
-            (c, rep, keep.size, np.std(stab.freq_hz[keep]), np.std(stab.zeta[keep]),
-             float(np.median(stab.freq_hz[keep])))
-        )
-    if expect_hz is None:
-        need = max(min_members, int(np.ceil(min_fraction * n_orders)))
-        chosen = [row for row in info if row[2] >= need]
-    else:
-        pool = [row for row in info if row[2] >= min_members]
-        chosen = []
-        for fe in np.atleast_1d(np.asarray(expect_hz, dtype=float)):
-            near = [row for row in pool if abs(row[5] - fe) < expect_tol * fe
-                    and row not in chosen]
-            if not near:
-                raise DataError(
-                    f"no stable pole cluster within {expect_tol:.0%} of the expected "
-                    f"{fe:g} Hz; widen the band, raise max_order or drop the guess"
-                )
-            chosen.append(min(near, key=lambda row: abs(row[5] - fe) / fe - 1e-3 * row[2]))
-    chosen.sort(key=lambda row: row[5])
-    return SelectedPoles(
-        pole=np.array([row[1] for row in chosen], dtype=complex),
-        cluster=np.array([row[0] for row in chosen], dtype=int),
-        n_members=np.array([row[2] for row in chosen], dtype=int),
-        scatter_fn_hz=np.array([row[3] for row in chosen], dtype=float),
-        scatter_zeta=np.array([row[4] for row in chosen], dtype=float),
-    )
+    fn, _, _ = pole_to_modal(candidates.pole, window_decay_rate)
+    chosen: list[int] = []
+    for fe in np.atleast_1d(np.asarray(expect_hz, dtype=float)):
+        d = np.abs(fn - fe) / fe - 1e-4 * candidates.n_members
+        ok = np.abs(fn - fe) < expect_tol * fe
+        ok[chosen] = False
+        if not ok.any():
+            raise DataError(
+                f"no stable pole cluster (trajectory) within {expect_tol:.0%} of the expected "
+                f"{fe:g} Hz; widen the band, raise max_order or drop the guess"
+            )
+        chosen.append(int(np.argmin(np.where(ok, d, np.inf))))
+    idx = np.array(sorted(chosen, key=lambda i: fn[i]), dtype=int)
+    return candidates.subset(idx)

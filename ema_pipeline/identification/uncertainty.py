@@ -34,7 +34,9 @@ STD_CALIBRATION = 2.0
 MAX_REL_SIGMA_STD = 0.5
 
 
-def noise_model(R: np.ndarray, Y: np.ndarray, n_lin: int) -> np.ndarray:
+def noise_model(
+    R: np.ndarray, Y: np.ndarray, n_lin: int, *, with_fraction: bool = False
+) -> np.ndarray | tuple[np.ndarray, np.ndarray]:
     """Standard deviation per line and channel, var_k = a_c + b_c |H_ck|^2.
 
     Additive noise on the response gives the constant a, noise on the force
@@ -42,6 +44,8 @@ def noise_model(R: np.ndarray, Y: np.ndarray, n_lin: int) -> np.ndarray:
     a_c, b_c >= 0 are fitted to the squared residual |e_ck|^2 against the
     fitted |H_ck|^2 by non-negative least squares, scaled by the degrees of
     freedom 2n / (2n - n_lin). R, Y: (2n, n_ch) real-stacked residual and data.
+    With ``with_fraction`` also the fraction b |H|^2 / var of the variance that
+    is proportional to |H|^2, (n, n_ch).
     """
     n = R.shape[0] // 2
     e2 = R[:n] ** 2 + R[n:] ** 2
@@ -49,14 +53,17 @@ def noise_model(R: np.ndarray, Y: np.ndarray, n_lin: int) -> np.ndarray:
     h2 = fit[:n] ** 2 + fit[n:] ** 2
     dof = 2 * n / max(2 * n - n_lin, 1)
     std = np.empty_like(e2)
+    frac_b = np.zeros_like(e2)
     for c in range(e2.shape[1]):
         scale = max(np.max(h2[:, c]), np.finfo(float).tiny)
         coef, _ = optimize.nnls(np.stack([np.ones(n), h2[:, c] / scale], axis=1), e2[:, c])
         var = (coef[0] + coef[1] * h2[:, c] / scale) * dof
         floor = max(np.mean(e2[:, c]) * dof * 1e-3, np.finfo(float).tiny)
         std[:, c] = np.sqrt(np.maximum(var, floor))
+        frac_b[:, c] = coef[1] * h2[:, c] / scale * dof / std[:, c] ** 2
     # each of the real and imaginary parts carries half the complex variance
-    return np.concatenate([std, std], axis=0) / np.sqrt(2)
+    out = np.concatenate([std, std], axis=0) / np.sqrt(2)
+    return (out, np.clip(frac_b, 0.0, 1.0)) if with_fraction else out
 
 
 def correlation_factor(Rw: np.ndarray, max_lag: int = 128) -> float:
@@ -79,6 +86,89 @@ def correlation_factor(Rw: np.ndarray, max_lag: int = 128) -> float:
     lags = np.arange(1, L + 1)
     rho = np.array([np.real(np.sum(e[lag:] * np.conj(e[:-lag]))) for lag in lags]) / p0
     return float(max(1.0, 1.0 + 2.0 * np.sum((1 - lags / (L + 1)) * rho)))
+
+
+def residual_correlation(e: np.ndarray, max_lag: int = 128) -> np.ndarray:
+    """Complex correlation of the noise between lines l apart, from residuals.
+
+    rho_l = sum_kc e_kc conj(e_(k+l)c) / sum_kc |e_kc|^2 for l = 0..L,
+    L = min(``max_lag``, n/4), ``e`` (n, n_ch) the complex noise-weighted
+    residual, times the Bartlett taper 1 - l/(L+1) (a consistent, positive
+    estimate). Windows make it complex: the exponential window of time
+    constant tau on a record of length T gives rho_l = 1 / (1 - j pi l tau/T)
+    in this convention.
+
+    Examples
+    --------
+    >>> e = np.random.default_rng(0).standard_normal((4000, 2)) * (1 + 0j)
+    >>> rho = residual_correlation(e, 4)
+    >>> float(rho[0]), bool(np.all(np.abs(rho[1:]) < 0.1))
+    (1.0, True)
+    """
+    n = e.shape[0]
+    L = int(min(max_lag, n // 4))
+    e = e - np.mean(e, axis=0)
+    p0 = float(np.sum(np.abs(e) ** 2))
+    rho = np.zeros(L + 1, dtype=complex)
+    rho[0] = 1.0
+    if p0 <= 0:
+        return rho[:1]
+    for lag in range(1, L + 1):
+        rho[lag] = np.sum(e[:-lag] * np.conj(e[lag:])) / p0 * (1 - lag / (L + 1))
+    return rho
+
+
+def exponential_window_correlation(tau_df: float, n_lags: int) -> np.ndarray:
+    """Correlation rho_l = 1 / (1 - j pi l tau df), l = 0..n_lags-1, between
+    lines l apart of white noise under the exponential window exp(-t/tau)
+    (E[X_k conj(X_(k+l))] / E|X_k|^2 of the windowed record's spectrum,
+    df = 1/T, the record decayed at its end); ``tau_df`` = tau df.
+
+    Examples
+    --------
+    >>> np.round(exponential_window_correlation(0.2, 2), 3)
+    array([1.   +0.j   , 0.717+0.451j])
+    """
+    lag = np.arange(int(n_lags))
+    return np.asarray(1.0 / (1.0 - 1j * np.pi * lag * tau_df))
+
+
+def rect_window_correlation(length_df: float, n_lags: int) -> np.ndarray:
+    """Correlation rho_l = exp(j pi l L df) sinc(l L df), l = 0..n_lags-1,
+    between lines l apart of white noise under a rectangular (force) window
+    of length L (``length_df`` = L df).
+
+    Examples
+    --------
+    >>> np.round(np.abs(rect_window_correlation(0.5, 3)), 3)
+    array([1.   , 0.637, 0.   ])
+    """
+    x = np.arange(int(n_lags)) * length_df
+    return np.asarray(np.exp(1j * np.pi * x) * np.sinc(x))
+
+
+def correlated_information(Jc: np.ndarray, rho: np.ndarray) -> np.ndarray:
+    """G = Re(Jc^H P Jc) summed over channels, P[k, k+l] = rho_l (Hermitian Toeplitz).
+
+    ``Jc`` (n, n_par, n_ch) is the complex form (real part rows + 1j imaginary
+    part rows) of the noise-weighted, projected Jacobian; the real-stacked
+    least-squares estimate has the sandwich covariance F^-1 G F^-1 with
+    F = Re(Jc^H Jc) when the complex noise is circular with line correlation
+    ``rho`` (for rho = [1] G = F). G = F + sum_l (Re(rho_l S_l) + Re(rho_l S_l)^T),
+    S_l = sum_k Jc_k^H Jc_(k+l).
+
+    Examples
+    --------
+    >>> J = np.ones((10, 1, 1), complex)
+    >>> float(correlated_information(J, np.array([1.0, 0.5])))  # 10 + 2 * 0.5 * 9
+    19.0
+    """
+    G = np.real(np.einsum("kpc,kqc->pq", np.conj(Jc), Jc))
+    for lag in range(1, min(rho.size, Jc.shape[0])):
+        S = np.einsum("kpc,kqc->pq", np.conj(Jc[:-lag]), Jc[lag:])
+        T = np.real(rho[lag] * S)
+        G = G + T + T.T
+    return np.asarray(G)
 
 
 def modal_std(pole: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
