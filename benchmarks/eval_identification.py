@@ -5,7 +5,6 @@ Run from the repository root::
 
     python benchmarks/eval_identification.py                 # all families, 8 seeds
     python benchmarks/eval_identification.py --seeds 100-119 --families dense_log,impact
-    python benchmarks/eval_identification.py --impl proto    # benchmarks/proto_selection.py
     python benchmarks/eval_identification.py --real --paper  # measured beam, paper timing
 
 For every family: true modes, missed and spurious (a match is
@@ -55,15 +54,9 @@ def identify_case(frf: FRFSet, band_hz: tuple[float, float] | None,
     """
     if frf.n_out == 1 and frf.n_in > 1:
         frf = frf.reciprocal()
-    if impl == "proto":
-        import proto_selection
+    from ema_pipeline.identification import identify
 
-        res = proto_selection.identify_proto(frf, band_hz=band_hz)
-    else:
-        from ema_pipeline.identification import identify
-
-        # new signature: identify(frf, IdentifyOptions(band_hz=band_hz))
-        res = identify(frf, band_hz=band_hz)
+    res = identify(frf, band_hz=band_hz)
     m = res.modes
     return {"fn_hz": np.asarray(m.fn_hz), "zeta": np.asarray(m.zeta),
             "fn_std_hz": np.asarray(m.fn_std_hz), "zeta_std": np.asarray(m.zeta_std)}
@@ -181,8 +174,7 @@ def run_real(impl: str) -> dict:
 
 
 def run_paper(impl: str, repeats: int = 3) -> dict:
-    """Time at defaults on the paper's 2 FRFs, and peak memory at max-order 400
-    (current implementation only; the prototype takes its own orders)."""
+    """Time at defaults on the paper's 2 FRFs, and peak memory at max-order 400."""
     import tracemalloc
 
     from ema_pipeline import io
@@ -200,14 +192,9 @@ def run_paper(impl: str, repeats: int = 3) -> dict:
 
     print(f"  (package: {ema_pipeline.__file__})")
     tracemalloc.start()
-    if impl == "proto":
-        import proto_selection
+    from ema_pipeline.identification import identify
 
-        proto_selection.identify_proto(frf, band_hz=None, max_order=400)
-    else:
-        from ema_pipeline.identification import identify
-
-        identify(frf, max_order=400)
+    identify(frf, max_order=400)
     peak = tracemalloc.get_traced_memory()[1] / 2**30
     tracemalloc.stop()
     print(f"  peak traced memory at max-order 400: {peak:.2f} GiB")
@@ -226,7 +213,7 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--families", default=",".join(hardcases.FAMILIES))
     ap.add_argument("--seeds", default="100-107", help="e.g. 100-107 or 1,5,9")
-    ap.add_argument("--impl", choices=["current", "proto"], default="current")
+    ap.add_argument("--impl", choices=["current"], default="current")
     ap.add_argument("--real", action="store_true", help="also the measured beam")
     ap.add_argument("--paper", action="store_true", help="also timing/memory on raw_frf")
     ap.add_argument("--no-families", action="store_true")

@@ -69,11 +69,11 @@ def identify(
     omega_d unchanged, f_n = |lambda| / 2 pi, zeta = sigma / |lambda|.
     Uncertainty (``refine=True``): standard deviations of f_n and zeta by
     first-order propagation of the least-squares covariance of the refined
-    poles (inverse Fisher matrix of the noise-weighted local pole-residue fit,
-    the noise level and its line-to-line correlation estimated from the fit
-    residual), times ``STD_CALIBRATION``
-    (:mod:`ema_pipeline.identification.uncertainty`); with ``refine=False`` the
-    scatter of the cluster's poles over the model orders (an underestimate).
+    poles (sandwich covariance of the noise-weighted local pole-residue fit:
+    the noise level from the fit residual, its line-to-line correlation from
+    the recorded windows or the residual; no empirical factor, see
+    :mod:`ema_pipeline.identification.uncertainty`); with ``refine=False`` the
+    scatter of the trajectory's poles over the model orders (an underestimate).
 
     Examples
     --------

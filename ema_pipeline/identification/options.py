@@ -29,8 +29,10 @@ class IdentificationOptions:
     ----------
     band_hz : (lo, hi) band in Hz; default: from the 6th line (skipping 0 Hz
         and the first lines) to the last line.
-    max_order : highest pLSCF denominator order p (p * n_in poles); default
-        :func:`ema_pipeline.identification.default_max_order`. For
+    max_order : highest pLSCF denominator order p (p * n_in poles), fixed;
+        default adaptive: from :func:`ema_pipeline.identification.default_max_order`
+        doubled while the diagram gains modes, up to
+        :func:`ema_pipeline.identification.plscf_backend.order_cap`. For
         ``"sdypy-lscf"`` sdypy-EMA's ``pol_order_high`` (default 100).
     method : a name in :data:`ema_pipeline.identification.METHODS`:
         ``"plscf"`` (this package) or ``"sdypy-lscf"`` (sdypy-EMA).
@@ -44,8 +46,10 @@ class IdentificationOptions:
         "coherence" (additionally every line weighted by the coherence).
     tol_freq, tol_zeta, tol_mac : stabilization tolerances (relative frequency,
         relative damping, 1 - MAC of participation vectors).
-    min_fraction : a cluster must hold poles of at least this fraction of the
-        computed orders to count as a physical mode.
+    min_fraction : a pole trajectory must hold poles of at least this fraction
+        of the computed orders (and at least 6) to count as a physical mode;
+        where in the diagram it starts does not matter (a mode that
+        stabilises late is kept).
     refine : refine the selected poles by variable-projection nonlinear least
         squares (:func:`ema_pipeline.identification.refine.refine_poles`), which
         also gives their covariance.
@@ -69,7 +73,7 @@ class IdentificationOptions:
     tol_freq: float = 0.01
     tol_zeta: float = 0.05
     tol_mac: float = 0.02
-    min_fraction: float = 0.3
+    min_fraction: float = 0.1
     refine: bool = True
     lower_residual: bool = True
     upper_residual: bool = True

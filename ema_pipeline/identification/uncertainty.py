@@ -1,34 +1,48 @@
-"""The uncertainty model of the identified poles.
+"""The uncertainty model of the identified poles: standard deviations from the data.
 
-* the noise model of the local fit (:func:`noise_model`): variance per line and
-  channel a_c + b_c |H_ck|^2, fitted to the residual;
-* the variance inflation for noise correlated between neighbouring lines
-  (:func:`correlation_factor`);
-* first-order propagation of the covariance of (sigma_r, omega_dr) to f_n and
-  zeta (:func:`modal_std`);
-* the empirical factor :data:`STD_CALIBRATION` on all of it and the threshold
-  :data:`MAX_REL_SIGMA_STD` below which a pole counts as determined.
+Derivation (no empirical factor). The refined pole of mode r is the weighted
+least-squares estimate of the local fit of
+:mod:`ema_pipeline.identification.refine` (variable projection: the linear
+terms -- residues and background -- eliminated). To first order its error is
+d theta = F^-1 J^T u, with J the noise-weighted Jacobian projected off the
+linear terms (rows: real and imaginary part of every line and channel) and u
+the weighted noise, so
 
-The covariance itself is the inverse Fisher matrix of the local pole fit of
-:mod:`ema_pipeline.identification.refine`: F = sum_c Jp_c^T (I - P) Jp_c / s_c^2,
-Jp_c the weighted Jacobian with respect to the poles and P the projection onto
-the linear terms -- ordinary least-squares covariance propagation.
+    Cov(theta) = F^-1 G F^-1,   F = J^T J,   G = J^T Cov(u) J.
+
+* **Noise level** (:func:`noise_model`): per channel and line
+  var = a_c + b_c |H_ck|^2, fitted to the residual of the local fit (additive
+  response noise, and the part proportional to |H| that force noise gives an
+  H1 estimate, dH = -H dF / F), scaled by the degrees of freedom. Weighting
+  with it makes Cov(u) unit-diagonal.
+* **Line-to-line correlation**: windows correlate the noise of neighbouring
+  lines (the FRF lines are no longer independent). For circular complex noise
+  with correlation rho_l between lines l apart, G = Re(Jc^H P Jc) with P the
+  Hermitian Toeplitz matrix of rho (:func:`correlated_information`, by FFT).
+  When the FRF set records its windows, rho is the windows' own: the
+  exponential window exp(-t/tau) gives rho_l = 1 / (1 - j pi l tau df) for the
+  additive part (:func:`exponential_window_correlation`), a rectangular force
+  window of length L gives exp(j pi l L df) sinc(l L df) for the part
+  proportional to |H| (:func:`rect_window_correlation`, applied to the
+  fraction b|H|^2 / var of the variance, with the phase of H). Otherwise rho
+  is estimated from the residual (:func:`residual_correlation`, Bartlett
+  taper). A correlation estimate never makes a variance smaller than that of
+  independent lines.
+* **Window correction**: the exponential window shifts every pole by the
+  constant 1/tau, which leaves the covariance unchanged; it enters through the
+  line correlation above.
+* **Propagation** to f_n and zeta (:func:`modal_std`), first order.
+
+:data:`MAX_REL_SIGMA_STD` is the threshold below which a pole counts as
+determined by the data.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize
+from scipy import optimize, signal
 
-#: Factor on the least-squares standard deviations. The covariance of the
-#: refined poles assumes the noise model of the local fit; the noise of real
-#: H1 estimates is correlated over many lines (force and exponential windows)
-#: beyond what the residual autocorrelation correction recovers. Calibrated on
-#: simulated impact tests (3 configurations x 20 seeds, 40 dB SNR, 4 averages):
-#: with 2.0 the RMS of error/std is 0.7-1.1 per mode and parameter.
-STD_CALIBRATION = 2.0
-
-#: Automatic selection drops a pole whose decay rate has a (calibrated)
+#: Automatic selection drops a pole whose decay rate has a
 #: relative standard deviation above this: it models noise, not a mode.
 #: Physical modes of the simulated tests sit below 0.01, noise poles near 1.
 MAX_REL_SIGMA_STD = 0.5
@@ -64,28 +78,6 @@ def noise_model(
     # each of the real and imaginary parts carries half the complex variance
     out = np.concatenate([std, std], axis=0) / np.sqrt(2)
     return (out, np.clip(frac_b, 0.0, 1.0)) if with_fraction else out
-
-
-def correlation_factor(Rw: np.ndarray, max_lag: int = 128) -> float:
-    """Variance inflation for noise correlated between neighbouring lines.
-
-    Windows (the exponential window and the force window above all) correlate
-    the noise of neighbouring lines, so the lines carry less independent
-    information than their number suggests. For a smooth estimator the
-    variance grows by the factor 1 + 2 sum_l k_l rho_l, with rho_l the
-    autocorrelation of the weighted complex residual at lag l lines and
-    Bartlett weights k_l = 1 - l/(L+1), L = min(``max_lag``, n/8).
-    """
-    n = Rw.shape[0] // 2
-    e = Rw[:n] + 1j * Rw[n:]
-    e = e - np.mean(e, axis=0)
-    p0 = np.sum(np.abs(e) ** 2)
-    L = min(max_lag, n // 8)
-    if p0 <= 0 or L < 1:
-        return 1.0
-    lags = np.arange(1, L + 1)
-    rho = np.array([np.real(np.sum(e[lag:] * np.conj(e[:-lag]))) for lag in lags]) / p0
-    return float(max(1.0, 1.0 + 2.0 * np.sum((1 - lags / (L + 1)) * rho)))
 
 
 def residual_correlation(e: np.ndarray, max_lag: int = 128) -> np.ndarray:
@@ -160,15 +152,19 @@ def correlated_information(Jc: np.ndarray, rho: np.ndarray) -> np.ndarray:
     Examples
     --------
     >>> J = np.ones((10, 1, 1), complex)
-    >>> float(correlated_information(J, np.array([1.0, 0.5])))  # 10 + 2 * 0.5 * 9
+    >>> float(correlated_information(J, np.array([1.0, 0.5]))[0, 0])  # 10 + 2 * 0.5 * 9
     19.0
     """
-    G = np.real(np.einsum("kpc,kqc->pq", np.conj(Jc), Jc))
-    for lag in range(1, min(rho.size, Jc.shape[0])):
-        S = np.einsum("kpc,kqc->pq", np.conj(Jc[:-lag]), Jc[lag:])
-        T = np.real(rho[lag] * S)
-        G = G + T + T.T
-    return np.asarray(G)
+    n, n_par, n_ch = Jc.shape
+    L = min(rho.size, n)
+    X = Jc.reshape(n, n_par * n_ch)
+    # (P X)_k = sum_d h_d X_(k+d), h_d = rho_d (d >= 0), conj(rho_-d) (d < 0):
+    # a convolution with the reversed kernel, by FFT (O(n log n) for any L)
+    g = np.concatenate([rho[L - 1 : 0 : -1], np.conj(rho[:L])])
+    PX = signal.fftconvolve(X, g[:, None], mode="full", axes=0)[L - 1 : L - 1 + n]
+    G = np.real(np.conj(X).reshape(n, n_par, n_ch).transpose(1, 0, 2).reshape(n_par, -1)
+                @ PX.reshape(n, n_par, n_ch).transpose(0, 2, 1).reshape(-1, n_par))
+    return np.asarray(0.5 * (G + G.T))
 
 
 def modal_std(pole: np.ndarray, cov: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
