@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 import importlib.util
+import json
+import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -35,30 +39,59 @@ def example_dir() -> Path:
     return REPO / "raw_frf"
 
 
-#: ``python -m mypy ema_pipeline`` (settings in pyproject.toml), started in the
-#: background when test_style.py::test_mypy_clean is collected.
+# Background jobs: two checks that run whole programs (mypy, the fuzz corpus of
+# issue 15 through the CLI) start in child processes as soon as their tests are
+# collected. The rest of the suite mostly runs on one core meanwhile, so on the
+# 2-core machine they cost little wall time; their tests then wait for them and
+# assert on their output exactly as before.
+
+#: ``python -m mypy ema_pipeline`` (settings in pyproject.toml), for test_mypy_clean.
 MYPY_COMMAND = [sys.executable, "-m", "mypy", "ema_pipeline"]
+#: Worker threads of the background fuzz run (one: it shares the machine with the suite).
+FUZZ_WORKERS = 1
 _MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
+_FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
+
+
+def _start_mypy() -> subprocess.Popen[str]:
+    return subprocess.Popen(MYPY_COMMAND, cwd=REPO, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)
+
+
+def _start_fuzz() -> tuple[subprocess.Popen[bytes], Path]:
+    """``python tests/fuzz_cases.py --save ROOT``: corpus and verdicts in a fresh ROOT."""
+    root = Path(tempfile.mkdtemp(prefix="ema-fuzz-"))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    with open(root / "runner.log", "wb") as log:
+        proc = subprocess.Popen(
+            [sys.executable, str(REPO / "tests" / "fuzz_cases.py"), "--save", str(root),
+             str(FUZZ_WORKERS)],
+            cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+        )
+    return proc, root
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
-    """Start mypy as soon as its test is collected: a cold run takes 15-50 s of
-    one core, and the rest of the suite mostly runs on the other one meanwhile;
-    test_mypy_clean then only waits for it."""
-    if importlib.util.find_spec("mypy") is None:
-        return
-    if any(item.name == "test_mypy_clean" for item in session.items):
-        session.config.stash[_MYPY_KEY] = subprocess.Popen(
-            MYPY_COMMAND, cwd=REPO, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL, text=True,
-        )
+    """Start the background jobs whose tests were collected (and not deselected)."""
+    if importlib.util.find_spec("mypy") is not None and any(
+        item.name == "test_mypy_clean" for item in session.items
+    ):
+        session.config.stash[_MYPY_KEY] = _start_mypy()
+    if any("fuzz" in getattr(item, "fixturenames", ()) for item in session.items):
+        session.config.stash[_FUZZ_KEY] = _start_fuzz()
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
-    proc = config.stash.get(_MYPY_KEY, None)
-    if proc is not None and proc.poll() is None:  # the run stopped before the test
-        proc.kill()
-        proc.wait()
+    """Stop jobs the run did not wait for (stopped early); remove the fuzz folder."""
+    mypy = config.stash.get(_MYPY_KEY, None)
+    fuzz = config.stash.get(_FUZZ_KEY, None)
+    for proc in (mypy, fuzz[0] if fuzz else None):
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    if fuzz is not None:
+        shutil.rmtree(fuzz[1], ignore_errors=True)
 
 
 @pytest.fixture
@@ -68,7 +101,20 @@ def mypy_outcome(request: pytest.FixtureRequest) -> tuple[int, str]:
         pytest.skip("mypy not installed (it is in the [test] extra)")
     proc = request.config.stash.get(_MYPY_KEY, None)
     if proc is None:
-        proc = subprocess.Popen(MYPY_COMMAND, cwd=REPO, stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)
+        proc = request.config.stash[_MYPY_KEY] = _start_mypy()
     output, _ = proc.communicate()
     return proc.returncode, output
+
+
+@pytest.fixture(scope="session")
+def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
+    """Case name -> {"group", "bad" (failed checks), "rc", "signal", "stderr"} of the
+    whole fuzz corpus (tests/fuzz_cases.py), from its background run."""
+    job = request.config.stash.get(_FUZZ_KEY, None)
+    if job is None:
+        job = request.config.stash[_FUZZ_KEY] = _start_fuzz()
+    proc, root = job
+    proc.wait()
+    log = (root / "runner.log").read_text(errors="replace")
+    assert proc.returncode == 0, f"fuzz corpus run failed:\n{log[-3000:]}"
+    return json.loads((root / "verdicts.json").read_text())
