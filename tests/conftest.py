@@ -2,9 +2,24 @@
 
 from __future__ import annotations
 
+import importlib.util
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
 from pathlib import Path
 
 import pytest
+import tqdm
+
+# tqdm starts a monitor thread with its first bar, even a disabled one (batch
+# --quiet), and keeps it for the life of the process. Any second thread makes
+# every later io.check_hdf5 in the test process start a fresh interpreter
+# (about 2 s on the loaded 2-core machine) instead of forking (about 0.1 s),
+# for every test that runs after the first batch. Bars refresh without it.
+tqdm.tqdm.monitor_interval = 0
 
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
@@ -22,3 +37,84 @@ def real_uff() -> Path:
 @pytest.fixture(scope="session")
 def example_dir() -> Path:
     return REPO / "raw_frf"
+
+
+# Background jobs: two checks that run whole programs (mypy, the fuzz corpus of
+# issue 15 through the CLI) start in child processes as soon as their tests are
+# collected. The rest of the suite mostly runs on one core meanwhile, so on the
+# 2-core machine they cost little wall time; their tests then wait for them and
+# assert on their output exactly as before.
+
+#: ``python -m mypy ema_pipeline`` (settings in pyproject.toml), for test_mypy_clean.
+MYPY_COMMAND = [sys.executable, "-m", "mypy", "ema_pipeline"]
+#: Worker threads of the background fuzz run (one: it shares the machine with the suite).
+FUZZ_WORKERS = 1
+_MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
+_FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
+
+
+def _start_mypy() -> subprocess.Popen[str]:
+    return subprocess.Popen(MYPY_COMMAND, cwd=REPO, stdout=subprocess.PIPE,
+                            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)
+
+
+def _start_fuzz() -> tuple[subprocess.Popen[bytes], Path]:
+    """``python tests/fuzz_cases.py --save ROOT``: corpus and verdicts in a fresh ROOT."""
+    root = Path(tempfile.mkdtemp(prefix="ema-fuzz-"))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+        filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    with open(root / "runner.log", "wb") as log:
+        proc = subprocess.Popen(
+            [sys.executable, str(REPO / "tests" / "fuzz_cases.py"), "--save", str(root),
+             str(FUZZ_WORKERS)],
+            cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+        )
+    return proc, root
+
+
+def pytest_collection_finish(session: pytest.Session) -> None:
+    """Start the background jobs whose tests were collected (and not deselected)."""
+    if importlib.util.find_spec("mypy") is not None and any(
+        item.name == "test_mypy_clean" for item in session.items
+    ):
+        session.config.stash[_MYPY_KEY] = _start_mypy()
+    if any("fuzz" in getattr(item, "fixturenames", ()) for item in session.items):
+        session.config.stash[_FUZZ_KEY] = _start_fuzz()
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    """Stop jobs the run did not wait for (stopped early); remove the fuzz folder."""
+    mypy = config.stash.get(_MYPY_KEY, None)
+    fuzz = config.stash.get(_FUZZ_KEY, None)
+    for proc in (mypy, fuzz[0] if fuzz else None):
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    if fuzz is not None:
+        shutil.rmtree(fuzz[1], ignore_errors=True)
+
+
+@pytest.fixture
+def mypy_outcome(request: pytest.FixtureRequest) -> tuple[int, str]:
+    """(exit status, output) of :data:`MYPY_COMMAND`, started at collection (or now)."""
+    if importlib.util.find_spec("mypy") is None:
+        pytest.skip("mypy not installed (it is in the [test] extra)")
+    proc = request.config.stash.get(_MYPY_KEY, None)
+    if proc is None:
+        proc = request.config.stash[_MYPY_KEY] = _start_mypy()
+    output, _ = proc.communicate()
+    return proc.returncode, output
+
+
+@pytest.fixture(scope="session")
+def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
+    """Case name -> {"group", "bad" (failed checks), "rc", "signal", "stderr"} of the
+    whole fuzz corpus (tests/fuzz_cases.py), from its background run."""
+    job = request.config.stash.get(_FUZZ_KEY, None)
+    if job is None:
+        job = request.config.stash[_FUZZ_KEY] = _start_fuzz()
+    proc, root = job
+    proc.wait()
+    log = (root / "runner.log").read_text(errors="replace")
+    assert proc.returncode == 0, f"fuzz corpus run failed:\n{log[-3000:]}"
+    return json.loads((root / "verdicts.json").read_text())

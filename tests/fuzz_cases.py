@@ -31,6 +31,8 @@ files in ``raw_frf/`` (seeded ``random.Random``, no stored corpus):
 (under ``RLIMIT_AS`` so that a runaway allocation fails instead of swapping),
 many file cases per ``identify`` process; a process that crashes, hangs or
 prints a traceback is re-run one case at a time to find the culprit.
+:func:`save_verdicts` does both and stores the verdicts as JSON (the test
+suite runs it in the background from the start of the session).
 :func:`verdict` lists the checks a case fails: ``signal``, ``hang``,
 ``traceback``, ``exit0`` (garbage reported as success), ``exit_code``,
 ``message`` (stderr does not name the file), ``litter`` (temporary files
@@ -987,7 +989,27 @@ def summarize(cases: list[Case], outcomes: dict[str, Outcome]) -> str:
     return "\n".join(lines)
 
 
-if __name__ == "__main__":
+def save_verdicts(root: Path, workers: int = 2) -> Path:
+    """Generate the corpus in ``root``, run it and write every case's group,
+    failed checks (:func:`verdict`) and outcome to ``root/verdicts.json``."""
+    import json
+
+    cases = build_cases(root)
+    outcomes = run_cases(cases, root / "work", workers=workers)
+    table = {c.name: {"group": c.group, "bad": verdict(c, outcomes[c.name]),
+                      "rc": outcomes[c.name].rc, "signal": outcomes[c.name].signal,
+                      "stderr": outcomes[c.name].stderr[-2000:]} for c in cases}
+    path = root / "verdicts.json"
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(table))
+    tmp.rename(path)
+    return path
+
+
+if __name__ == "__main__" and sys.argv[1:2] == ["--save"]:
+    # python tests/fuzz_cases.py --save ROOT WORKERS (the test suite's background run)
+    save_verdicts(Path(sys.argv[2]), workers=int(sys.argv[3]))
+elif __name__ == "__main__":
     import tempfile
 
     with tempfile.TemporaryDirectory(prefix="ema-fuzz-") as tmp:

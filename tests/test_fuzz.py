@@ -5,7 +5,9 @@ The corpus (``tests/fuzz_cases.py``: byte flips and truncations of HDF5 and UFF
 files, malformed HDF5 structures, experiment-file mutations, hostile names,
 special files, abusive options, a batch of bad files, a full disk) is generated
 once per session in a temporary folder and run through ``python -m
-ema_pipeline`` in subprocesses with timeouts. Three tests per case group:
+ema_pipeline`` in subprocesses with timeouts, by a background process started
+when these tests are collected (conftest.py), which stores each case's verdict.
+Three tests per case group:
 
 * ``test_no_crash``: no death by signal, no hang, no Python traceback;
 * ``test_verdict``: garbage is never reported as success, stderr names the
@@ -46,11 +48,10 @@ CHECKS = {
 
 
 @pytest.fixture(scope="session")
-def fuzz(tmp_path_factory):
-    root = tmp_path_factory.mktemp("fuzz")
-    cases = fc.build_cases(root)
-    outcomes = fc.run_cases(cases, root / "work")
-    return cases, outcomes
+def fuzz(fuzz_verdicts):
+    """The corpus' verdicts: generated and run in the background from the start of
+    the session (``fc.save_verdicts``, see conftest.py), here waited for."""
+    return fuzz_verdicts
 
 
 def _params(test: str):
@@ -63,16 +64,14 @@ def _params(test: str):
 
 
 def _failures(fuzz, group: str, test: str) -> list[str]:
-    cases, outcomes = fuzz
-    mine = [c for c in cases if c.group == group]
+    mine = {name: v for name, v in fuzz.items() if v["group"] == group}
     assert mine, f"no cases in group {group}"
     out = []
-    for c in mine:
-        bad = set(fc.verdict(c, outcomes[c.name])) & CHECKS[test]
+    for name, v in mine.items():
+        bad = set(v["bad"]) & CHECKS[test]  # v["bad"] is fc.verdict(case, outcome)
         if bad:
-            o = outcomes[c.name]
-            out.append(f"{c.name}: {','.join(sorted(bad))} (rc={o.rc}, signal={o.signal}, "
-                       f"stderr={o.stderr.strip()[-300:]!r})")
+            out.append(f"{name}: {','.join(sorted(bad))} (rc={v['rc']}, signal={v['signal']}, "
+                       f"stderr={v['stderr'].strip()[-300:]!r})")
     return out
 
 
