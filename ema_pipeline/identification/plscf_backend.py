@@ -4,9 +4,8 @@ covariance, LSFD and per-mode quality.
 
 Order (unless ``max_order`` fixes it): the first diagram is computed at
 :func:`~ema_pipeline.identification.common.default_max_order`. The order is
-doubled while the diagram may be short of modes -- when the last doubling
-gained determined modes (so at least once), when physical trajectories that
-the data determine are still young at its last order
+doubled while the diagram may be short of modes -- when physical
+trajectories that the data determine are still young at its last order
 (:func:`young_trajectories`: a mode that stabilised late), or when it has
 fewer than 4 pole pairs per mode found plus 16 to spare (noise and the modes
 outside the band take poles too) -- and stops after two doublings without a
@@ -221,13 +220,13 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         young = young_trajectories(poles, traj, sel, (lo, hi), decay)
         rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]))
         ok = (rel < MAX_REL_SIGMA_STD) & (peak > MIN_PEAK_RATIO)
-        # the count that decides the growth: modes that also pass the
-        # resonance test of the peak (see :func:`resonant`)
+        # determined resonances (the peak test of :func:`resonant`): what
+        # answers an expected frequency
         counted = ok & ((peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
         # mature: stable over at least the last quarter of the orders (a
         # trajectory born later is confirmed by the next, larger diagram)
         mature = (sel.first_order < MATURE_FRACTION * p) | (p >= cap)
-        n_modes = int(np.sum(counted[: sel.pole.size] & mature))
+        n_modes = int(np.sum(ok[: sel.pole.size] & mature))
         ok_young = (rel < YOUNG_MAX_REL_SIGMA_STD) & (peak > YOUNG_MIN_PEAK_RATIO)
         n_young = int(np.sum(ok_young[sel.pole.size :]))
         history.append((p, n_modes))
@@ -237,8 +236,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                 keep = counted[: sel.pole.size]
             best, best_at = (sel.subset(keep), traj, poles), len(history) - 1
         room = p * n_in / 2 >= 4 * n_modes + 16
-        gained = len(history) == 1 or n_modes > history[-2][1]
-        grow = n_young > 0 or not room or gained
+        grow = n_young > 0 or not room
         if len(history) >= 3 and n_modes <= history[-2][1] <= history[-3][1]:
             grow = False  # two doublings without a gain: the data hold no more
         if p >= cap or not grow:

@@ -208,7 +208,7 @@ def refine_poles(
     *,
     half_width: float = 12.0,
     min_lines: int = 40,
-    max_iter: int = 30,
+    max_iter: int = 10,
     max_shift: float = 0.5,
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,

@@ -32,6 +32,7 @@ from ema_pipeline.io.files import (
     write_text,
 )
 from ema_pipeline.io.hdf5 import (
+    FORK_SAFE_THREAD_NAME,
     HDF5_SUFFIXES,
     MAX_DATASET_BYTES,
     SCHEMA_FRF,
@@ -203,6 +204,7 @@ __all__ = [
     "MAX_DATASET_BYTES",
     "atomic_path",
     "axis_is_uniform",
+    "FORK_SAFE_THREAD_NAME",
     "check_hdf5",
     "check_readable",
     "completed_result_sha256",

@@ -556,6 +556,25 @@ def _spawn_check(path: Path, timeout_s: float) -> tuple[str, str]:
     return "other", lines[-1] if lines else f"exit status {done.returncode}"
 
 
+#: Threads with this name hold no lock (they only sleep and poll, e.g. a batch
+#: worker's parent watcher), so :func:`check_hdf5` may still fork beside them.
+FORK_SAFE_THREAD_NAME = "ema-fork-safe"
+
+
+def only_fork_safe_threads() -> bool:
+    """True when this is the only thread, apart from threads named
+    :data:`FORK_SAFE_THREAD_NAME` (forking with other threads can deadlock the
+    child on a lock one of them held).
+
+    Examples
+    --------
+    >>> only_fork_safe_threads()
+    True
+    """
+    me = threading.current_thread()
+    return all(t is me or t.name == FORK_SAFE_THREAD_NAME for t in threading.enumerate())
+
+
 def check_hdf5(path: str | os.PathLike[str], timeout_s: float | None = None) -> None:
     """Check that libhdf5 can read ``path`` safely, in a child process.
 
@@ -576,7 +595,7 @@ def check_hdf5(path: str | os.PathLike[str], timeout_s: float | None = None) -> 
     size = check_readable(path, "an HDF5 file").st_size
     _check_signature(path, size)
     timeout_s = _child_timeout(size) if timeout_s is None else timeout_s
-    if hasattr(os, "fork") and threading.active_count() == 1:
+    if hasattr(os, "fork") and only_fork_safe_threads():
         status, message = _fork_check(path, timeout_s)
     else:
         status, message = _spawn_check(path, timeout_s)
