@@ -49,7 +49,7 @@ class IdentificationOptions:
     min_fraction : a pole trajectory must hold poles of at least this fraction
         of the computed orders (and at least 6) to count as a physical mode;
         where in the diagram it starts does not matter (a mode that
-        stabilises late is kept).
+        stabilises late is kept once it holds them).
     refine : refine the selected poles by variable-projection nonlinear least
         squares (:func:`ema_pipeline.identification.refine.refine_poles`), which
         also gives their covariance.
@@ -73,7 +73,7 @@ class IdentificationOptions:
     tol_freq: float = 0.01
     tol_zeta: float = 0.05
     tol_mac: float = 0.02
-    min_fraction: float = 0.1
+    min_fraction: float = 0.3
     refine: bool = True
     lower_residual: bool = True
     upper_residual: bool = True
