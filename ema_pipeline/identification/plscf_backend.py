@@ -64,8 +64,11 @@ YOUNG_MAX_REL_SIGMA_STD = 0.1
 #: data (noise-free data determine every pole; a mode must also show).
 YOUNG_MIN_PEAK_RATIO = 0.3
 #: A selected mode whose own peak is below this fraction of the local RMS of
-#: the data models background, not a resonance (dropped).
+#: the data models background, not a resonance (dropped) ...
 MIN_PEAK_RATIO = 0.05
+#: ... or below this one with 3 or more channels, where the shape test of
+#: :func:`resonant` (MPC) judges the weak candidates that remain.
+MIN_PEAK_RATIO_SHAPES = 0.02
 #: In the adaptive search a trajectory counts (and is kept) only when it starts
 #: below this fraction of the diagram's highest order, unless that is the cap.
 MATURE_FRACTION = 0.75
@@ -182,6 +185,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     rms = np.sqrt(np.mean(np.abs(sub.H) ** 2, axis=(1, 2)))
     Hn = sub.H / rms[:, None, None]
     Hn_c = Hn.reshape(n_out * n_in, n_freq)
+    min_peak = MIN_PEAK_RATIO_SHAPES if n_out * n_in >= 3 else MIN_PEAK_RATIO
     weights = None
     if options.weighting == "coherence":
         assert sub.coherence is not None  # identify() refuses coherence weighting without it
@@ -210,7 +214,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         sel = merge_coincident(sel)
         if fixed:
             rel, peak, snr = quick_significance(freq, Hn_c, sel.pole)
-            screen = peak > MIN_PEAK_RATIO
+            screen = peak > min_peak
             if expect_hz is not None:  # a guess is answered by a determined resonance
                 screen &= (rel < MAX_REL_SIGMA_STD) & (
                     (peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
@@ -219,7 +223,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         # count only the modes the data determine (cheap screen, one linear fit)
         young = young_trajectories(poles, traj, sel, (lo, hi), decay)
         rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]))
-        ok = (rel < MAX_REL_SIGMA_STD) & (peak > MIN_PEAK_RATIO)
+        ok = (rel < MAX_REL_SIGMA_STD) & (peak > min_peak)
         # determined resonances (the peak test of :func:`resonant`): what
         # answers an expected frequency
         counted = ok & ((peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
@@ -231,7 +235,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         n_young = int(np.sum(ok_young[sel.pole.size :]))
         history.append((p, n_modes))
         if best is None or n_modes > history[best_at][1]:
-            keep = (peak[: sel.pole.size] > MIN_PEAK_RATIO) & mature
+            keep = (peak[: sel.pole.size] > min_peak) & mature
             if expect_hz is not None:  # a guess is answered by a determined resonance
                 keep = counted[: sel.pole.size]
             best, best_at = (sel.subset(keep), traj, poles), len(history) - 1
