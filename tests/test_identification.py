@@ -338,7 +338,7 @@ def test_real_roving_hammer_data(real_uff):
     dist = np.abs(res.fn_hz[:, None] - PUBLISHED_HZ[None, :])
     matched = np.sum(dist.min(axis=0) < 1.0)
     extra = np.sum((dist.min(axis=1) >= 1.0) & (res.fn_hz < 800))
-    assert matched >= 11, res.fn_hz  # issue 11 asks for 13 (measured 11)
+    assert matched >= 12, res.fn_hz  # issue 11 asks for 13 (measured 12)
     assert extra <= 2, res.fn_hz  # issue 11 asks for at most 1 (measured 2)
     res = res_band = identify(frf.reciprocal(), band_hz=(5, 790))
     assert np.sum(np.abs(res_band.fn_hz[:, None] - PUBLISHED_HZ[None, :]).min(axis=0) < 1) >= 9

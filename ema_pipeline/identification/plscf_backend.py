@@ -17,6 +17,12 @@ of lines and references only. "Determined" is the screen
 (started at or below :data:`MATURE_FRACTION` of the order). The diagram with
 the most determined modes is used.
 
+Wide bands: when the band's top is more than :data:`ZOOM_RATIO` times its
+bottom, the same search runs once more on its lowest 1/ZOOM_RATIO
+(:func:`add_zoom_modes`) and adds the candidates that the full band missed:
+pLSCF's time step follows the band top, so low modes of a wide band are poorly
+resolved (their poles crowd near z = 1).
+
 Selection: every selected trajectory's pole is refined by the local fit of
 :func:`~ema_pipeline.identification.refine.refine_poles`; it is kept when the
 refined decay rate is determined (relative std below ``MAX_REL_SIGMA_STD``),
@@ -26,7 +32,7 @@ same mode found twice (:func:`distinct_shapes`).
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -163,6 +169,150 @@ def young_trajectories(
     return np.asarray(poles.pole[last[ok]])
 
 
+@dataclass(frozen=True)
+class OrderSearch:
+    """The adaptive order search of one band (see the module docstring):
+    diagrams of growing order, pole trajectories, the cheap screen, the
+    diagram with the most determined modes."""
+
+    weights: np.ndarray | None
+    window_decay_rate: float
+    min_peak: float
+    min_fraction: float
+    expect: bool
+
+    def run(
+        self,
+        freq: np.ndarray,
+        Hn: np.ndarray,
+        band: tuple[float, float],
+        p: int,
+        cap: int,
+        fixed: bool,
+    ) -> tuple[SelectedPoles, np.ndarray, PoleSet, list[tuple[int, int]]]:
+        """Selected candidates, trajectory labels and poles of the chosen
+        diagram, and (order, determined modes) of every diagram computed.
+        ``Hn`` (n_out, n_in, n_freq) normalised FRFs on the lines ``freq``."""
+        lo, hi = band
+        n_in = Hn.shape[1]
+        Hn_c = Hn.reshape(-1, Hn.shape[-1])
+        decay, min_peak, weights = self.window_decay_rate, self.min_peak, self.weights
+        expect = self.expect
+        history: list[tuple[int, int]] = []
+        best: tuple[SelectedPoles, np.ndarray, PoleSet] | None = None
+        best_at = 0
+        while True:
+            orders = diagram_orders(p, n_in)
+            try:
+                poles = plscf(freq, Hn, max_order=p, orders=orders, weights=weights)
+            except (np.linalg.LinAlgError, DataError):
+                if best is None:
+                    raise DataError(
+                        f"pLSCF normal equations at order {p} are singular; give a lower "
+                        "max_order or a wider band"
+                    ) from None
+                break  # too ill-conditioned to grow further: keep the last diagram
+            traj = track_poles(poles)
+            sel = select_trajectories(
+                poles, traj, (lo, hi), decay,
+                min_fraction=0.0 if expect else self.min_fraction,
+                min_members=4 if expect else 6,
+            )
+            sel = merge_coincident(sel)
+            if fixed:
+                rel, peak, snr = quick_significance(freq, Hn_c, sel.pole)
+                screen = peak > min_peak
+                if expect:  # a guess is answered by a determined resonance
+                    screen &= (rel < MAX_REL_SIGMA_STD) & (
+                        (peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
+                best = (sel.subset(screen), traj, poles)
+                break
+            # count only the modes the data determine (cheap screen, one linear fit)
+            young = young_trajectories(poles, traj, sel, (lo, hi), decay)
+            rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]))
+            ok = (rel < MAX_REL_SIGMA_STD) & (peak > min_peak)
+            # determined resonances (the peak test of :func:`resonant`): what
+            # answers an expected frequency
+            counted = ok & ((peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
+            # mature: stable over at least the last quarter of the orders (a
+            # trajectory born later is confirmed by the next, larger diagram)
+            mature = (sel.first_order < MATURE_FRACTION * p) | (p >= cap)
+            n_modes = int(np.sum(ok[: sel.pole.size] & mature))
+            ok_young = (rel < YOUNG_MAX_REL_SIGMA_STD) & (peak > YOUNG_MIN_PEAK_RATIO)
+            n_young = int(np.sum(ok_young[sel.pole.size :]))
+            history.append((p, n_modes))
+            if best is None or n_modes > history[best_at][1]:
+                keep = (peak[: sel.pole.size] > min_peak) & mature
+                if expect:  # a guess is answered by a determined resonance
+                    keep = counted[: sel.pole.size]
+                best, best_at = (sel.subset(keep), traj, poles), len(history) - 1
+            room = p * n_in / 2 >= 4 * n_modes + 16
+            grow = n_young > 0 or not room
+            if len(history) >= 3 and n_modes <= history[-2][1] <= history[-3][1]:
+                grow = False  # two doublings without a gain: the data hold no more
+            if p >= cap or not grow:
+                break
+            p = min(2 * p, cap)
+        assert best is not None
+        return (*best, history)
+
+
+#: A band whose top is more than ZOOM_RATIO times its bottom is searched once
+#: more in its lowest 1/ZOOM_RATIO (pLSCF's time step follows the band top, so
+#: the poles of low modes in a wide band crowd near z = 1 and are poorly
+#: resolved: impact tests of 2-900 Hz lose their modes below 50 Hz).
+ZOOM_RATIO = 8.0
+
+
+def add_zoom_modes(
+    sel: SelectedPoles,
+    search: OrderSearch,
+    freq: np.ndarray,
+    Hn: np.ndarray,
+    band: tuple[float, float],
+) -> SelectedPoles:
+    """``sel`` plus the candidates of a second search of the band's lowest
+    1/:data:`ZOOM_RATIO` that no candidate of ``sel`` covers (within the sum of
+    their half-power half-widths); they carry trajectory label -1 (their
+    diagram is not the one stored). Unchanged for a narrower band or one with
+    fewer than 64 lines in that part.
+
+    Examples
+    --------
+    >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> add_zoom_modes(none, search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)).pole.size
+    0
+    """
+    lo, hi = band
+    top = lo + (hi - lo) / ZOOM_RATIO
+    lines = freq <= top
+    if hi < ZOOM_RATIO * lo or lines.sum() < 64:
+        return sel
+    fz, Hz = freq[lines], Hn[:, :, lines]
+    if search.weights is not None:
+        search = replace(search, weights=search.weights[..., lines])
+    n_in = Hz.shape[1]
+    cap = order_cap(fz.size, n_in)
+    try:
+        zsel, _, _, _ = search.run(fz, Hz, (lo, top), min(default_max_order(n_in, fz.size), cap),
+                                   cap, False)
+    except DataError:
+        return sel
+    if zsel.pole.size == 0:
+        return sel
+    gap = np.abs(zsel.pole[:, None].imag - sel.pole[None, :].imag)
+    width = np.abs(zsel.pole[:, None].real) + np.abs(sel.pole[None, :].real)
+    new = ~np.any(gap < width, axis=1) if sel.pole.size else np.ones(zsel.pole.size, bool)
+    if not new.any():
+        return sel
+    add = zsel.subset(new)
+    add = replace(add, cluster=np.full(add.pole.size, -1))
+    merged = SelectedPoles(**{k: np.concatenate([getattr(sel, k), getattr(add, k)])
+                              for k in sel.__dict__})
+    return merged.subset(np.argsort(merged.pole.imag))
+
+
 def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
     """Identify with this package's pLSCF chain.
 
@@ -191,63 +341,11 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         assert sub.coherence is not None  # identify() refuses coherence weighting without it
         weights = np.sqrt(np.clip(np.mean(sub.coherence, axis=1), 0.0, 1.0))
 
-    history: list[tuple[int, int]] = []
-    best: tuple[SelectedPoles, np.ndarray, PoleSet] | None = None
-    best_at = 0
-    while True:
-        orders = diagram_orders(p, n_in)
-        try:
-            poles = plscf(freq, Hn, max_order=p, orders=orders, weights=weights)
-        except (np.linalg.LinAlgError, DataError):
-            if best is None:
-                raise DataError(
-                    f"pLSCF normal equations at order {p} are singular; give a lower "
-                    "max_order or a wider band"
-                ) from None
-            break  # too ill-conditioned to grow further: keep the last diagram
-        traj = track_poles(poles)
-        sel = select_trajectories(
-            poles, traj, (lo, hi), decay,
-            min_fraction=0.0 if expect_hz is not None else options.min_fraction,
-            min_members=4 if expect_hz is not None else 6,
-        )
-        sel = merge_coincident(sel)
-        if fixed:
-            rel, peak, snr = quick_significance(freq, Hn_c, sel.pole)
-            screen = peak > min_peak
-            if expect_hz is not None:  # a guess is answered by a determined resonance
-                screen &= (rel < MAX_REL_SIGMA_STD) & (
-                    (peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
-            best = (sel.subset(screen), traj, poles)
-            break
-        # count only the modes the data determine (cheap screen, one linear fit)
-        young = young_trajectories(poles, traj, sel, (lo, hi), decay)
-        rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]))
-        ok = (rel < MAX_REL_SIGMA_STD) & (peak > min_peak)
-        # determined resonances (the peak test of :func:`resonant`): what
-        # answers an expected frequency
-        counted = ok & ((peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
-        # mature: stable over at least the last quarter of the orders (a
-        # trajectory born later is confirmed by the next, larger diagram)
-        mature = (sel.first_order < MATURE_FRACTION * p) | (p >= cap)
-        n_modes = int(np.sum(ok[: sel.pole.size] & mature))
-        ok_young = (rel < YOUNG_MAX_REL_SIGMA_STD) & (peak > YOUNG_MIN_PEAK_RATIO)
-        n_young = int(np.sum(ok_young[sel.pole.size :]))
-        history.append((p, n_modes))
-        if best is None or n_modes > history[best_at][1]:
-            keep = (peak[: sel.pole.size] > min_peak) & mature
-            if expect_hz is not None:  # a guess is answered by a determined resonance
-                keep = counted[: sel.pole.size]
-            best, best_at = (sel.subset(keep), traj, poles), len(history) - 1
-        room = p * n_in / 2 >= 4 * n_modes + 16
-        grow = n_young > 0 or not room
-        if len(history) >= 3 and n_modes <= history[-2][1] <= history[-3][1]:
-            grow = False  # two doublings without a gain: the data hold no more
-        if p >= cap or not grow:
-            break
-        p = min(2 * p, cap)
-    assert best is not None
-    sel, traj, poles = best
+    search = OrderSearch(weights=weights, window_decay_rate=decay, min_peak=min_peak,
+                         min_fraction=options.min_fraction, expect=expect_hz is not None)
+    sel, traj, poles, _ = search.run(freq, Hn, (lo, hi), p, cap, fixed)
+    if not fixed and expect_hz is None:
+        sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi))
     p = int(poles.orders[-1])
     stab = stabilization(
         poles, decay, tol_freq=options.tol_freq, tol_zeta=options.tol_zeta,
