@@ -122,8 +122,11 @@ class IdentificationResult:
 MIN_STABLE_ORDERS = 5
 #: ... or its damping is poorly determined (zeta_std above this fraction of zeta)
 MAX_REL_ZETA_STD = 0.5
-#: ... or its shape is strongly complex (MPC below this, with 3 or more responses).
+#: ... or its shape is strongly complex (MPC below this, with 3 or more responses)
 MIN_MPC = 0.5
+#: ... or its half-power bandwidth 2 zeta f_n is below this fraction of the line
+#: spacing (the lines do not resolve its damping).
+MIN_BANDWIDTH_LINES = 0.5
 
 
 def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -160,8 +163,10 @@ def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray,
 def doubtful_modes(result: IdentificationResult) -> np.ndarray:
     """Modes to look at twice (result order), by the documented rule: stable at
     fewer than :data:`MIN_STABLE_ORDERS` orders (where cluster data exist),
-    ``zeta_std > MAX_REL_ZETA_STD * zeta``, or ``mpc < MIN_MPC`` with three or
-    more responses. Such modes are reported with ``doubtful = True``, not dropped.
+    ``zeta_std > MAX_REL_ZETA_STD * zeta``, ``mpc < MIN_MPC`` with three or
+    more responses, or a half-power bandwidth 2 zeta f_n below
+    :data:`MIN_BANDWIDTH_LINES` line spacings. Such modes are reported with
+    ``doubtful = True``, not dropped.
     """
     m = result.modes
     _, _, count = stable_orders(result)
@@ -170,7 +175,9 @@ def doubtful_modes(result: IdentificationResult) -> np.ndarray:
     loose = np.isfinite(zeta_std) & (zeta_std > MAX_REL_ZETA_STD * np.abs(m.zeta))
     mpc = np.asarray(result.mpc, dtype=float)
     complex_shape = (mpc < MIN_MPC) if len(m.dofs) >= 3 else np.zeros(m.n_modes, bool)
-    return np.asarray(few | loose | complex_shape, dtype=bool)
+    df = float(np.median(np.diff(result.freq_hz))) if result.freq_hz.size > 1 else 0.0
+    unresolved = 2 * np.abs(m.zeta) * m.fn_hz < MIN_BANDWIDTH_LINES * df
+    return np.asarray(few | loose | complex_shape | unresolved, dtype=bool)
 
 
 def modes_table(result: IdentificationResult) -> pd.DataFrame:
