@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import batched_qr, lsfd, real_stack
+from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack
 from ema_pipeline.identification.uncertainty import (
     correlated_information,
     exponential_window_correlation,
@@ -49,6 +49,36 @@ class RefinedPoles:
     n_iter: np.ndarray
 
 
+def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.ndarray:
+    """Real-stacked design (2n, 2m + K_bg) of sum_r a_r/(jw - l_r) + conj + background:
+    the modal columns of :func:`~ema_pipeline.identification.lsfd.design_matrix`
+    (no residual terms) and ``bg_r``, the real-stacked background columns."""
+    modal = design_matrix(freq_hz, lam, "receptance", lower=False, upper=False)
+    return np.concatenate([real_stack(modal), bg_r], axis=1)
+
+
+def pole_jacobian(jw: np.ndarray, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """Real-stacked derivative (2n, 2m, n_ch) of the model of :func:`pole_columns`
+    with coefficients ``X`` (K, n_ch) with respect to (sigma_r, omega_dr)."""
+    m = lam.size
+    a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
+    t1 = (1.0 / (jw - lam[None, :]) ** 2)[:, :, None] * a[None, :, :]
+    t2 = (1.0 / (jw - np.conj(lam)[None, :]) ** 2)[:, :, None] * np.conj(a)[None, :, :]
+    J = np.empty((jw.shape[0], 2 * m, a.shape[1]), dtype=complex)
+    J[:, 0::2] = -(t1 + t2)  # d/d sigma
+    J[:, 1::2] = 1j * (t1 - t2)  # d/d omega_d
+    return np.concatenate([J.real, J.imag], axis=0)
+
+
+def background_columns(background: np.ndarray) -> np.ndarray:
+    """Real-stacked columns (2n, 2 K) of a complex background with real
+    coefficients: each basis column and 1j times it."""
+    bg = np.empty((background.shape[0], 2 * background.shape[1]), dtype=complex)
+    bg[:, 0::2] = background
+    bg[:, 1::2] = 1j * background
+    return real_stack(bg)
+
+
 def _vp_solve(
     freq_hz: np.ndarray,
     Y: np.ndarray,
@@ -70,23 +100,12 @@ def _vp_solve(
     n = freq_hz.size
     m = poles.size
     jw = 2j * np.pi * freq_hz[:, None]
-    bg = np.empty((n, 2 * background.shape[1]), dtype=complex)
-    bg[:, 0::2] = background
-    bg[:, 1::2] = 1j * background
-    bg_r = real_stack(bg)
-    n_lin = 2 * m + bg.shape[1]
-
-    def design(lam: np.ndarray) -> np.ndarray:
-        g = 1.0 / (jw - lam[None, :])
-        gc = 1.0 / (jw - np.conj(lam)[None, :])
-        cols = np.empty((n, 2 * m), dtype=complex)
-        cols[:, 0::2] = g + gc
-        cols[:, 1::2] = 1j * (g - gc)
-        return np.concatenate([real_stack(cols), bg_r], axis=1)
+    bg_r = background_columns(background)
+    n_lin = 2 * m + bg_r.shape[1]
 
     def fit(lam: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
         """Projection with row weights u (2n,) shared by all channels."""
-        Aw = design(lam) * u[:, None]
+        Aw = pole_columns(freq_hz, lam, bg_r) * u[:, None]
         scale = np.max(np.abs(Aw), axis=0)
         scale[scale == 0] = 1.0
         Qm, Rm = batched_qr(Aw / scale)
@@ -96,15 +115,6 @@ def _vp_solve(
         X = np.linalg.solve(Rm, QtY) / scale[:, None]  # (K, n_ch)
         return Qm, Rw, X
 
-    def jac(lam: np.ndarray, X: np.ndarray) -> np.ndarray:
-        a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
-        t1 = (1.0 / (jw - lam[None, :]) ** 2)[:, :, None] * a[None, :, :]
-        t2 = (1.0 / (jw - np.conj(lam)[None, :]) ** 2)[:, :, None] * np.conj(a)[None, :, :]
-        J = np.empty((n, 2 * m, a.shape[1]), dtype=complex)
-        J[:, 0::2] = -(t1 + t2)  # d/d sigma
-        J[:, 1::2] = 1j * (t1 - t2)  # d/d omega_d
-        return np.concatenate([J.real, J.imag], axis=0)  # (2n, 2m, n_ch)
-
     def cost_of(Rw: np.ndarray, inv_s2: np.ndarray) -> float:
         return float(np.sum(Rw**2 * inv_s2[None, :]))
 
@@ -112,7 +122,7 @@ def _vp_solve(
         lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, float]:
         Qm, Rw, X = fit(lam, u)
-        Jw = jac(lam, X) * u[:, None, None]
+        Jw = pole_jacobian(jw, lam, X) * u[:, None, None]
         Jf = Jw.reshape(Jw.shape[0], -1)
         Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jw.shape)
         sq = np.sqrt(inv_s2)
@@ -171,7 +181,7 @@ def _vp_solve(
     Qm, Rw, X = fit(lam, u)
     sq = np.sqrt(inv_s2)
     Rw = Rw * sq[None, :]
-    Jw = jac(lam, X) * u[:, None, None]
+    Jw = pole_jacobian(jw, lam, X) * u[:, None, None]
     Jf = Jw.reshape(Jw.shape[0], -1)
     Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jw.shape) * sq[None, None, :]
     Jc = Jp[:n] + 1j * Jp[n:]  # (n, 2m, n_ch)
@@ -390,14 +400,7 @@ def quick_significance(
         lam = poles[members]
         m = lam.size
         jw = 2j * np.pi * f[:, None]
-        g = 1.0 / (jw - lam[None, :])
-        gc = 1.0 / (jw - np.conj(lam)[None, :])
-        cols = np.empty((f.size, 2 * m + 2 * background.shape[1]), dtype=complex)
-        cols[:, 0 : 2 * m : 2] = g + gc
-        cols[:, 1 : 2 * m : 2] = 1j * (g - gc)
-        cols[:, 2 * m :: 2] = background
-        cols[:, 2 * m + 1 :: 2] = 1j * background
-        A = real_stack(cols)
+        A = pole_columns(f, lam, background_columns(background))
         scale = np.max(np.abs(A), axis=0)
         scale[scale == 0] = 1.0
         Qm, Rm = batched_qr(A / scale)
@@ -410,12 +413,7 @@ def quick_significance(
         except np.linalg.LinAlgError:
             continue
         a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
-        t1 = (1.0 / (jw - lam[None, :]) ** 2)[:, :, None] * a[None, :, :]
-        t2 = (1.0 / (jw - np.conj(lam)[None, :]) ** 2)[:, :, None] * np.conj(a)[None, :, :]
-        J = np.empty((f.size, 2 * m, a.shape[1]), dtype=complex)
-        J[:, 0::2] = -(t1 + t2)
-        J[:, 1::2] = 1j * (t1 - t2)
-        Jr = np.concatenate([J.real, J.imag], axis=0) / np.sqrt(s2)[None, None, :]
+        Jr = pole_jacobian(jw, lam, X) / np.sqrt(s2)[None, None, :]
         Jf = Jr.reshape(Jr.shape[0], -1)
         Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jr.shape)
         Js = np.transpose(Jp, (0, 2, 1)).reshape(-1, 2 * m)
