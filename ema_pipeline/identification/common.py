@@ -1,5 +1,5 @@
 """Steps every identification backend shares: band and input checks, and the
-common finish (screening, refinement with covariance, LSFD, window correction,
+common finish (standard deviations, LSFD, window correction,
 indicators). The backends (:mod:`~ema_pipeline.identification.plscf_backend`,
 :mod:`~ema_pipeline.identification.sdypy_backend`) import from here and never
 from :mod:`~ema_pipeline.identification.core`, which dispatches to them."""
@@ -17,14 +17,10 @@ from ema_pipeline.data import (
     quantity_power,
 )
 from ema_pipeline.identification.lsfd import frac, lsfd, mpc, normalised_error, real_normalised
-from ema_pipeline.identification.refine import pole_significance, refine_poles
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.stabilization import StabilizationData, pole_to_modal
-from ema_pipeline.identification.uncertainty import (
-    MAX_REL_SIGMA_STD,
-    modal_std,
-)
+from ema_pipeline.identification.uncertainty import modal_std
 from ema_pipeline.modal import mac
 
 
@@ -138,24 +134,20 @@ def finish_identification(
     pole_id: np.ndarray,
     *,
     decay: float,
-    refine: bool,
     lower_residual: bool,
     upper_residual: bool,
     stab: StabilizationData,
     selected: SelectedPoles | None,
     settings: ResolvedSettings,
-    screen: bool = False,
     pole_cov: np.ndarray | None = None,
 ) -> IdentificationResult:
-    """LSFD, optional refinement with covariance, window correction, indicators.
+    """LSFD, window correction, standard deviations, indicators.
 
     ``sub`` is the FRF set cut to the band, ``pole_id`` the identified poles
     (before window correction), ``decay`` the window's decay rate 1/tau (1/s).
-    With ``screen`` (automatic selection) poles whose decay rate the data do
-    not determine (std(sigma)/sigma >= ``MAX_REL_SIGMA_STD``) are
-    dropped as computational before refinement. ``pole_cov`` (n_modes, 2, 2),
-    the covariance of (sigma, omega_d) of already refined poles, gives their
-    standard deviations (with ``refine=False``).
+    ``pole_cov`` (n_modes, 2, 2), the covariance of (sigma, omega_d) of refined
+    poles, gives their standard deviations; without it the scatter of the
+    selected trajectories over the model orders does (NaN without ``selected``).
     """
     freq = sub.freq_hz
     n_out, n_in, n_freq = sub.H.shape
@@ -163,22 +155,7 @@ def finish_identification(
     m = pole_id.size
     fn_std = np.full(m, np.nan)
     zeta_std = np.full(m, np.nan)
-    if m and refine and screen:
-        rel = pole_significance(freq, Hc, pole_id)
-        keep = rel < MAX_REL_SIGMA_STD
-        pole_id = pole_id[keep]
-        if selected is not None:
-            selected = SelectedPoles(**{k: v[keep] for k, v in selected.__dict__.items()})
-        m = pole_id.size
-        fn_std = fn_std[keep]
-        zeta_std = zeta_std[keep]
-    if m and refine:
-        ref = refine_poles(freq, Hc, pole_id, quantity=sub.quantity,
-                           window_tau_s=sub.acquisition.exp_window_tau_s,
-                           force_window_s=sub.acquisition.force_window_s)
-        pole_id = ref.pole
-        fn_std, zeta_std = modal_std(pole_id + decay, ref.cov)
-    elif m and pole_cov is not None:
+    if m and pole_cov is not None:
         fn_std, zeta_std = modal_std(pole_id + decay, pole_cov)
     elif m and selected is not None:
         fn_std, zeta_std = selected.scatter_fn_hz, selected.scatter_zeta

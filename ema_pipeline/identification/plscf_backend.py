@@ -189,9 +189,8 @@ class OrderSearch:
         p: int,
         cap: int,
         fixed: bool,
-    ) -> tuple[SelectedPoles, np.ndarray, PoleSet, list[tuple[int, int]]]:
-        """Selected candidates, trajectory labels and poles of the chosen
-        diagram, and (order, determined modes) of every diagram computed.
+    ) -> tuple[SelectedPoles, np.ndarray, PoleSet]:
+        """Selected candidates, trajectory labels and poles of the chosen diagram.
         ``Hn`` (n_out, n_in, n_freq) normalised FRFs on the lines ``freq``."""
         lo, hi = band
         n_in = Hn.shape[1]
@@ -254,7 +253,7 @@ class OrderSearch:
                 break
             p = min(2 * p, cap)
         assert best is not None
-        return (*best, history)
+        return best
 
 
 #: A band whose top is more than ZOOM_RATIO times its bottom is searched once
@@ -295,7 +294,7 @@ def add_zoom_modes(
     n_in = Hz.shape[1]
     cap = order_cap(fz.size, n_in)
     try:
-        zsel, _, _, _ = search.run(fz, Hz, (lo, top), min(default_max_order(n_in, fz.size), cap),
+        zsel, _, _ = search.run(fz, Hz, (lo, top), min(default_max_order(n_in, fz.size), cap),
                                    cap, False)
     except DataError:
         return sel
@@ -343,7 +342,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
 
     search = OrderSearch(weights=weights, window_decay_rate=decay, min_peak=min_peak,
                          min_fraction=options.min_fraction, expect=expect_hz is not None)
-    sel, traj, poles, _ = search.run(freq, Hn, (lo, hi), p, cap, fixed)
+    sel, traj, poles = search.run(freq, Hn, (lo, hi), p, cap, fixed)
     if not fixed and expect_hz is None:
         sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi))
     p = int(poles.orders[-1])
@@ -375,7 +374,6 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         sub,
         sel.pole,
         decay=decay,
-        refine=False,
         lower_residual=options.lower_residual,
         upper_residual=options.upper_residual,
         stab=stab,

@@ -5,9 +5,10 @@ fit of the poles, with the linear terms eliminated, that minimises the
 noise-weighted squared error sum_c sum_k |e_ck|^2 / (s_c v_k)^2. The noise level
 is estimated from the residual of the initial fit
 (:func:`ema_pipeline.identification.uncertainty.noise_model`); the covariance of
-the pole parameters (sigma_r, omega_dr) is the inverse of the Fisher matrix of
-that fit (see :mod:`ema_pipeline.identification.uncertainty`).
-:func:`pole_significance` evaluates the same fit without iterating.
+the pole parameters (sigma_r, omega_dr) is the sandwich covariance of that fit
+with the line correlation of the noise (see
+:mod:`ema_pipeline.identification.uncertainty`).
+:func:`quick_significance` solves the same local problem once, without iterating.
 
 Why written here: scipy's ``least_squares`` neither eliminates the linear terms
 (variable projection) nor shares one projection between channels, which is what
@@ -324,35 +325,6 @@ def _local_problem(
     Y = real_stack(Hl)
     k = int(np.flatnonzero(members == r)[0])
     return f, Y, members, background, k, (lo, hi)
-
-
-def pole_significance(
-    freq_hz: np.ndarray,
-    H: np.ndarray,
-    poles: np.ndarray,
-    *,
-    half_width: float = 12.0,
-    min_lines: int = 40,
-) -> np.ndarray:
-    """Relative standard deviation of each pole's decay rate, std(sigma_r)/sigma_r.
-
-    The inverse Fisher matrix of the local fit of :func:`refine_poles`,
-    evaluated at the given poles without iterating. A physical mode is
-    determined to a small fraction of its damping; a computational pole that
-    models noise is not (values near or above 1). Inf where the local band is
-    too short.
-    """
-    freq_hz = np.asarray(freq_hz, dtype=float)
-    H = np.asarray(H)
-    rel = np.full(poles.size, np.inf)
-    for r in range(poles.size):
-        local = _local_problem(freq_hz, H, poles, r, half_width, min_lines)
-        if local is None:
-            continue
-        f, Y, members, background, k, _ = local
-        _, Finv, _, _ = _vp_solve(f, Y, poles[members], background, 0)
-        rel[r] = np.sqrt(max(Finv[2 * k, 2 * k], 0.0)) / abs(poles[r].real)
-    return rel
 
 
 def quick_significance(

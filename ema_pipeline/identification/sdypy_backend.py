@@ -144,7 +144,7 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         expect_hz=guesses if options.expect_hz else None, uncertainty="none (NaN)",
     )
     result = finish_identification(
-        sub, poles, decay=decay, refine=False, lower_residual=lower_residual,
+        sub, poles, decay=decay, lower_residual=lower_residual,
         upper_residual=upper_residual, stab=stab, selected=None, settings=settings,
     )
     # sdypy-EMA's own LSFD synthesis on the band lines
