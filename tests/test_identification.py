@@ -339,9 +339,31 @@ def test_real_roving_hammer_data(real_uff):
     matched = np.sum(dist.min(axis=0) < 1.0)
     extra = np.sum((dist.min(axis=1) >= 1.0) & (res.fn_hz < 800))
     assert matched >= 12, res.fn_hz  # issue 11 asks for 13 (measured 12)
-    assert extra <= 2, res.fn_hz  # issue 11 asks for at most 1 (measured 2)
+    assert extra <= 1, res.fn_hz  # issue 11's target (measured 0)
     res = res_band = identify(frf.reciprocal(), band_hz=(5, 790))
     assert np.sum(np.abs(res_band.fn_hz[:, None] - PUBLISHED_HZ[None, :]).min(axis=0) < 1) >= 9
     assert res.modes.shapes.shape == (30, res.modes.n_modes)
     assert np.all(res.zeta > 0) and np.all(res.zeta < 0.05)
     assert np.median(res.frac) > 0.8
+
+
+def test_real_beam_235_hz_is_not_in_the_data(real_uff):
+    """The published 235.23 Hz mode is not observable from response point 3:
+    no FRF of the 30 has a peak within 3 Hz of it that stands out of its
+    surroundings (largest prominence of log|H| 0.05, a factor 1.05), while
+    every other published mode has one in some FRF (prominence factor 2.6 at
+    707.2 Hz, 18 or more at the others). No identification can find it here."""
+    from scipy.signal import find_peaks
+
+    from ema_pipeline.io import read_frf
+
+    frf = read_frf(real_uff)
+    best = np.zeros(PUBLISHED_HZ.size)
+    for a in np.abs(frf.H[0]):
+        peaks, props = find_peaks(np.log(a), prominence=0)
+        near = np.abs(frf.freq_hz[peaks][:, None] - PUBLISHED_HZ[None, :]) <= 3
+        prom = np.where(near, props["prominences"][:, None], 0.0)
+        best = np.maximum(best, prom.max(axis=0, initial=0.0))
+    at_235 = np.isclose(PUBLISHED_HZ, 235.23)
+    assert best[at_235][0] < 0.1, best
+    assert np.all(best[~at_235] > 0.9), best
