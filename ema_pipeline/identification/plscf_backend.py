@@ -45,7 +45,11 @@ from ema_pipeline.identification.common import (
 from ema_pipeline.identification.lsfd import lsfd, mpc
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf import PoleSet, plscf
-from ema_pipeline.identification.refine import quick_significance, refine_poles
+from ema_pipeline.identification.refine import (
+    band_sensitivity,
+    quick_significance,
+    refine_poles,
+)
 from ema_pipeline.identification.resources import order_cap
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
 from ema_pipeline.identification.selection import (
@@ -362,6 +366,10 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         order_s = np.argsort(ref.pole[keep].imag)
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
         cov = ref.cov[keep][order_s]
+        # the local model's own error (band choice), added in quadrature
+        cov = cov + band_sensitivity(freq, Hc, sel.pole, quantity=sub.quantity,
+                                     window_tau_s=frf.acquisition.exp_window_tau_s,
+                                     force_window_s=frf.acquisition.force_window_s)
     return finish_identification(
         sub,
         sel.pole,

@@ -28,6 +28,14 @@ the weighted noise, so
   is estimated from the residual (:func:`residual_correlation`, Bartlett
   taper). A correlation estimate never makes a variance smaller than that of
   independent lines.
+* **Local model** (:func:`ema_pipeline.identification.refine.band_sensitivity`):
+  the local fit stands for the modes outside its band by a quadratic
+  background and subtracted LSFD terms; where that is not exact the pole
+  carries an error the residual cannot show. The change d of the pole when
+  the fit is repeated on half the local band (6 instead of 12 half-power
+  bandwidths), halved, is added as a standard deviation of the model choice,
+  d d^T / 4 (the two fits bracket the error; d also holds the extra noise of
+  the narrower fit).
 * **Window correction**: the exponential window shifts every pole by the
   constant 1/tau, which leaves the covariance unchanged; it enters through the
   line correlation above.
