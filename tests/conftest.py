@@ -14,6 +14,8 @@ from pathlib import Path
 import pytest
 import tqdm
 
+from ema_pipeline.cli import main
+
 # tqdm starts a monitor thread with its first bar, even a disabled one (batch
 # --quiet), and keeps it for the life of the process. Any second thread makes
 # every later io.check_hdf5 in the test process start a fresh interpreter
@@ -37,6 +39,28 @@ def real_uff() -> Path:
 @pytest.fixture(scope="session")
 def example_dir() -> Path:
     return REPO / "raw_frf"
+
+
+@pytest.fixture(scope="session")
+def example_study(tmp_path_factory: pytest.TempPathFactory, example_dir: Path) -> Path:
+    """The results folder of ``ema-pipeline run`` on the shipped example (default
+    options), run once per session: the study, report and browser tests only read
+    it (a test that changes results works on a copy)."""
+    results = tmp_path_factory.mktemp("study") / "results"
+    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--quiet"]) == 0
+    return results
+
+
+@pytest.fixture(scope="session")
+def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
+                                 example_dir: Path) -> Path:
+    """The results folder of ``ema-pipeline run --no-figures --uff`` on the shipped
+    example, run once per session for the two tests that read it (no figures in
+    test_report.py, the modes' UFF files in test_uff_export_cli.py)."""
+    results = tmp_path_factory.mktemp("study_uff") / "results"
+    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--no-figures",
+                 "--uff", "--quiet"]) == 0
+    return results
 
 
 # Background jobs: two checks that run whole programs (mypy, the fuzz corpus of

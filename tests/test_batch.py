@@ -159,10 +159,27 @@ def test_cli_batch_good_and_bad_files(
     assert not list(out.rglob("corrupt*")) and not list(out.rglob("truncated*"))
 
 
-#: The files of the workers/rerun test: one of each configuration, an HDF5 file
-#: at the top and UFF / HDF5 files in subfolders (their output folders are the
-#: same as in the whole good folder: no equal stems among them).
+#: The files of the workers/rerun and scheduler tests: one of each configuration,
+#: an HDF5 file at the top and UFF / HDF5 files in subfolders (their output
+#: folders are the same as in the whole good folder: no equal stems among them).
 RERUN_FILES = ("genuine_1.h5", "day2/b.uff", "day2/deep/c.h5")
+
+
+def _rerun_folder(good_folder: Path, target: Path) -> Path:
+    """A folder with the :data:`RERUN_FILES` of the good folder."""
+    folder = target / "raw"
+    for rel in RERUN_FILES:
+        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy(good_folder / rel, folder / rel)
+    return folder
+
+
+def _local_rows(local_run: Path) -> pd.DataFrame:
+    """The rows of :data:`RERUN_FILES` in the summary of ``local_run`` (in input order)."""
+    rows = _read_summary(local_run)
+    rows = rows[rows["file"].isin(RERUN_FILES)]
+    assert sorted(rows["file"]) == sorted(RERUN_FILES)
+    return rows
 
 
 def test_workers_1_and_2_identical_and_rerun_skips(
@@ -170,20 +187,13 @@ def test_workers_1_and_2_identical_and_rerun_skips(
 ) -> None:
     """--workers 1 and --workers 2 give the same summary rows; a rerun skips every
     file without rewriting it (same summary rows, status skipped); --force
-    recomputes. Three of the good files: every skipped file costs its worker two
-    fresh-interpreter HDF5 checks of the result (about 4 s on a loaded machine),
-    and none of these behaviours needs all six."""
-    folder = tmp_path / "raw"
-    for rel in RERUN_FILES:
-        (folder / rel).parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy(good_folder / rel, folder / rel)
+    recomputes. Three of the good files: none of these behaviours needs all six."""
+    folder = _rerun_folder(good_folder, tmp_path)
     n = len(RERUN_FILES)
     out = tmp_path / "out"
     report = run_batch(folder, out, options=OPTIONS, workers=1, force=False, progress=False)
     assert (report.n_ok, report.n_skipped, report.n_failed) == (n, 0, 0)
-    one, two = _read_summary(out), _read_summary(local_run)
-    two = two[two["file"].isin(RERUN_FILES)]
-    assert sorted(two["file"]) == sorted(RERUN_FILES)
+    one, two = _read_summary(out), _local_rows(local_run)
     pd.testing.assert_frame_equal(_without_timing(one), _without_timing(two))
 
     stamps = {p: (p.stat().st_ino, p.stat().st_mtime_ns) for p in out.rglob("*_*.*")}
@@ -211,8 +221,12 @@ def test_scheduler_matches_local_processes(
 
     The cluster and the CLI run in a child interpreter: dask leaves a thread
     (Dask-Offload) in the process that used it, and a second thread makes every
-    later io.check_hdf5 of the test process start a fresh interpreter (~2 s)."""
+    later io.check_hdf5 of the test process start a fresh interpreter (~2 s).
+    Three of the good files (one per configuration, HDF5 and binary UFF, in
+    subfolders): what is compared does not need all six, and the dask worker
+    identifies them in one process."""
     pytest.importorskip("distributed")
+    folder = _rerun_folder(good_folder, tmp_path)
     out = tmp_path / "out"
     script = (
         "import sys\n"
@@ -230,11 +244,11 @@ def test_scheduler_matches_local_processes(
     )
     env = dict(os.environ, PYTHONPATH=str(Path(__file__).resolve().parents[1]))
     done = subprocess.run(
-        [sys.executable, "-c", script, str(good_folder), str(out), *CLI_BAND],
+        [sys.executable, "-c", script, str(folder), str(out), *CLI_BAND],
         capture_output=True, text=True, env=env, timeout=600,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
-    dask_summary, local_summary = _read_summary(out), _read_summary(local_run)
+    dask_summary, local_summary = _read_summary(out), _local_rows(local_run)
     pd.testing.assert_frame_equal(
         _without_timing(dask_summary).drop(columns="frequencies_hz"),
         _without_timing(local_summary).drop(columns="frequencies_hz"),

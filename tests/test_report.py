@@ -68,10 +68,9 @@ def _parse(path: Path) -> _Page:
 
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory, example_dir) -> Path:
-    results = tmp_path_factory.mktemp("report") / "results"
-    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--quiet"]) == 0
-    return results
+def study(example_study: Path) -> Path:
+    """``ema-pipeline run`` on the shipped example (shared with test_study.py, read only)."""
+    return example_study
 
 
 def test_study_report_has_the_sections_in_order_and_is_small(study):
@@ -144,10 +143,8 @@ def test_column_formatters_use_the_std_and_keep_integers():
     assert f["ratio"](-1e-9) == "0.00000"  # no negative zero
 
 
-def test_no_figures(tmp_path, example_dir):
-    res = tmp_path / "res"
-    assert main(["run", "--raw", str(example_dir), "--results", str(res), "--quiet",
-                 "--no-figures"]) == 0
+def test_no_figures(example_study_uff_no_figures):
+    res = example_study_uff_no_figures  # run --no-figures (and --uff, for test_uff_export_cli)
     assert not (res / "figures").exists()
     page = _parse(res / "report.html")
     assert page.svgs == 0 and page.sections == SECTIONS

@@ -51,10 +51,9 @@ return {page: page, scroll: document.documentElement.scrollWidth, tables: tables
 
 
 @pytest.fixture(scope="module")
-def report(tmp_path_factory, example_dir) -> Path:
-    results = tmp_path_factory.mktemp("browser") / "results"
-    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--quiet"]) == 0
-    return results / "report.html"
+def report(example_study: Path) -> Path:
+    """The report of ``ema-pipeline run`` on the shipped example (shared, read only)."""
+    return example_study / "report.html"
 
 
 @pytest.fixture(scope="module")

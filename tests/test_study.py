@@ -28,10 +28,9 @@ TABLES = {
 
 
 @pytest.fixture(scope="module")
-def study(tmp_path_factory, example_dir) -> Path:
-    results = tmp_path_factory.mktemp("study") / "results"
-    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--quiet"]) == 0
-    return results
+def study(example_study: Path) -> Path:
+    """``ema-pipeline run`` on the shipped example (shared with the report tests, read only)."""
+    return example_study
 
 
 def _table(results: Path, name: str) -> pd.DataFrame:

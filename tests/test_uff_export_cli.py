@@ -56,10 +56,8 @@ def test_batch_uff_writes_one_file_per_input(tmp_path: Path) -> None:
     np.testing.assert_allclose([m["freq"] for m in modes], table["fn_hz"], rtol=1e-5)
 
 
-def test_run_uff_carries_the_beam_geometry(tmp_path: Path) -> None:
-    results = tmp_path / "results"
-    assert main(["run", "--raw", str(REPO / "raw_frf"), "--results", str(results),
-                 "--no-figures", "--uff", "--quiet"]) == 0
+def test_run_uff_carries_the_beam_geometry(example_study_uff_no_figures: Path) -> None:
+    results = example_study_uff_no_figures  # run --no-figures --uff on raw_frf/
     table1 = pd.read_csv(results / "tables" / "table1_modal_parameters.csv")
     for name in ("genuine", "larger_tank", "smaller_tank"):
         path = results / "modes" / f"{name}.uff"

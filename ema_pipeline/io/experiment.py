@@ -27,11 +27,13 @@ import re
 import tomllib
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ema_pipeline.data import Beam, ConfigurationSpec, DataError, Experiment
-from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.io.files import check_readable
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ema_pipeline.identification.options import IdentificationOptions
 
 #: Configuration names: letters, digits, ``_-.``, no leading dot, at most 64 characters.
 SAFE_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_\-.]{0,63}")
@@ -403,6 +405,10 @@ def read_identification_options(
     missing key keeps the option's default. (The exponential window's time
     constant is per configuration: ``[[configurations]] exp_window_tau_s``.)
     """
+    # imported here: reading FRF files (and the HDF5 check's child interpreter)
+    # does not need the identification package and its scipy imports
+    from ema_pipeline.identification.options import IdentificationOptions
+
     values = _check_table(table, SCHEMA["identification"], f"{path}: [identification]")
     if "expect_hz" in values:
         values["expect_hz"] = tuple(values["expect_hz"])

@@ -42,8 +42,9 @@ Atomic writes and resume by content hash
 
 Local processes
     By default tasks run in ``os.cpu_count()`` worker processes
-    (:class:`concurrent.futures.ProcessPoolExecutor`, ``spawn`` start method:
-    no fork of a parent that has h5py open and threads running). Workers are
+    (:class:`concurrent.futures.ProcessPoolExecutor`, forked by a fork server
+    that imported the worker code once, see :mod:`.local`: no fork of a parent
+    that has h5py open and threads running, no import per worker). Workers are
     started with single-threaded BLAS (``OMP_NUM_THREADS=1`` etc., unless
     already set): N processes with N BLAS threads each would oversubscribe the
     cores, and the results do not depend on the number of workers. Workers
