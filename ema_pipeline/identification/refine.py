@@ -299,7 +299,9 @@ def band_sensitivity(
     poles: np.ndarray,
     *,
     half_width: float = 6.0,
-    **kwargs: object,
+    quantity: str | None = "accelerance",
+    window_tau_s: float | None = None,
+    force_window_s: float | None = None,
 ) -> np.ndarray:
     """Model-choice covariance of refined poles, (n_modes, 2, 2) in (sigma, omega_d).
 
@@ -313,8 +315,8 @@ def band_sensitivity(
     it is taken as the standard deviation of the model choice (the two fits
     bracket the error, and d also holds the extra noise of the narrower fit),
     returned as d d^T / 4, to be added to the noise covariance. Modes whose
-    local band is set by its minimum number of lines get 0. ``kwargs`` go to
-    :func:`refine_poles`.
+    local band is set by its minimum number of lines get 0. ``quantity``,
+    ``window_tau_s`` and ``force_window_s`` as in :func:`refine_poles`.
 
     Examples
     --------
@@ -325,7 +327,8 @@ def band_sensitivity(
     >>> float(np.abs(band_sensitivity(f, H, lam, quantity="receptance")).max()) < 1e-6
     True
     """
-    other = refine_poles(freq_hz, H, poles, half_width=half_width, **kwargs)  # type: ignore[arg-type]
+    other = refine_poles(freq_hz, H, poles, half_width=half_width, quantity=quantity,
+                         window_tau_s=window_tau_s, force_window_s=force_window_s)
     d = np.stack([other.pole.real - poles.real, poles.imag - other.pole.imag], axis=1)
     d = np.nan_to_num(d)
     return d[:, :, None] * d[:, None, :] / 4.0
