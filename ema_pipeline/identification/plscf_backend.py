@@ -23,6 +23,14 @@ bottom, the same search runs once more on its lowest 1/ZOOM_RATIO
 pLSCF's time step follows the band top, so low modes of a wide band are poorly
 resolved (their poles crowd near z = 1).
 
+Dense bands: when the search selects :data:`WINDOW_MIN_MODES` candidates or
+more, it runs again in overlapping windows of :data:`WINDOW_MODES`
+consecutive candidates (:func:`mode_windows`, :func:`add_window_modes`) and
+adds what they find that no candidate covers. With one common denominator for
+20-40 modes the strong modes take the poles and a weak mode between them
+(a few per cent of the local response) never forms a trajectory; in a window
+of ten it does. The added candidates pass the same tests as all others.
+
 Selection: every selected trajectory's pole is refined by the local fit of
 :func:`~ema_pipeline.identification.refine.refine_poles`; it is kept when the
 refined decay rate is determined (relative std below ``MAX_REL_SIGMA_STD``),
@@ -257,6 +265,76 @@ class OrderSearch:
 #: the poles of low modes in a wide band crowd near z = 1 and are poorly
 #: resolved: impact tests of 2-900 Hz lose their modes below 50 Hz).
 ZOOM_RATIO = 8.0
+#: A band where the full search selects at least WINDOW_MIN_MODES candidates is
+#: searched again in windows of WINDOW_MODES consecutive candidates, each
+#: shifted by WINDOW_STEP candidates (overlapping by half): one common
+#: denominator for 20-40 modes lets the strong ones take the poles, and weak
+#: modes between them (a few per cent of the local response) never form a
+#: trajectory. In a window of 8 modes they do.
+WINDOW_MIN_MODES = 10
+WINDOW_MODES = 10
+WINDOW_STEP = 4
+
+
+def search_window(
+    search: OrderSearch,
+    freq: np.ndarray,
+    Hn: np.ndarray,
+    window_hz: tuple[float, float],
+) -> SelectedPoles | None:
+    """Candidates of ``search`` run on the lines of ``freq`` inside ``window_hz``
+    alone, from the default order up to the lines' cap; None when the window has
+    fewer than 64 lines or its normal equations are singular.
+
+    Examples
+    --------
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> search_window(search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)) is None
+    True
+    """
+    lines = (freq >= window_hz[0]) & (freq <= window_hz[1])
+    if lines.sum() < 64:
+        return None
+    fz, Hz = freq[lines], Hn[:, :, lines]
+    if search.weights is not None:
+        search = replace(search, weights=search.weights[..., lines])
+    n_in = Hz.shape[1]
+    cap = order_cap(fz.size, n_in)
+    try:
+        zsel, _, _ = search.run(fz, Hz, window_hz, min(default_max_order(n_in, fz.size), cap),
+                                cap, False)
+    except DataError:
+        return None
+    return zsel
+
+
+def add_uncovered(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPoles:
+    """``sel`` plus the candidates of ``new`` (from another diagram) that no
+    candidate of ``sel`` covers (within the sum of their half-power
+    half-widths); they carry trajectory label -1 (their diagram is not the one
+    stored). Sorted by frequency.
+
+    Examples
+    --------
+    >>> one = SelectedPoles(np.array([-1 + 100j]), np.zeros(1, int), np.ones(1, int),
+    ...                     np.zeros(1), np.zeros(1), np.zeros(1, int))
+    >>> two = SelectedPoles(np.array([-1 + 100.5j, -1 + 150j]), np.zeros(2, int),
+    ...                     np.ones(2, int), np.zeros(2), np.zeros(2), np.zeros(2, int))
+    >>> add_uncovered(one, two).pole.imag.tolist(), add_uncovered(one, two).cluster.tolist()
+    ([100.0, 150.0], [0, -1])
+    """
+    if new is None or new.pole.size == 0:
+        return sel
+    gap = np.abs(new.pole[:, None].imag - sel.pole[None, :].imag)
+    width = np.abs(new.pole[:, None].real) + np.abs(sel.pole[None, :].real)
+    fresh = ~np.any(gap < width, axis=1) if sel.pole.size else np.ones(new.pole.size, bool)
+    if not fresh.any():
+        return sel
+    add = new.subset(fresh)
+    add = replace(add, cluster=np.full(add.pole.size, -1))
+    merged = SelectedPoles(**{k: np.concatenate([getattr(sel, k), getattr(add, k)])
+                              for k in sel.__dict__})
+    return merged.subset(np.argsort(merged.pole.imag))
 
 
 def add_zoom_modes(
@@ -266,11 +344,9 @@ def add_zoom_modes(
     Hn: np.ndarray,
     band: tuple[float, float],
 ) -> SelectedPoles:
-    """``sel`` plus the candidates of a second search of the band's lowest
-    1/:data:`ZOOM_RATIO` that no candidate of ``sel`` covers (within the sum of
-    their half-power half-widths); they carry trajectory label -1 (their
-    diagram is not the one stored). Unchanged for a narrower band or one with
-    fewer than 64 lines in that part.
+    """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of a
+    second search of the band's lowest 1/:data:`ZOOM_RATIO`. Unchanged for a
+    narrower band or one with fewer than 64 lines in that part.
 
     Examples
     --------
@@ -280,32 +356,60 @@ def add_zoom_modes(
     0
     """
     lo, hi = band
-    top = lo + (hi - lo) / ZOOM_RATIO
-    lines = freq <= top
-    if hi < ZOOM_RATIO * lo or lines.sum() < 64:
+    if hi < ZOOM_RATIO * lo:
         return sel
-    fz, Hz = freq[lines], Hn[:, :, lines]
-    if search.weights is not None:
-        search = replace(search, weights=search.weights[..., lines])
-    n_in = Hz.shape[1]
-    cap = order_cap(fz.size, n_in)
-    try:
-        zsel, _, _ = search.run(fz, Hz, (lo, top), min(default_max_order(n_in, fz.size), cap),
-                                   cap, False)
-    except DataError:
-        return sel
-    if zsel.pole.size == 0:
-        return sel
-    gap = np.abs(zsel.pole[:, None].imag - sel.pole[None, :].imag)
-    width = np.abs(zsel.pole[:, None].real) + np.abs(sel.pole[None, :].real)
-    new = ~np.any(gap < width, axis=1) if sel.pole.size else np.ones(zsel.pole.size, bool)
-    if not new.any():
-        return sel
-    add = zsel.subset(new)
-    add = replace(add, cluster=np.full(add.pole.size, -1))
-    merged = SelectedPoles(**{k: np.concatenate([getattr(sel, k), getattr(add, k)])
-                              for k in sel.__dict__})
-    return merged.subset(np.argsort(merged.pole.imag))
+    return add_uncovered(sel, search_window(search, freq, Hn, (lo, lo + (hi - lo) / ZOOM_RATIO)))
+
+
+def mode_windows(fn_hz: np.ndarray, band: tuple[float, float]) -> list[tuple[float, float]]:
+    """Windows of :data:`WINDOW_MODES` consecutive candidate frequencies
+    ``fn_hz`` inside ``band``, shifted by :data:`WINDOW_STEP`, each reaching to
+    halfway between its outermost candidates and their outer neighbours (the
+    band's edges at the ends); none with fewer than :data:`WINDOW_MIN_MODES`
+    candidates.
+
+    Examples
+    --------
+    >>> mode_windows(np.arange(1.0, 15.0) * 10, (5.0, 145.0))
+    [(5.0, 105.0), (45.0, 145.0)]
+    """
+    lo, hi = band
+    f = np.sort(fn_hz[(fn_hz > lo) & (fn_hz < hi)])
+    n = f.size
+    if n < WINDOW_MIN_MODES:
+        return []
+    edge = np.concatenate([[lo], (f[1:] + f[:-1]) / 2, [hi]])  # edge[k]: below candidate k
+    out = []
+    for s in range(0, n, WINDOW_STEP):
+        e = min(s + WINDOW_MODES, n)
+        out.append((float(edge[s]), float(edge[e])))
+        if e == n:
+            break
+    return out
+
+
+def add_window_modes(
+    sel: SelectedPoles,
+    search: OrderSearch,
+    freq: np.ndarray,
+    Hn: np.ndarray,
+    band: tuple[float, float],
+) -> SelectedPoles:
+    """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of searches
+    in the windows of :func:`mode_windows` (a dense band; unchanged with fewer
+    than :data:`WINDOW_MIN_MODES` candidates).
+
+    Examples
+    --------
+    >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> f = np.arange(10.0, 60.0)
+    >>> add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60)).pole.size
+    0
+    """
+    for window in mode_windows(sel.pole.imag / (2 * np.pi), band):
+        sel = add_uncovered(sel, search_window(search, freq, Hn, window))
+    return sel
 
 
 def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
@@ -341,6 +445,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     sel, traj, poles = search.run(freq, Hn, (lo, hi), p, cap, fixed)
     if not fixed and expect_hz is None:
         sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi))
+        sel = add_window_modes(sel, search, freq, Hn, (lo, hi))
     p = int(poles.orders[-1])
     stab = stabilization(
         poles, decay, tol_freq=options.tol_freq, tol_zeta=options.tol_zeta,
@@ -361,7 +466,9 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             with np.errstate(invalid="ignore"):
                 rel_ref = np.sqrt(ref.cov[:, 0, 0]) / np.abs(ref.pole.real)
             keep = np.nan_to_num(rel_ref, nan=np.inf) < MAX_REL_SIGMA_STD
-            keep &= resonant(freq, Hn_c, ref.pole, sub.quantity)
+            # judged among the determined poles only (an undetermined one
+            # takes part of a neighbour's response and bends its shape)
+            keep[keep] = resonant(freq, Hn_c, ref.pole[keep], sub.quantity)
             keep &= distinct_shapes(freq, Hc, ref.pole, sub.quantity, keep, sel.n_members)
         order_s = np.argsort(ref.pole[keep].imag)
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
