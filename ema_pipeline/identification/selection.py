@@ -62,7 +62,6 @@ def track_poles(
     tol_zeta: float = 0.3,
     tol_mac: float = 0.05,
     max_gap: int = 2,
-    window_decay_rate: float = 0.0,
 ) -> np.ndarray:
     """Trajectory label of every pole of ``poles`` (sorted by order).
 
@@ -70,14 +69,9 @@ def track_poles(
     pole is at one of the ``max_gap`` previous computed orders, one-to-one,
     smallest distance first, if
 
-        d = |df| / (max(tol_freq, zeta_s / 2) f) + |dzeta| / (tol_zeta max(zeta))
-            + (1 - MAC(l)) / tol_mac < 1,
+        d = |df| / (tol_freq f) + |dzeta| / (tol_zeta max(zeta)) + (1 - MAC(l)) / tol_mac < 1,
 
-    with l the participation vectors and zeta_s the larger structural damping
-    ratio of the two (``window_decay_rate`` 1/tau of an exponential window
-    removed, at most 0.2): the frequency of a heavily damped pole is only
-    determined to a fraction of its half-power half-width zeta f, so its
-    trajectory would break at a fixed 1 %. Otherwise it starts a new trajectory.
+    with l the participation vectors; otherwise it starts a new trajectory.
     Memory: one (poles of order n) x (open trajectories) matrix at a time.
 
     Examples
@@ -91,7 +85,6 @@ def track_poles(
     """
     fn, _, zeta = pole_to_modal(poles.pole)
     zeta = np.abs(zeta)
-    zeta_s = np.clip(pole_to_modal(poles.pole, window_decay_rate)[2], 0.0, 0.2)
     part = poles.participation
     pn = np.sum(np.abs(part) ** 2, axis=1)
     traj = np.full(poles.pole.size, -1)
@@ -106,9 +99,7 @@ def track_poles(
         open_t = np.flatnonzero(k - tail_k <= max_gap)
         if open_t.size:
             tp = tail[open_t]
-            zs = np.maximum(zeta_s[cur][:, None], zeta_s[tp][None, :])
-            d = np.abs(fn[cur][:, None] - fn[tp][None, :]) / (
-                np.maximum(tol_freq, 0.5 * zs) * fn[tp][None, :])
+            d = np.abs(fn[cur][:, None] - fn[tp][None, :]) / (tol_freq * fn[tp][None, :])
             zmax = np.maximum(np.maximum(zeta[cur][:, None], zeta[tp][None, :]), 1e-4)
             d += np.abs(zeta[cur][:, None] - zeta[tp][None, :]) / (tol_zeta * zmax)
             if part.shape[1] > 1:
