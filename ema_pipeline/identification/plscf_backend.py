@@ -33,8 +33,7 @@ of ten it does. The added candidates pass the same tests as all others.
 
 Selection: every selected trajectory's pole is refined by the local fit of
 :func:`~ema_pipeline.identification.refine.refine_poles`; it is kept when the
-structure's refined decay rate is determined
-(:func:`structural_decay_determined`),
+refined decay rate is determined (:func:`decay_determined`),
 when it is a resonance of the data (:func:`resonant`) and when it is not the
 same mode found twice (:func:`distinct_shapes`).
 """
@@ -117,7 +116,7 @@ WEAK_MIN_MPC = 0.95
 #: A close mode hidden in a kept mode's resonance (:func:`close_partners`):
 #: one pole more in that mode's local fit must leave at most
 #: PARTNER_MAX_RESIDUAL_RATIO of the residual variance, both poles must be
-#: determined (:func:`structural_decay_determined`), apart by more than half
+#: determined (:func:`decay_determined`), apart by more than half
 #: the sum of their decay rates, and both LSFD shapes nearly real
 #: (MPC >= PARTNER_MIN_MPC: two normal modes). On synthetic close pairs the
 #: missed partner leaves 0.002-0.64 of the residual and both shapes have MPC
@@ -126,14 +125,16 @@ WEAK_MIN_MPC = 0.95
 #: exactly), but one of the two shapes is then complex (MPC 0.84 at most).
 PARTNER_MAX_RESIDUAL_RATIO = 0.75
 PARTNER_MIN_MPC = 0.9
-#: A refined pole is kept only when the structure's decay rate (the
-#: exponential window's 1/tau removed) has a relative standard deviation below
-#: this (more than 3 sigma from zero). On the hard families of
+#: A refined pole is kept only when its decay rate has a relative standard
+#: deviation below this (5 sigma from zero). On the hard families of
 #: tests/hardcases.py (about 540 true modes, seeds 600-607) true modes reach
-#: 0.15 and the poles that are not modes start at 0.16; in impact tests such
-#: poles reach 0.27-0.45 of the *total* decay rate, which the window inflates,
-#: but 0.4-1.5 of the structure's.
-MAX_REL_DECAY_STD = 0.3
+#: 0.15, the poles that are not modes start at 0.16 in frequency-domain data
+#: and at 0.27 in impact tests (the exponential window adds a decay 1/tau that
+#: every pole shares, so their decay looks better determined than it is).
+#: The decay rate itself, not the structure's share of it: a lightly damped
+#: low mode under a strong window (12.6 Hz, zeta 0.27 %, 1/tau 2.6 1/s) has
+#: its total decay determined to 2 % and the structure's only to 50 %.
+MAX_REL_DECAY_STD = 0.2
 #: Of two kept poles within each other's half-power bands, one with a markedly
 #: complex shape (MPC below SPLIT_MAX_MPC and SPLIT_MPC_GAP below its
 #: partner's) is the split of the other -- one mode whose frequency differs a
@@ -491,8 +492,8 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, **windows)
         keep = np.ones(sel.pole.size, bool)
         if expect_hz is None:
-            keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, decay, sel.n_members)
-            partners = close_partners(freq, Hc, ref.pole[keep], sub.quantity, decay, **windows)
+            keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, sel.n_members)
+            partners = close_partners(freq, Hc, ref.pole[keep], sub.quantity, **windows)
             if partners.size:  # refine and test again with the hidden close modes
                 n_new = partners.size
                 found = SelectedPoles(partners, np.full(n_new, -1), np.zeros(n_new, int),
@@ -501,7 +502,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                                                           getattr(found, k)])
                                        for k in sel.__dict__})
                 ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, **windows)
-                keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, decay, sel.n_members)
+                keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, sel.n_members)
         order_s = np.argsort(ref.pole[keep].imag)
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
         cov = ref.cov[keep][order_s]
@@ -539,26 +540,21 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     )
 
 
-def structural_decay_determined(
-    pole: np.ndarray, cov: np.ndarray, window_decay_rate: float = 0.0
-) -> np.ndarray:
-    """True where the structure's decay rate sigma_s = -Re(pole) - 1/tau is
-    positive and std(sigma) / sigma_s < :data:`MAX_REL_DECAY_STD`; ``cov``
-    (n, 2, 2) is the covariance of (Re, Im) of each pole, in (rad/s)^2.
+def decay_determined(pole: np.ndarray, cov: np.ndarray) -> np.ndarray:
+    """True where the decay rate sigma = -Re(pole) is determined:
+    std(sigma) / sigma < :data:`MAX_REL_DECAY_STD`; ``cov`` (n, 2, 2) is the
+    covariance of (Re, Im) of each pole, in (rad/s)^2.
 
     Examples
     --------
     >>> pole = np.array([-2.0 + 600j, -2.0 + 900j])
     >>> cov = np.array([np.diag([0.1, 0.1]), np.diag([2.5, 2.5])])  # std 0.32 and 1.6 rad/s
-    >>> structural_decay_determined(pole, cov).tolist()
+    >>> decay_determined(pole, cov).tolist()
     [True, False]
-    >>> structural_decay_determined(pole, cov, window_decay_rate=1.5).tolist()
-    [False, False]
     """
-    sigma_s = -np.real(pole) - window_decay_rate
     with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.sqrt(np.asarray(cov)[:, 0, 0]) / sigma_s
-    return np.asarray((sigma_s > 0) & (np.nan_to_num(rel, nan=np.inf) < MAX_REL_DECAY_STD))
+        rel = np.sqrt(np.asarray(cov)[:, 0, 0]) / np.abs(np.real(pole))
+    return np.asarray(np.nan_to_num(rel, nan=np.inf) < MAX_REL_DECAY_STD)
 
 
 def final_tests(
@@ -567,11 +563,10 @@ def final_tests(
     Hn: np.ndarray,
     refined: RefinedPoles,
     quantity: str,
-    window_decay_rate: float,
     n_orders: np.ndarray | None = None,
 ) -> np.ndarray:
     """Which ``refined`` poles are modes: the structure's decay rate is
-    determined (:func:`structural_decay_determined`), they are resonances
+    determined (:func:`decay_determined`), they are resonances
     (:func:`resonant`, judged among the determined poles only: an undetermined
     one takes part of a neighbour's response and bends its shape) and not one
     mode twice (:func:`distinct_shapes`). ``H`` (n_ch, n_freq) the FRFs,
@@ -585,10 +580,10 @@ def final_tests(
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.ones((3, 1))
     >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
     >>> ref = refine_poles(f, H, lam, quantity="receptance")
-    >>> final_tests(f, H, H, ref, "receptance", 0.0).tolist()
+    >>> final_tests(f, H, H, ref, "receptance").tolist()
     [True]
     """
-    keep = structural_decay_determined(refined.pole, refined.cov, window_decay_rate)
+    keep = decay_determined(refined.pole, refined.cov)
     keep[keep] = resonant(freq_hz, Hn, refined.pole[keep], quantity)
     return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders)
 
@@ -598,7 +593,6 @@ def close_partners(
     H: np.ndarray,
     pole: np.ndarray,
     quantity: str,
-    window_decay_rate: float = 0.0,
     *,
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
@@ -631,7 +625,7 @@ def close_partners(
             continue
         a, b = fit.pole
         if abs(a.imag - b.imag) < 0.5 * (abs(a.real) + abs(b.real)) or not np.all(
-                structural_decay_determined(fit.pole, fit.cov, window_decay_rate)):
+                decay_determined(fit.pole, fit.cov)):
             continue
         others = np.delete(pole, r)
         try:

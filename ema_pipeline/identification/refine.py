@@ -482,7 +482,7 @@ def _local_problem(
     f_r = poles.imag / (2 * np.pi)
     hpb = np.abs(poles.real) / np.pi  # half-power bandwidth in Hz
     width = max(half_width * hpb[r], 0.5 * min_lines * df)
-    width = min(width, 0.2 * f_r[r]) if 0.2 * f_r[r] > 5 * df else width
+    width = min(width, 0.2 * f_r[r]) if 0.2 * f_r[r] > 6.5 * df else width  # >= 13 lines
     lo, hi = f_r[r] - width, f_r[r] + width
     sel = (freq_hz >= lo) & (freq_hz <= hi)
     if sel.sum() < 12:
