@@ -486,14 +486,15 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
 
     Hc = sub.H.reshape(n_out * n_in, n_freq)
     cov = None
-    windows = {"window_tau_s": frf.acquisition.exp_window_tau_s,
-               "force_window_s": frf.acquisition.force_window_s}
+    tau, force_s = frf.acquisition.exp_window_tau_s, frf.acquisition.force_window_s
     if options.refine and sel.pole.size:
-        ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, **windows)
+        ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
+                           force_window_s=force_s)
         keep = np.ones(sel.pole.size, bool)
         if expect_hz is None:
             keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, sel.n_members)
-            partners = close_partners(freq, Hc, ref.pole[keep], sub.quantity, **windows)
+            partners = close_partners(freq, Hc, ref.pole[keep], sub.quantity,
+                                      window_tau_s=tau, force_window_s=force_s)
             if partners.size:  # refine and test again with the hidden close modes
                 n_new = partners.size
                 found = SelectedPoles(partners, np.full(n_new, -1), np.zeros(n_new, int),
@@ -501,13 +502,15 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                 sel = SelectedPoles(**{k: np.concatenate([getattr(sel.subset(keep), k),
                                                           getattr(found, k)])
                                        for k in sel.__dict__})
-                ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, **windows)
+                ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
+                           force_window_s=force_s)
                 keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, sel.n_members)
         order_s = np.argsort(ref.pole[keep].imag)
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
         cov = ref.cov[keep][order_s]
         # the local model's own error (band choice), added in quadrature
-        cov = cov + band_sensitivity(freq, Hc, sel.pole, quantity=sub.quantity, **windows)
+        cov = cov + band_sensitivity(freq, Hc, sel.pole, quantity=sub.quantity,
+                                     window_tau_s=tau, force_window_s=force_s)
     return finish_identification(
         sub,
         sel.pole,
@@ -617,10 +620,14 @@ def close_partners(
     """
     if H.shape[0] < 3 or pole.size == 0:
         return np.zeros(0, complex)
+    try:
+        residues = lsfd(freq_hz, H, pole, quantity).a
+    except (np.linalg.LinAlgError, ValueError):
+        return np.zeros(0, complex)
     new = []
     for r in range(pole.size):
         fit = split_fit(freq_hz, H, pole, r, quantity=quantity, window_tau_s=window_tau_s,
-                        force_window_s=force_window_s)
+                        force_window_s=force_window_s, residues=residues)
         if fit is None or fit.residual_ratio > PARTNER_MAX_RESIDUAL_RATIO:
             continue
         a, b = fit.pole

@@ -413,6 +413,7 @@ def split_fit(
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
+    residues: np.ndarray | None = None,
 ) -> SplitFit | None:
     """Refit pole r's local problem (as :func:`refine_poles`, on +-``half_width``
     half-power bandwidths) with one extra pole started one decay rate above and
@@ -422,7 +423,8 @@ def split_fit(
     partner inside its resonance) leaves a residual that the extra pole
     removes: ``residual_ratio`` well below 1. On noise alone the ratio stays
     near 1 (one pole more of 2 + 2 n_ch parameters among 2 n_lines n_ch
-    equations).
+    equations). ``residues`` (n_modes, n_ch): a global LSFD of ``poles``
+    (its other modes' terms are subtracted; computed when not given).
 
     Examples
     --------
@@ -438,8 +440,8 @@ def split_fit(
     """
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
-    a_all = None
-    if quantity is not None and poles.size > 1:
+    a_all = residues
+    if a_all is None and quantity is not None and poles.size > 1:
         try:
             a_all = lsfd(freq_hz, H, poles, quantity).a
         except (np.linalg.LinAlgError, ValueError):
@@ -448,20 +450,18 @@ def split_fit(
     if local is None:
         return None
     f, Y, members, background, k, _ = local
+    fits = []
     try:
         _, _, s_a, _ = _vp_solve(f, Y, poles[members], background, 10, window_tau_s,
                                  force_window_s)
-        best = None
         for side in (1.0, -1.0):
             start = np.append(poles[members], poles[r] + side * 1j * abs(poles[r].real))
             lam, Finv, s_b, _ = _vp_solve(f, Y, start, background, 20, window_tau_s,
                                           force_window_s)
-            ratio = float(np.mean(s_b**2) / np.mean(s_a**2))
-            if best is None or ratio < best[2]:
-                best = (lam, Finv, ratio)
+            fits.append((float(np.mean(s_b**2) / np.mean(s_a**2)), lam, Finv))
     except (np.linalg.LinAlgError, ValueError):
         return None
-    lam, Finv, ratio = best
+    ratio, lam, Finv = min(fits, key=lambda fit: fit[0])
     j = lam.size - 1
     cov = np.stack([Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2], Finv[2 * j :, 2 * j :]])
     return SplitFit(pole=lam[[k, j]], cov=cov, residual_ratio=ratio)
