@@ -267,12 +267,7 @@ def refine_poles(
     noise = np.full((m, n_ch), np.nan)
     bands = np.zeros((m, 2))
     iters = np.zeros(m, dtype=int)
-    a_all = None
-    if quantity is not None and m > 1:
-        try:
-            a_all = lsfd(freq_hz, H, poles, quantity).a
-        except (np.linalg.LinAlgError, ValueError):
-            a_all = None
+    a_all = _global_residues(freq_hz, H, poles, quantity)
     for r in range(m):
         local = _local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
         if local is None:
@@ -367,12 +362,7 @@ def local_shapes(
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
     out = np.full((poles.size, H.shape[0]), np.nan + 0j)
-    a_all = None
-    if quantity is not None and poles.size > 1:
-        try:
-            a_all = lsfd(freq_hz, H, poles, quantity).a
-        except (np.linalg.LinAlgError, ValueError):
-            a_all = None
+    a_all = _global_residues(freq_hz, H, poles, quantity)
     for r in range(poles.size):
         local = _local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
         if local is None:
@@ -440,12 +430,7 @@ def split_fit(
     """
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
-    a_all = residues
-    if a_all is None and quantity is not None and poles.size > 1:
-        try:
-            a_all = lsfd(freq_hz, H, poles, quantity).a
-        except (np.linalg.LinAlgError, ValueError):
-            a_all = None
+    a_all = residues if residues is not None else _global_residues(freq_hz, H, poles, quantity)
     local = _local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
     if local is None:
         return None
@@ -465,6 +450,20 @@ def split_fit(
     j = lam.size - 1
     cov = np.stack([Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2], Finv[2 * j :, 2 * j :]])
     return SplitFit(pole=lam[[k, j]], cov=cov, residual_ratio=ratio)
+
+
+def _global_residues(
+    freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, quantity: str | None
+) -> np.ndarray | None:
+    """Residues (n_modes, n_ch) of one global LSFD of ``poles``, whose terms
+    are subtracted from the local problems; None without ``quantity``, for a
+    single pole or when the fit fails."""
+    if quantity is None or poles.size < 2:
+        return None
+    try:
+        return lsfd(freq_hz, H, poles, quantity).a
+    except (np.linalg.LinAlgError, ValueError):
+        return None
 
 
 def _local_problem(
