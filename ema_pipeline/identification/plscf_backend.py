@@ -65,6 +65,7 @@ from ema_pipeline.identification.resources import order_cap
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
 from ema_pipeline.identification.selection import (
     SelectedPoles,
+    link_fragments,
     merge_coincident,
     select_expected,
     select_trajectories,
@@ -244,7 +245,9 @@ class OrderSearch:
                         "max_order or a wider band"
                     ) from None
                 break  # too ill-conditioned to grow further: keep the last diagram
-            traj = track_poles(poles)
+            traj = link_fragments(poles, track_poles(poles), decay,
+                                  min_fraction=0.0 if expect else self.min_fraction,
+                                  min_members=4 if expect else 6)
             sel = select_trajectories(
                 poles, traj, (lo, hi), decay,
                 min_fraction=0.0 if expect else self.min_fraction,

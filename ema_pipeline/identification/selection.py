@@ -128,6 +128,82 @@ def track_poles(
     return traj
 
 
+def link_fragments(
+    poles: PoleSet,
+    traj: np.ndarray,
+    window_decay_rate: float = 0.0,
+    *,
+    min_zeta: float = 0.02,
+    tol_zeta: float = 0.3,
+    max_gap: int = 3,
+    min_fraction: float = 0.3,
+    min_members: int = 6,
+) -> np.ndarray:
+    """``traj`` with the pieces of one heavily damped mode's trajectory joined.
+
+    The pole of a mode with zeta of several per cent moves between orders by
+    more than the 1 % that :func:`track_poles` allows, so its trajectory
+    breaks into pieces too short to be selected. A piece (2 members or more,
+    fewer than ``max(min_members, min_fraction * n_orders)``: one that
+    :func:`select_trajectories` would not take on its own) whose median pole
+    has structural damping (``window_decay_rate`` 1/tau
+    removed) of at least ``min_zeta`` is joined to a later piece that starts
+    within ``max_gap`` computed orders of its end, when their median
+    frequencies differ by less than half the half-power half-width zeta f and
+    their damping by less than ``tol_zeta`` of the larger (closest first,
+    one-to-one). The joined trajectory is then judged like any other by
+    :func:`select_trajectories`.
+
+    Examples
+    --------
+    >>> order = np.repeat(np.arange(2, 14, 2), 1)
+    >>> f = np.array([100.0, 100.4, 100.2, 102.5, 102.2, 102.8])
+    >>> lam = -0.05 * 2 * np.pi * f + 2j * np.pi * f
+    >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((6, 1), complex),
+    ...              orders=np.arange(2, 14, 2), dt=1e-3)
+    >>> tr = track_poles(ps)
+    >>> len(set(tr.tolist())), len(set(link_fragments(ps, tr).tolist()))  # 3 + 3 < 6 members
+    (2, 1)
+    """
+    ids, inv, counts = np.unique(traj, return_inverse=True, return_counts=True)
+    if ids.size < 2:
+        return traj
+    k_of = np.searchsorted(poles.orders, poles.order)  # computed-order index of each pole
+    first = np.full(ids.size, np.iinfo(np.int64).max)
+    last = np.full(ids.size, -1)
+    np.minimum.at(first, inv, k_of)
+    np.maximum.at(last, inv, k_of)
+    fn_all, _, z_all = pole_to_modal(poles.pole, window_decay_rate)
+    fn = np.array([np.median(fn_all[inv == t]) for t in range(ids.size)])
+    zs = np.array([np.median(z_all[inv == t]) for t in range(ids.size)])
+    short = counts < max(min_members, int(np.ceil(min_fraction * poles.orders.size)))
+    cand = np.flatnonzero((counts >= 2) & short & (zs >= min_zeta) & (zs < 0.2))
+    if cand.size < 2:
+        return traj
+    a, b = cand[:, None], cand[None, :]
+    gap = first[b] - last[a]
+    zmax = np.maximum(zs[a], zs[b])
+    d = np.abs(fn[a] - fn[b]) / (0.5 * zmax * fn[a]) + np.abs(zs[a] - zs[b]) / (tol_zeta * zmax)
+    ok = (gap >= 1) & (gap <= max_gap) & (d < 1)
+    parent = np.arange(ids.size)
+    used_a = np.zeros(ids.size, bool)
+    used_b = np.zeros(ids.size, bool)
+    ii, jj = np.nonzero(ok)
+    for i, j in sorted(zip(ii.tolist(), jj.tolist(), strict=True), key=lambda p: d[p]):
+        ta, tb = cand[i], cand[j]
+        if used_a[ta] or used_b[tb]:
+            continue
+        used_a[ta] = used_b[tb] = True
+        parent[tb] = ta
+    root = parent.copy()
+    for _ in range(ids.size):  # follow the chains to their first piece
+        nxt = parent[root]
+        if np.array_equal(nxt, root):
+            break
+        root = nxt
+    return np.asarray(ids[root][inv])
+
+
 def select_trajectories(
     poles: PoleSet,
     traj: np.ndarray,
