@@ -231,6 +231,8 @@ class OrderSearch:
         Hn_c = Hn.reshape(-1, Hn.shape[-1])
         decay, min_peak, weights = self.window_decay_rate, self.min_peak, self.weights
         expect = self.expect
+        # a guess needs fewer members than an automatic pick
+        min_fraction, min_members = (0.0, 4) if expect else (self.min_fraction, 6)
         history: list[tuple[int, int]] = []
         best: tuple[SelectedPoles, np.ndarray, PoleSet] | None = None
         best_at = 0
@@ -246,12 +248,11 @@ class OrderSearch:
                     ) from None
                 break  # too ill-conditioned to grow further: keep the last diagram
             traj = link_fragments(poles, track_poles(poles), decay,
-                                  min_fraction=0.0 if expect else self.min_fraction,
-                                  min_members=4 if expect else 6)
+                                  min_fraction=min_fraction, min_members=min_members)
             sel = select_trajectories(
                 poles, traj, (lo, hi), decay,
-                min_fraction=0.0 if expect else self.min_fraction,
-                min_members=4 if expect else 6,
+                min_fraction=min_fraction,
+                min_members=min_members,
             )
             sel = merge_coincident(sel)
             if fixed:
@@ -299,10 +300,10 @@ class OrderSearch:
 ZOOM_RATIO = 8.0
 #: A band where the full search selects at least WINDOW_MIN_MODES candidates is
 #: searched again in windows of WINDOW_MODES consecutive candidates, each
-#: shifted by WINDOW_STEP candidates (overlapping by half): one common
+#: shifted by WINDOW_STEP candidates (so that they overlap): one common
 #: denominator for 20-40 modes lets the strong ones take the poles, and weak
 #: modes between them (a few per cent of the local response) never form a
-#: trajectory. In a window of 8 modes they do.
+#: trajectory. In a window of 10 modes they do.
 WINDOW_MIN_MODES = 10
 WINDOW_MODES = 10
 WINDOW_STEP = 4
@@ -363,9 +364,7 @@ def add_uncovered(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPole
     if not fresh.any():
         return sel
     add = new.subset(fresh)
-    add = replace(add, cluster=np.full(add.pole.size, -1))
-    merged = SelectedPoles(**{k: np.concatenate([getattr(sel, k), getattr(add, k)])
-                              for k in sel.__dict__})
+    merged = sel.concatenate(replace(add, cluster=np.full(add.pole.size, -1)))
     return merged.subset(np.argsort(merged.pole.imag))
 
 
@@ -502,11 +501,9 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                 n_new = partners.size
                 found = SelectedPoles(partners, np.full(n_new, -1), np.zeros(n_new, int),
                                       np.zeros(n_new), np.zeros(n_new), np.zeros(n_new, int))
-                sel = SelectedPoles(**{k: np.concatenate([getattr(sel.subset(keep), k),
-                                                          getattr(found, k)])
-                                       for k in sel.__dict__})
+                sel = sel.subset(keep).concatenate(found)
                 ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
-                           force_window_s=force_s)
+                                   force_window_s=force_s)
                 keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, sel.n_members)
         order_s = np.argsort(ref.pole[keep].imag)
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
@@ -571,7 +568,7 @@ def final_tests(
     quantity: str,
     n_orders: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Which ``refined`` poles are modes: the structure's decay rate is
+    """Which ``refined`` poles are modes: their decay rate is
     determined (:func:`decay_determined`), they are resonances
     (:func:`resonant`, judged among the determined poles only: an undetermined
     one takes part of a neighbour's response and bends its shape) and not one

@@ -54,6 +54,11 @@ class SelectedPoles:
             **{k: (v[keep] if v.size else v) for k, v in self.__dict__.items()}
         )
 
+    def concatenate(self, other: SelectedPoles) -> SelectedPoles:
+        """The rows of ``self`` followed by those of ``other``."""
+        return SelectedPoles(**{k: np.concatenate([v, getattr(other, k)])
+                                for k, v in self.__dict__.items()})
+
 
 def track_poles(
     poles: PoleSet,
@@ -174,8 +179,7 @@ def link_fragments(
     np.minimum.at(first, inv, k_of)
     np.maximum.at(last, inv, k_of)
     fn_all, _, z_all = pole_to_modal(poles.pole, window_decay_rate)
-    fn = np.array([np.median(fn_all[inv == t]) for t in range(ids.size)])
-    zs = np.array([np.median(z_all[inv == t]) for t in range(ids.size)])
+    fn, zs = _group_median(fn_all, inv, counts), _group_median(z_all, inv, counts)
     short = counts < max(min_members, int(np.ceil(min_fraction * poles.orders.size)))
     cand = np.flatnonzero((counts >= 2) & short & (zs >= min_zeta) & (zs < 0.2))
     if cand.size < 2:
@@ -202,6 +206,15 @@ def link_fragments(
             break
         root = nxt
     return np.asarray(ids[root][inv])
+
+
+def _group_median(values: np.ndarray, group: np.ndarray, counts: np.ndarray) -> np.ndarray:
+    """Median of ``values`` per group label ``group`` (0 .. counts.size - 1)."""
+    order = np.lexsort((values, group))
+    start = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    lo = order[start + (counts - 1) // 2]
+    hi = order[start + counts // 2]
+    return np.asarray((values[lo] + values[hi]) / 2)
 
 
 def select_trajectories(
