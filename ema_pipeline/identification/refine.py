@@ -96,7 +96,9 @@ def _vp_solve(
     Noise: independent per line with the variance model of :func:`noise_model`,
     estimated from the residual of the start poles and once more after a first
     weighted solve, approximated as separable, std_ck = s_c u_k, so that one
-    projection serves all channels. Returns the poles, the inverse Fisher matrix of
+    projection serves all channels. The noise level of the covariance is
+    estimated once more at the end, from the final weighted residual with the
+    leverage of each line (:func:`noise_model`). Returns the poles, the inverse Fisher matrix of
     (sigma_r, omega_dr), the noise std (2n, n_ch) and the iterations.
     """
     n = freq_hz.size
@@ -143,7 +145,7 @@ def _vp_solve(
     u = np.ones(2 * n)
     for _round in range(2):
         _, R0, _ = fit(lam_of(theta), np.ones(2 * n))
-        std, frac_b = noise_model(R0, Y, n_lin, with_fraction=True)
+        std, _ = noise_model(R0, Y, n_lin, with_fraction=True)
         # separable approximation std_ck ~ s_c u_k (one projection for all channels)
         s2 = np.mean(std**2, axis=0)
         inv_s2 = 1.0 / np.maximum(s2, np.finfo(float).tiny)
@@ -182,10 +184,15 @@ def _vp_solve(
     lam = lam_of(theta)
     Qm, Rw, X = fit(lam, u)
     sq = np.sqrt(inv_s2)
-    Rw = Rw * sq[None, :]
     Jw = pole_jacobian(jw, lam, X) * u[:, None, None]
     Jf = Jw.reshape(Jw.shape[0], -1)
     Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jw.shape) * sq[None, None, :]
+    # the noise level of the covariance (the weights above stay as they are):
+    # from this weighted fit's residual, each line's share corrected by its
+    # leverage, that of the linear terms plus that of the poles
+    lev = np.sum(Qm**2, axis=1)[:, None] + np.einsum("kjc,ji,kic->kc", Jp, Finv, Jp)
+    std, frac_b = noise_model(Rw / u[:, None], Y, n_lin, with_fraction=True, leverage=lev)
+    Rw = Rw * sq[None, :]
     # the weights are separable (std_ck ~ s_c u_k); the weighted noise keeps
     # the ratio w of the modelled std to that approximation as its std
     w = (std[:n] * np.sqrt(inv_s2)[None, :] * u[:n, None]).astype(float)

@@ -1,0 +1,77 @@
+"""The noise model and the pole covariance on resonances only a few lines wide
+(issue 11: sigmas from the data), checked against Monte Carlo truth."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ema_pipeline.identification.lsfd import real_stack
+from ema_pipeline.identification.refine import background_columns, pole_columns, refine_poles
+from ema_pipeline.identification.stabilization import pole_to_modal
+from ema_pipeline.identification.uncertainty import modal_std, noise_model
+
+# one mode at 100 Hz on 0.1 Hz lines, half-power band 0.3 Hz = 3 lines
+FREQ = np.linspace(97.0, 103.0, 61)
+LAM = -np.pi * 0.3 + 2j * np.pi * 100.0
+SHAPE = np.array([1.0, -0.5, 0.8])
+JW = 2j * np.pi * FREQ
+H0 = (1 / (JW - LAM) + 1 / (JW - np.conj(LAM)))[:, None] * SHAPE[None]
+B = 0.05**2  # noise variance proportional to |H|^2 (force noise), 26 dB
+
+
+def noisy(rng: np.random.Generator) -> np.ndarray:
+    e = rng.standard_normal(H0.shape) + 1j * rng.standard_normal(H0.shape)
+    return H0 + np.sqrt(B / 2) * np.abs(H0) * e
+
+
+def test_noise_model_with_leverage_is_unbiased_at_a_narrow_peak() -> None:
+    """At the peak line of a 3-line resonance the fit absorbs a fifth of the
+    noise; a global degrees-of-freedom factor leaves the variance 17-23 % low,
+    the leverage of each line (with the fit weighted by the noise) restores it
+    to within 5 % (mean of 300 realisations, standard error about 3 %)."""
+    x = (FREQ - 100.0) / 3.0
+    bg = np.stack([np.ones_like(x), x, x**2], axis=1).astype(complex)
+    A = pole_columns(FREQ, np.array([LAM]), background_columns(bg))
+    u = np.tile(1 / np.sqrt(np.mean(np.abs(H0) ** 2, axis=1)), 2)  # noise-shaped weights
+    Qw, _ = np.linalg.qr(A * u[:, None])
+    Q, _ = np.linalg.qr(A)
+    peak = int(np.argmax(np.abs(H0[:, 0])))
+    rng = np.random.default_rng(0)
+    lev, glob = [], []
+    for _ in range(300):
+        Y = real_stack(noisy(rng))
+        Rw = Y * u[:, None] - Qw @ (Qw.T @ (Y * u[:, None]))
+        s = noise_model(Rw / u[:, None], Y, A.shape[1], leverage=np.sum(Qw**2, axis=1))
+        lev.append(2 * s[peak] ** 2 / (B * np.abs(H0[peak]) ** 2))
+        R = Y - Q @ (Q.T @ Y)
+        s = noise_model(R, Y, A.shape[1])
+        glob.append(2 * s[peak] ** 2 / (B * np.abs(H0[peak]) ** 2))
+    assert np.all(np.abs(np.mean(lev, axis=0) - 1) < 0.08), np.mean(lev, axis=0)
+    assert np.all(np.mean(glob, axis=0) < 0.88), np.mean(glob, axis=0)
+
+
+def test_damping_sigma_of_a_narrow_resonance_matches_monte_carlo() -> None:
+    """The refined pole's sigma of zeta and f_n against the scatter of 400
+    noise realisations of a 3-line-wide resonance with noise proportional to
+    |H| (standard error of the ratio about 4 %)."""
+    rng = np.random.default_rng(1)
+    z, f, sz, sf = [], [], [], []
+    for _ in range(400):
+        H = noisy(rng).T
+        ref = refine_poles(FREQ, H, np.array([LAM]), quantity="receptance")
+        fn, _, zeta = pole_to_modal(ref.pole)
+        s_f, s_z = modal_std(ref.pole, ref.cov)
+        z.append(zeta[0])
+        f.append(fn[0])
+        sz.append(s_z[0])
+        sf.append(s_f[0])
+    ratio_z = np.std(z) / np.mean(sz)
+    ratio_f = np.std(f) / np.mean(sf)
+    # measured: zeta 1.09, f 1.12 (a global degrees-of-freedom factor gave
+    # f 1.24); the rest is the scatter of the noise estimate itself
+    assert 0.85 < ratio_z < 1.15, ratio_z
+    assert 0.85 < ratio_f < 1.18, ratio_f
+    # and the estimates are centred on the truth
+    fn_true, _, z_true = pole_to_modal(np.array([LAM]))
+    assert abs(np.mean(z) - z_true[0]) < 3 * np.std(z) / np.sqrt(400)
+    assert abs(np.mean(f) - fn_true[0]) < 3 * np.std(f) / np.sqrt(400)
