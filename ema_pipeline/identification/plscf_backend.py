@@ -316,7 +316,8 @@ def search_window(
     window_hz: tuple[float, float],
 ) -> SelectedPoles | None:
     """Candidates of ``search`` run on the lines of ``freq`` inside ``window_hz``
-    alone, from the default order up to the lines' cap; None when the window has
+    alone, from the default order up to the window's cap (:func:`order_cap`
+    with ``window=True``: 4:1 equations to coefficients); None when the window has
     fewer than 64 lines or its normal equations are singular.
 
     Examples
@@ -332,7 +333,7 @@ def search_window(
     if search.weights is not None:
         search = replace(search, weights=search.weights[..., lines])
     n_in = Hz.shape[1]
-    cap = order_cap(fz.size, n_in)
+    cap = order_cap(fz.size, n_in, window=True)
     try:
         zsel, _, _ = search.run(fz, Hz, window_hz, min(default_max_order(n_in, fz.size), cap),
                                 cap, False)

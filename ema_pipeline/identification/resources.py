@@ -39,21 +39,28 @@ MAX_POLES = 480
 _GIB = 1 << 30
 
 
-def order_cap(n_lines: int, n_in: int, max_poles: int = MAX_POLES) -> int:
+def order_cap(n_lines: int, n_in: int, max_poles: int = MAX_POLES, *,
+              window: bool = False) -> int:
     """Highest fixed ``max_order`` the lines in the band support.
 
     The model of order p has p n_in poles and (p + 1) n_in real numerator
     coefficients per output; the 2 n_lines real equations of each output must
-    outnumber them at least 2:1 (p <= n_lines / n_in - 1, taken as n_lines / 4
-    for one reference), and the companion matrix stays below ``max_poles``
-    rows (p <= max_poles / n_in).
+    outnumber them about 4:1 (p <= (n_lines / 2 - 1) / n_in), and the
+    companion matrix stays below ``max_poles`` rows (p <= max_poles / n_in).
+    For one reference a whole band is held to p <= n_lines / 4 (8:1): on the
+    measured beam's 1000 lines and 30 outputs the 4:1 rule lets the order grow
+    to 480, and poles of the model error come in (10 of the 14 published modes
+    found, 4 others, instead of 12 and none). A ``window`` of a band (the
+    searches of its lowest part and of windows of 10 candidates in a dense
+    band) holds few lines and is held to the 4:1 rule only: 10 modes 3 lines
+    wide in 86 lines need order 40, and n_lines / 4 allows 21.
 
     Examples
     --------
-    >>> order_cap(8000, 1), order_cap(8000, 3), order_cap(400, 1)
-    (480, 160, 100)
+    >>> order_cap(8000, 1), order_cap(8000, 3), order_cap(400, 1), order_cap(86, 1, window=True)
+    (480, 160, 100, 42)
     """
-    by_lines = (n_lines // 2 - 1) // max(n_in, 1) if n_in > 1 else n_lines // 4
+    by_lines = (n_lines // 2 - 1) // max(n_in, 1) if n_in > 1 or window else n_lines // 4
     return int(max(2, min(by_lines, max_poles // max(n_in, 1))))
 
 
