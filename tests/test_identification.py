@@ -196,6 +196,32 @@ def test_exponential_window_correction():
     assert raw.zeta[0] > 1.9 * modes.zeta[0]  # the first mode's damping roughly doubles
 
 
+def test_window_search_resolves_ten_narrow_modes():
+    """A window of a dense band: 10 modes, each 3 lines wide (half-power) and
+    12 lines apart, in 120 lines, one reference, 4 outputs. They need order
+    40 or more; the window's cap (4:1 equations to coefficients, 59 here) lets
+    the search get there, the whole band's n_lines/4 (30) found 3-4 of them."""
+    from ema_pipeline.identification import plscf_backend as pb
+    from ema_pipeline.identification.resources import order_cap
+
+    f = 20.0 + 0.1 * np.arange(120)
+    fn = 20.6 + 1.2 * np.arange(10)
+    zeta = 0.15 / fn  # half-power band 0.3 Hz = 3 lines
+    lam = -zeta * 2 * np.pi * fn + 2j * np.pi * fn * np.sqrt(1 - zeta**2)
+    rng = np.random.default_rng(3)
+    jw = 2j * np.pi * f[:, None]
+    H = (rng.standard_normal((4, 10)) @ (jw**2 * (1 / (jw - lam) + 1 / (jw - lam.conj()))).T)
+    H = H + 1e-3 * np.sqrt(np.mean(np.abs(H) ** 2)) * (
+        rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+    Hn = (H / np.sqrt(np.mean(np.abs(H) ** 2, axis=1, keepdims=True)))[:, None, :]
+    assert order_cap(f.size, 1, window=True) == 59 and order_cap(f.size, 1) == 30
+    search = pb.OrderSearch(None, 0.0, pb.MIN_PEAK_RATIO_SHAPES, 0.3, False)
+    sel = pb.search_window(search, f, Hn, (f[0], f[-1]))
+    got = sel.pole.imag / (2 * np.pi)
+    found = np.min(np.abs(got[None, :] - fn[:, None]), axis=1) < (zeta + 0.005) * fn
+    assert found.sum() >= 9, got
+
+
 def test_expect_picks_nearest_clusters():
     frf, modes = beam_frf(tau=TAU, noise_rel=1e-3, seed=4)
     res = identify(frf, expect_hz=[18, 112, 327, 629])
