@@ -678,13 +678,12 @@ def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity:
 
     Examples
     --------
-    >>> f = np.linspace(80.0, 120.0, 801)
-    >>> lam = np.array([-3.0 + 2j * np.pi * 100.0, -3.0 + 2j * np.pi * 100.6])
-    >>> jw = 2j * np.pi * f
-    >>> terms = [1 / (jw - p) + 1 / (jw - p.conj()) for p in lam]
-    >>> H = np.stack([terms[0] + s * terms[1] for s in (0.5, -0.5, 0.3)])
-    >>> pair_is_real(f, H, lam, "receptance")
-    True
+    >>> f = np.linspace(90.0, 110.0, 401)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 99.0, -2.0 + 2j * np.pi * 101.0])
+    >>> t0, t1 = (1 / (2j * np.pi * f - p) + 1 / (2j * np.pi * f - p.conj()) for p in lam)
+    >>> real, cplx = np.stack([t0 + t1, t0 - t1, 2 * t0]), np.stack([t0 + t1, t0 + 1j * t1, t0])
+    >>> pair_is_real(f, real, lam, "receptance"), pair_is_real(f, cplx, lam, "receptance")
+    (True, False)
     """
     for shapes_of in (lambda: lsfd(freq_hz, H, pole, quantity).a,
                       lambda: local_shapes(freq_hz, H, pole, quantity=quantity)):
