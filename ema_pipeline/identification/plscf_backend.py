@@ -121,13 +121,15 @@ WEAK_MIN_MPC = 0.95
 #: A close mode hidden in a kept mode's resonance (:func:`close_partners`):
 #: one pole more in that mode's local fit must leave at most
 #: PARTNER_MAX_RESIDUAL_RATIO of the residual variance, both poles must be
-#: determined (:func:`decay_determined`), apart by more than half
-#: the sum of their decay rates, and both shapes nearly real
-#: (MPC >= PARTNER_MIN_MPC: two normal modes; :func:`pair_is_real`). On synthetic close pairs the
-#: missed partner leaves 0.002-0.64 of the residual and both shapes have MPC
-#: 0.91 or more; on the measured beam a second pole also removes much of the
+#: determined (:func:`decay_determined`), apart by more than half the sum of
+#: their decay rates, and both shapes nearly real (MPC >= PARTNER_MIN_MPC,
+#: two normal modes) in one global LSFD or in their own local fits
+#: (:func:`pair_is_real`). On synthetic close pairs the missed partner
+#: leaves 0.002-0.64 of the residual and reaches MPC 0.9 in one of the two
+#: fits; on the measured beam a second pole also removes much of the
 #: residual beside most modes (model error: the roving channels do not agree
-#: exactly), but one of the two shapes is then complex (MPC 0.84 at most).
+#: exactly), but one of the two shapes is then complex (MPC 0.84 at most in
+#: the global LSFD, 0.75 in the local fits).
 PARTNER_MAX_RESIDUAL_RATIO = 0.75
 PARTNER_MIN_MPC = 0.9
 #: A refined pole is kept only when its decay rate has a relative standard
