@@ -108,16 +108,9 @@ def _vp_solve(
     n_lin = 2 * m + bg_r.shape[1]
 
     def fit(lam: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
-        """Projection with row weights u (2n,) shared by all channels."""
-        Aw = pole_columns(freq_hz, lam, bg_r) * u[:, None]
-        scale = np.max(np.abs(Aw), axis=0)
-        scale[scale == 0] = 1.0
-        Qm, Rm = batched_qr(Aw / scale)
-        Yw = Y * u[:, None]
-        QtY = Qm.T @ Yw
-        Rw = Yw - Qm @ QtY  # row-weighted residual (2n, n_ch)
-        X = np.linalg.solve(Rm, QtY) / scale[:, None]  # (K, n_ch)
-        return Qm, Rw, X
+        """Projection with row weights u (2n,) shared by all channels; the
+        residual is row-weighted (2n, n_ch)."""
+        return _scaled_solve(pole_columns(freq_hz, lam, bg_r) * u[:, None], Y * u[:, None])
 
     def cost_of(Rw: np.ndarray, inv_s2: np.ndarray) -> float:
         return float(np.sum(Rw**2 * inv_s2[None, :]))
@@ -375,10 +368,7 @@ def local_shapes(
         if local is None:
             continue
         f, Y, members, background, k, _ = local
-        A = pole_columns(f, poles[members], background_columns(background))
-        scale = np.max(np.abs(A), axis=0)
-        scale[scale == 0] = 1.0
-        X = np.linalg.lstsq(A / scale, Y, rcond=None)[0] / scale[:, None]
+        _, _, X = _scaled_solve(pole_columns(f, poles[members], background_columns(background)), Y)
         out[r] = X[2 * k] + 1j * X[2 * k + 1]
     return out
 
@@ -457,6 +447,18 @@ def split_fit(
     j = lam.size - 1
     cov = np.stack([Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2], Finv[2 * j :, 2 * j :]])
     return SplitFit(pole=lam[[k, j]], cov=cov, residual_ratio=ratio)
+
+
+def _scaled_solve(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least squares of Y (2n, n_ch) on the real design A (2n, K) with its
+    columns scaled to unit maximum: the orthonormal basis Q of A, the
+    residual (2n, n_ch) and the solution X (K, n_ch). One projection serves
+    every channel (the local problems of this module)."""
+    scale = np.max(np.abs(A), axis=0)
+    scale[scale == 0] = 1.0
+    Q, R = batched_qr(A / scale)
+    QtY = Q.T @ Y
+    return Q, Y - Q @ QtY, np.linalg.solve(R, QtY) / scale[:, None]
 
 
 def _global_residues(
@@ -556,17 +558,12 @@ def quick_significance(
         m = lam.size
         jw = 2j * np.pi * f[:, None]
         A = pole_columns(f, lam, background_columns(background))
-        scale = np.max(np.abs(A), axis=0)
-        scale[scale == 0] = 1.0
-        Qm, Rm = batched_qr(A / scale)
-        QtY = Qm.T @ Y
-        res = Y - Qm @ QtY
-        dof = max(Y.shape[0] - A.shape[1] - 2 * m / Y.shape[1], 1.0)
-        s2 = np.maximum(np.sum(res**2, axis=0) / dof, 1e-300)
         try:
-            X = np.linalg.solve(Rm, QtY) / scale[:, None]  # (K, n_ch)
+            Qm, res, X = _scaled_solve(A, Y)  # X (K, n_ch)
         except np.linalg.LinAlgError:
             continue
+        dof = max(Y.shape[0] - A.shape[1] - 2 * m / Y.shape[1], 1.0)
+        s2 = np.maximum(np.sum(res**2, axis=0) / dof, 1e-300)
         a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
         Jr = pole_jacobian(jw, lam, X) / np.sqrt(s2)[None, None, :]
         Jf = Jr.reshape(Jr.shape[0], -1)
