@@ -1,0 +1,217 @@
+"""Modes that the diagrams missed, found as peaks of the fit's residual.
+
+After the selection, one global LSFD of the kept poles (with the residual
+terms of the quantity) is subtracted from the data. A mode that no diagram
+resolved leaves its own resonance in that residual: at low SNR the poles of
+a clearly visible mode scatter too much between orders to form a trajectory
+at the orders the search reaches; a heavily damped mode's trajectory breaks
+up; a weak mode beside strong ones loses its poles to them. The noise leaves
+a floor. On the hard cases of ``tests/hardcases.py`` that the selection
+missed (seeds 400-403, 700-703, 800-803), every missed mode was the highest
+residual peak away from the kept modes, 10-60 times the floor, while the
+other peaks stood at 3-7 times it.
+
+:func:`residual_peaks` finds those peaks: the squared residual of each
+channel over its median (the floor; a median ignores the peaks), averaged
+over the channels and over 3 lines, above :data:`RESIDUAL_PEAK_RATIO`,
+outside the half-power bands of the kept modes (a kept mode's misfit, and
+the part of the noise proportional to |H|, peak there; close modes hidden in
+a kept resonance are the business of ``plscf_backend.close_partners``).
+:func:`peak_pole` gives each a start pole, one pole common to all channels
+fitted to the residual around the peak (linearised like Levy's method: no
+iteration); the candidate then goes through the same refinement and the same
+tests as every other, so a peak of model error on measured data is judged
+like any pole of the diagrams.
+
+Why written here: sdypy-EMA and scipy have no residual check of a modal fit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.ndimage import uniform_filter1d
+
+from ema_pipeline.identification.lsfd import lsfd
+
+#: A residual peak is a candidate when its squared residual (mean over the
+#: channels of each channel's |e|^2 over its median, over 3 lines) exceeds
+#: this. White noise gives 1/ln 2 = 1.44 on average and 3-7 at the highest
+#: peaks of a few thousand lines; missed modes of the hard cases 10-60.
+RESIDUAL_PEAK_RATIO = 8.0
+#: ... and at least this many times the median of its surroundings (the
+#: lines 1-4 peak widths plus 20 lines away): missed modes of the hard cases
+#: stand 5-30 times above theirs, the spikes of a noisy stretch (the top of
+#: the paper's simulated axis, at the anti-alias filter) 1.3-1.8 times.
+RESIDUAL_PEAK_CONTRAST = 3.0
+#: At most this many residual peaks (the highest) are tried per band.
+MAX_RESIDUAL_PEAKS = 6
+
+
+def residual_ratio(R: np.ndarray) -> np.ndarray:
+    """(n_freq,) squared residual over its floor: each channel's |R|^2 of the
+    residual ``R`` (n_ch, n_freq) divided by its median over the lines,
+    averaged over the channels and over 3 neighbouring lines.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> ratio = residual_ratio(rng.standard_normal((2, 801)) + 1j * rng.standard_normal((2, 801)))
+    >>> bool(1.2 < np.mean(ratio) < 1.7), bool(np.max(ratio) < RESIDUAL_PEAK_RATIO)
+    (True, True)
+    """
+    p = np.abs(R) ** 2
+    floor = np.maximum(np.median(p, axis=1, keepdims=True), np.finfo(float).tiny)
+    return np.asarray(uniform_filter1d(np.mean(p / floor, axis=0), 3, mode="nearest"))
+
+
+def residual(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str) -> np.ndarray:
+    """``H`` less the global LSFD of ``pole`` (with the residual terms), (n_ch, n_freq).
+
+    Examples
+    --------
+    >>> f = np.linspace(50.0, 150.0, 201)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
+    >>> H = (1 / (2j * np.pi * f - lam[0]) + 1 / (2j * np.pi * f - lam[0].conj()))[None]
+    >>> bool(np.max(np.abs(residual(f, H, lam, "receptance"))) < 1e-10)
+    True
+    """
+    return np.asarray(H - lsfd(freq_hz, H, pole, quantity).H_fit)
+
+
+def residual_peaks(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    pole: np.ndarray,
+    quantity: str,
+    *,
+    min_ratio: float = RESIDUAL_PEAK_RATIO,
+    max_peaks: int = MAX_RESIDUAL_PEAKS,
+) -> np.ndarray:
+    """Start poles (rad/s, ascending frequency) at the peaks of the residual of
+    the global LSFD of the kept ``pole`` that stand ``min_ratio`` above its
+    floor (:func:`residual_ratio`), outside 3 half-power half-widths plus 2
+    lines of every pole (:func:`near`) and outside the band's outer 2 %.
+
+    A peak that does not fall to half its height before the band's edge zone
+    (the tail of a mode outside the band), or that goes on rising into a
+    kept mode's zone (its misfit), is a slope, not a missed mode, and is
+    passed over with the lines down to half its height. Greedy, at most
+    ``max_peaks`` times: the highest peak gets a start pole (:func:`peak_pole`
+    on the lines around it, the peak's half-height width and as much again
+    on each side, or, when that pole lies outside the half-height width, the
+    peak's frequency with that width as half-power band; the half-power band
+    at least 2 lines, narrower is not resolved), which joins the LSFD before
+    the next peak is sought (a strong missed mode's tails stand above the
+    floor far from it). ``H`` (n_ch, n_freq) on the lines ``freq_hz``.
+
+    Examples
+    --------
+    >>> f = np.linspace(50.0, 150.0, 801)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 80.0, -1.5 + 2j * np.pi * 120.0])
+    >>> jw = 2j * np.pi * f
+    >>> terms = [1 / (jw - p) + 1 / (jw - p.conj()) for p in lam]
+    >>> rng = np.random.default_rng(0)
+    >>> H = np.stack([terms[0] + s * terms[1] for s in (1.0, -0.7, 0.4)])
+    >>> H = H + 1e-4 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+    >>> start = residual_peaks(f, H, lam[:1], "receptance")
+    >>> (start.imag / (2 * np.pi)).round(1).tolist()
+    [120.0]
+    """
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    n = freq_hz.size
+    start = np.zeros(0, complex)
+    if n < 16:
+        return start
+    df = freq_hz[1] - freq_hz[0]
+    edge = np.zeros(n, bool)
+    edge[: max(2, int(0.02 * n))] = edge[-max(2, int(0.02 * n)):] = True
+    skip = np.zeros(n, bool)  # slopes into an excluded zone: not peaks
+    R = None
+    while start.size < max_peaks:
+        lam_all = np.concatenate([pole, start])
+        if R is None:
+            try:
+                R = residual(freq_hz, H, lam_all, quantity)
+            except (np.linalg.LinAlgError, ValueError):
+                break
+            raw = residual_ratio(R)
+            excluded = edge | near(freq_hz, lam_all, df)
+        ratio = np.where(excluded | skip, 0.0, raw)
+        k = int(np.argmax(ratio))
+        if ratio[k] < min_ratio:
+            break
+        lo, hi = k, k  # the peak region: down to half its height
+        while lo > 0 and ratio[lo - 1] > ratio[k] / 2:
+            lo -= 1
+        while hi < n - 1 and ratio[hi + 1] > ratio[k] / 2:
+            hi += 1
+        ends = [j for j in (lo - 1, hi + 1) if 0 <= j < n]
+        if any((edge[j] or skip[j]) and raw[j] > ratio[k] / 2 for j in ends) or any(
+                excluded[j] and raw[j] >= ratio[k] for j in ends):
+            # not down to half its height before the band's edge zone (the
+            # tail of a mode outside the band) or a slope passed over, or
+            # still rising into a kept mode's zone (its misfit): a slope
+            skip[lo : hi + 1] = True
+            continue
+        width = hi - lo + 1
+        around = np.zeros(n, bool)  # the surroundings: 1-4 widths (+ 20 lines) away
+        around[max(0, lo - 4 * width - 20) : min(n, hi + 4 * width + 21)] = True
+        around[max(0, lo - width) : min(n, hi + width + 1)] = False
+        around &= ~(excluded | skip)
+        if around.any() and ratio[k] < RESIDUAL_PEAK_CONTRAST * np.median(raw[around]):
+            # no higher than its surroundings: a noisy stretch (the top of a
+            # measured axis, where the anti-alias filter acts), not a mode
+            skip[lo : hi + 1] = True
+            continue
+        sl = slice(max(0, lo - width - 3), min(n, hi + width + 4))
+        lam = peak_pole(freq_hz[sl], R[:, sl])
+        inside = freq_hz[lo] <= lam.imag / (2 * np.pi) <= freq_hz[hi]
+        if not (lam.real < 0 and inside and -lam.real < 0.2 * abs(lam)):
+            lam = 2 * np.pi * freq_hz[k] * (-width * df / (2 * freq_hz[k]) + 1j)
+        # a half-power band of at least 2 lines (narrower is not resolved)
+        lam = complex(min(lam.real, -2 * np.pi * df), lam.imag)
+        start = np.append(start, lam)
+        R = None
+    return start[np.argsort(start.imag)]
+
+
+def near(freq_hz: np.ndarray, pole: np.ndarray, df: float) -> np.ndarray:
+    """(n_freq,) True within 3 half-power half-widths plus 2 lines of any ``pole``.
+
+    Examples
+    --------
+    >>> lam = np.array([-1.0 + 2j * np.pi * 100.0])
+    >>> near(np.arange(95.0, 106.0), lam, 1.0).astype(int).tolist()
+    [0, 0, 0, 1, 1, 1, 1, 1, 0, 0, 0]
+    """
+    if pole.size == 0:
+        return np.zeros(freq_hz.size, bool)
+    reach = 3 * np.abs(pole.real) / (2 * np.pi) + 2 * df
+    gap = np.abs(freq_hz[:, None] - pole.imag[None, :] / (2 * np.pi))
+    return np.asarray(np.any(gap < reach[None, :], axis=1))
+
+
+def peak_pole(freq_hz: np.ndarray, R: np.ndarray) -> complex:
+    """One pole common to all channels of ``R`` (n_ch, n_lines) around a peak:
+    R_c = a_c / (jw - lambda) + b_c locally, multiplied out,
+    jw R_c = lambda R_c + u_c + b_c jw, is linear in lambda, u_c and b_c;
+    with the last two projected out channel by channel, lambda is the
+    least-squares ratio (Levy's linearisation, no iteration). A start value
+    for the refinement.
+
+    Examples
+    --------
+    >>> f = np.linspace(95.0, 105.0, 41)
+    >>> lam = -3.0 + 2j * np.pi * 100.0
+    >>> R = np.stack([2 / (2j * np.pi * f - lam), -1 / (2j * np.pi * f - lam) + 0.01])
+    >>> got = peak_pole(f, R)
+    >>> round(got.real, 3), round(got.imag / (2 * np.pi), 3)
+    (-3.0, 100.0)
+    """
+    jw = 2j * np.pi * np.asarray(freq_hz, dtype=float)
+    x = (jw - jw.mean()) / (jw[-1] - jw[0] if jw.size > 1 else 1.0)
+    Q, _ = np.linalg.qr(np.stack([np.ones_like(x), x], axis=1))
+    a = R - (R @ Q.conj()) @ Q.T  # the terms u_c, b_c projected out
+    b = R * jw - ((R * jw) @ Q.conj()) @ Q.T
+    den = np.sum(np.abs(a) ** 2)
+    return complex(np.sum(np.conj(a) * b) / den) if den > 0 else complex(np.nan)

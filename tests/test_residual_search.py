@@ -1,0 +1,122 @@
+"""The residual check of the identification (``identification.residual_search``):
+modes that no diagram resolved are found as peaks of the fit's residual, and
+noise alone gives none."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import hardcases  # noqa: E402
+
+from ema_pipeline.identification import identify  # noqa: E402
+from ema_pipeline.identification.residual_search import (  # noqa: E402
+    RESIDUAL_PEAK_RATIO,
+    peak_pole,
+    residual_peaks,
+    residual_ratio,
+)
+
+
+def _modes(rng: np.random.Generator, f: np.ndarray, fn: np.ndarray, zeta: np.ndarray,
+           n_ch: int, snr_db: float) -> tuple[np.ndarray, np.ndarray]:
+    """Accelerance of real modes with random shapes plus circular noise
+    ``snr_db`` below each channel's RMS; the poles (rad/s)."""
+    lam = -zeta * 2 * np.pi * fn + 2j * np.pi * fn * np.sqrt(1 - zeta**2)
+    jw = 2j * np.pi * f[:, None]
+    H = rng.standard_normal((n_ch, fn.size)) @ (jw**2 * (1 / (jw - lam)
+                                                        + 1 / (jw - lam.conj()))).T
+    std = np.sqrt(np.mean(np.abs(H) ** 2, axis=1, keepdims=True)) * 10 ** (-snr_db / 20)
+    H = H + std * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape)) / np.sqrt(2)
+    return H, lam
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_missed_mode_is_the_residual_peak(seed: int) -> None:
+    """Four modes at 25 dB SNR; given three, the residual's one peak above
+    the threshold is the fourth, and its start pole lies within a quarter of
+    its half-power band (frequency) and within 40 % (decay rate)."""
+    rng = np.random.default_rng(seed)
+    f = np.linspace(10.0, 200.0, 1901)
+    fn = np.sort(rng.uniform(25.0, 185.0, 4))
+    while np.min(np.diff(fn) / fn[:-1]) < 0.1:
+        fn = np.sort(rng.uniform(25.0, 185.0, 4))
+    zeta = rng.uniform(0.003, 0.02, 4)
+    H, lam = _modes(rng, f, fn, zeta, 4, 25.0)
+    miss = int(rng.integers(4))
+    start = residual_peaks(f, H, np.delete(lam, miss), "accelerance")
+    assert start.size == 1, start / (2 * np.pi)
+    hw = abs(lam[miss].real)  # half-power half-width, rad/s
+    assert abs(start[0].imag - lam[miss].imag) < 0.5 * hw
+    assert abs(start[0].real - lam[miss].real) < 0.4 * hw
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_noise_gives_no_residual_peak(seed: int) -> None:
+    """With all modes given, the residual is the noise: over 1901 lines and
+    2-6 channels its highest peak stays below the threshold (white noise gives
+    1/ln 2 on average)."""
+    rng = np.random.default_rng(100 + seed)
+    f = np.linspace(10.0, 200.0, 1901)
+    fn = np.array([40.0, 90.0, 150.0]) * rng.uniform(0.95, 1.05, 3)
+    zeta = rng.uniform(0.003, 0.02, 3)
+    H, lam = _modes(rng, f, fn, zeta, int(rng.integers(2, 7)), 30.0)
+    assert residual_peaks(f, H, lam, "accelerance").size == 0
+    R = rng.standard_normal((1, 1901)) + 1j * rng.standard_normal((1, 1901))
+    ratio = residual_ratio(R)
+    assert abs(np.mean(ratio) - 1 / np.log(2)) < 0.1
+    assert np.max(ratio) < RESIDUAL_PEAK_RATIO
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_tail_of_a_mode_above_the_band_is_no_peak(seed: int) -> None:
+    """A strong mode 4-15 % above the band's top: its tail rises towards the
+    top, the residual terms follow it only in part, and the residual climbs
+    into the band's edge zone. That slope is passed over; a true missed mode
+    in the same data is still found."""
+    rng = np.random.default_rng(200 + seed)
+    f = np.linspace(10.0, 200.0, 1901)
+    fn = np.array([45.0, 95.0, 140.0, 200.0 * rng.uniform(1.04, 1.15)])
+    zeta = np.array([0.01, 0.008, 0.006, 0.01])
+    H, lam = _modes(rng, f, fn, zeta, int(rng.integers(4, 9)), 35.0)
+    assert residual_peaks(f, H, lam[:3], "accelerance").size == 0
+    start = residual_peaks(f, H, lam[[0, 2]], "accelerance")
+    assert start.size == 1 and abs(start[0].imag - lam[1].imag) < abs(lam[1].real)
+
+
+def test_peak_pole_starts_near_the_true_pole() -> None:
+    """Three channels, 9-25 lines around a peak (half-power band about 3
+    lines) at a local SNR of 15 dB: over 100 noise draws the median decay rate
+    is within 10 % of the true one, the frequency within a tenth of a
+    half-power half-width (the refinement takes over from there)."""
+    df = 0.11
+    lam = -1.17 + 2j * np.pi * 39.0
+    rng = np.random.default_rng(7)
+    for n_lines in (9, 15, 25):
+        f = 39.0 + df * (np.arange(n_lines) - n_lines // 2)
+        clean = np.stack([s / (2j * np.pi * f - lam) for s in (1.0, -0.6, 0.3)])
+        std = 10 ** (-15 / 20) * np.sqrt(np.mean(np.abs(clean) ** 2))
+        got = np.array([peak_pole(f, clean + std * (
+            rng.standard_normal(clean.shape) + 1j * rng.standard_normal(clean.shape))
+            / np.sqrt(2)) for _ in range(100)])
+        assert abs(np.median(got.real) / lam.real - 1) < 0.1, (n_lines, np.median(got.real))
+        assert abs(np.median(got.imag) - lam.imag) < 0.1 * abs(lam.real)
+
+
+@pytest.mark.parametrize(("family", "seed"), [("snr", 801), ("damping", 403)])
+def test_modes_no_diagram_resolves_are_found(family: str, seed: int) -> None:
+    """snr-801 (SNR about 20 dB): 38.9 and 69.3 Hz, own peaks 2.2-2.7 times
+    the local response, form no trajectory at the orders the search reaches;
+    damping-403: 139.8 Hz at zeta 5.7 % at the top of a 2-channel band. Both
+    were missed before the residual check; their residual peaks stood 20 and
+    12 times above the floor."""
+    case = hardcases.make_case(family, seed)
+    res = identify(case.frf, band_hz=case.band_hz)
+    tol = (case.zeta + 0.005) * case.fn_hz
+    d = np.abs(res.fn_hz[None, :] - case.fn_hz[:, None]) <= tol[:, None]
+    assert d.any(axis=1).all(), (case.fn_hz, res.fn_hz)
+    assert d.any(axis=0).all(), (case.fn_hz, res.fn_hz)
