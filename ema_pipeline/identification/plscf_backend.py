@@ -43,8 +43,8 @@ same mode found twice (:func:`distinct_shapes`). Then two searches look for
 modes that the diagrams missed: close modes hidden in a kept resonance
 (:func:`close_partners`) and peaks of the residual of the kept modes' fit
 (:func:`residual_search`, see
-:mod:`ema_pipeline.identification.residual_search`; on seeds 400-403 and
-700-703 of the hard cases it finds 7 of the 8 missed modes). Their candidates
+:mod:`ema_pipeline.identification.residual_search`; on four seed ranges of
+the hard cases, 2712 modes, missed 22 -> 2). Their candidates
 are refined and tested together with the kept ones; when none passes, the
 previous fit stands (a failed candidate bends its neighbours' local fits:
 on the measured beam two model-error peaks beside 414.6 Hz cost that mode),
