@@ -524,28 +524,38 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         if expect_hz is None:
             keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, sel.n_members)
             partner = np.zeros(sel.pole.size, bool)
+            strict = np.zeros(sel.pole.size, bool)
             # close modes hidden in a kept resonance, then modes that no diagram
             # resolved (peaks of the residual): refined and tested with the rest
-            for search_new, is_partner in ((close_partners, True), (residual_search, False)):
-                new = search_new(freq, Hc, ref.pole[keep], sub.quantity,
-                                 window_tau_s=tau, force_window_s=force_s)
+            for step in ("close partners", "residual peaks"):
+                if step == "close partners":
+                    new = close_partners(freq, Hc, ref.pole[keep], sub.quantity,
+                                         window_tau_s=tau, force_window_s=force_s)
+                    new_partner, new_strict = np.ones(new.size, bool), np.zeros(new.size, bool)
+                else:
+                    new, new_strict = residual_search(freq, Hc, ref.pole[keep], sub.quantity)
+                    new_partner = np.zeros(new.size, bool)
                 while new.size:
                     # refined and tested with the kept ones; when none passes,
                     # the previous fit stands (a failed candidate can bend its
                     # neighbours' local fits), else once more with those that pass
                     sel_new = sel.subset(keep).concatenate(unseen_candidates(new))
-                    partner_new = np.concatenate([partner[keep], np.full(new.size, is_partner)])
+                    partner_new = np.concatenate([partner[keep], new_partner])
+                    strict_new = np.concatenate([strict[keep], new_strict])
                     ref_new = refine_poles(freq, Hc, sel_new.pole, quantity=sub.quantity,
                                            window_tau_s=tau, force_window_s=force_s)
                     keep_new = final_tests(freq, Hc, Hn_c, ref_new, sub.quantity,
-                                           sel_new.n_members, partner=partner_new)
+                                           sel_new.n_members, partner=partner_new,
+                                           strict=strict_new)
                     passed = keep_new[-new.size:]
                     if not passed.any():
                         break
                     if passed.all():
-                        sel, ref, keep, partner = sel_new, ref_new, keep_new, partner_new
+                        sel, ref, keep = sel_new, ref_new, keep_new
+                        partner, strict = partner_new, strict_new
                         break
-                    new = new[passed]
+                    new, new_partner = new[passed], new_partner[passed]
+                    new_strict = new_strict[passed]
         order_s = np.argsort(ref.pole[keep].imag)
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
         cov = ref.cov[keep][order_s]
@@ -598,17 +608,14 @@ def unseen_candidates(pole: np.ndarray) -> SelectedPoles:
 
 
 def residual_search(
-    freq_hz: np.ndarray,
-    H: np.ndarray,
-    pole: np.ndarray,
-    quantity: str,
-    *,
-    window_tau_s: float | None = None,
-    force_window_s: float | None = None,
-) -> np.ndarray:
-    """Start poles of modes that the diagrams missed (peaks of the residual of
-    the kept ``pole``, :func:`~ema_pipeline.identification.residual_search.residual_peaks`);
-    the window arguments are those of :func:`close_partners` (not needed here).
+    freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str
+) -> tuple[np.ndarray, np.ndarray]:
+    """Start poles of modes that the diagrams missed (peaks of the residual
+    of the kept ``pole``,
+    :func:`~ema_pipeline.identification.residual_search.residual_peaks`) and
+    which of them came from a slope into the band's edge (the tail of a mode
+    outside the band looks the same: :func:`final_tests` holds them to the
+    peak test, ``strict``).
 
     Examples
     --------
@@ -616,8 +623,9 @@ def residual_search(
     >>> lam = np.array([-2.0 + 2j * np.pi * 80.0, -1.5 + 2j * np.pi * 120.0])
     >>> jw = 2j * np.pi * f
     >>> H = sum(1 / (jw - p) + 1 / (jw - p.conj()) for p in lam)[None] * np.ones((3, 1))
-    >>> (residual_search(f, H, lam[:1], "receptance").imag / (2 * np.pi)).round(1).tolist()
-    [120.0]
+    >>> start, from_edge = residual_search(f, H, lam[:1], "receptance")
+    >>> (start.imag / (2 * np.pi)).round(1).tolist(), from_edge.tolist()
+    ([120.0], [False])
     """
     return residual_peaks(freq_hz, H, pole, quantity)
 
@@ -647,6 +655,7 @@ def final_tests(
     quantity: str,
     n_orders: np.ndarray | None = None,
     partner: np.ndarray | None = None,
+    strict: np.ndarray | None = None,
 ) -> np.ndarray:
     """Which ``refined`` poles are modes: their decay rate is
     determined (:func:`decay_determined`), they are resonances
@@ -658,6 +667,9 @@ def final_tests(
     or more, two nearly real shapes -- already show a resonance) skip the
     resonance test; a weak partner's shape in its neighbour's shadow has an
     MPC of 0.9-0.95, which the resonance test asks only of lone weak poles.
+    Poles marked ``strict`` (a residual slope into the band's edge,
+    :func:`residual_search`) must pass the resonance test by their peak,
+    not by their shape alone.
 
     Examples
     --------
@@ -671,7 +683,8 @@ def final_tests(
     [True]
     """
     keep = decay_determined(refined.pole, refined.cov)
-    keep[keep] = resonant(freq_hz, Hn, refined.pole[keep], quantity)
+    by_shape = None if strict is None else ~strict[keep]
+    keep[keep] = resonant(freq_hz, Hn, refined.pole[keep], quantity, by_shape=by_shape)
     if partner is not None:
         keep |= decay_determined(refined.pole, refined.cov) & partner
     return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders)
@@ -758,14 +771,19 @@ def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity:
 
 
 def resonant(
-    freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str = "accelerance"
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    pole: np.ndarray,
+    quantity: str = "accelerance",
+    by_shape: np.ndarray | None = None,
 ) -> np.ndarray:
     """True for poles that are resonances of the data: own peak ratio at least
     :data:`WEAK_PEAK_RATIO`, or peak SNR at least :data:`MIN_WEAK_PEAK_SNR`
     (both from :func:`~ema_pipeline.identification.refine.quick_significance`),
     or, with at least 3 channels ``H`` (n_ch, n_freq), a local shape
     (:func:`~ema_pipeline.identification.refine.local_shapes`) of
-    MPC >= :data:`WEAK_MIN_MPC`; with fewer channels every pole is kept.
+    MPC >= :data:`WEAK_MIN_MPC` (only the poles marked ``by_shape``, when
+    given); with fewer channels every pole is kept.
 
     Examples
     --------
@@ -777,17 +795,20 @@ def resonant(
     >>> resonant(f, H, lam, "receptance").tolist()
     [True, False]
     """
-    if H.shape[0] < 3:
+    shape_ok = np.ones(pole.size, bool) if by_shape is None else np.asarray(by_shape, bool)
+    if H.shape[0] < 3 and np.all(shape_ok):
         return np.ones(pole.size, bool)
     _, peak, snr = quick_significance(freq_hz, H, pole)
     ok = (peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR)
-    if np.all(ok):
+    if np.all(ok | ~shape_ok):
         return np.asarray(ok)
+    if H.shape[0] < 3:
+        return np.asarray(ok | shape_ok)
     try:
         shapes = local_shapes(freq_hz, H, pole, quantity=quantity).T
     except (np.linalg.LinAlgError, ValueError):
-        return np.ones(pole.size, bool)
-    return np.asarray(ok | (np.nan_to_num(mpc(shapes)) >= WEAK_MIN_MPC))
+        return np.asarray(ok | shape_ok)
+    return np.asarray(ok | (shape_ok & (np.nan_to_num(mpc(shapes)) >= WEAK_MIN_MPC)))
 
 
 def distinct_shapes(

@@ -16,7 +16,12 @@ channel over its median (the floor; a median ignores the peaks), averaged
 over the channels and over 3 lines, above :data:`RESIDUAL_PEAK_RATIO`,
 outside the half-power bands of the kept modes (a kept mode's misfit, and
 the part of the noise proportional to |H|, peak there; close modes hidden in
-a kept resonance are the business of ``plscf_backend.close_partners``).
+a kept resonance are the business of ``plscf_backend.close_partners``), and
+at least :data:`RESIDUAL_PEAK_CONTRAST` times its surroundings. A residual
+that rises into the band's edge is the tail of a mode outside the band or a
+heavily damped mode whose resonance the edge cuts; it gives a start pole
+only when a pole fitted up to the band's end lies inside the band, and that
+start is marked (``from_edge``) for a stricter resonance test.
 :func:`peak_pole` gives each a start pole, one pole common to all channels
 fitted to the residual around the peak (linearised like Levy's method: no
 iteration); the candidate then goes through the same refinement and the same
@@ -86,16 +91,20 @@ def residual_peaks(
     *,
     min_ratio: float = RESIDUAL_PEAK_RATIO,
     max_peaks: int = MAX_RESIDUAL_PEAKS,
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Start poles (rad/s, ascending frequency) at the peaks of the residual of
     the global LSFD of the kept ``pole`` that stand ``min_ratio`` above its
     floor (:func:`residual_ratio`), outside 3 half-power half-widths plus 2
     lines of every pole (:func:`near`) and outside the band's outer 2 %.
 
-    A peak that does not fall to half its height before the band's edge zone
-    (the tail of a mode outside the band), or that goes on rising into a
-    kept mode's zone (its misfit), is a slope, not a missed mode, and is
-    passed over with the lines down to half its height. Greedy, at most
+    A peak that does not fall to half its height before the band's edge
+    zone is the tail of a mode outside the band or a heavily damped mode
+    whose half-power band reaches past the edge: a pole is fitted to the
+    lines from the peak to the band's end (:func:`peak_pole`), and it is a
+    start pole (marked in ``from_edge``; the caller asks more of it) when it
+    lies inside the band, outside the edge zone, else the slope is passed
+    over with the lines down to half its height. A peak that goes on rising
+    into a kept mode's zone (its misfit) is passed over too. Greedy, at most
     ``max_peaks`` times: the highest peak gets a start pole (:func:`peak_pole`
     on the lines around it, the peak's half-height width and as much again
     on each side, or, when that pole lies outside the half-height width, the
@@ -103,6 +112,7 @@ def residual_peaks(
     at least 2 lines, narrower is not resolved), which joins the LSFD before
     the next peak is sought (a strong missed mode's tails stand above the
     floor far from it). ``H`` (n_ch, n_freq) on the lines ``freq_hz``.
+    Returns the start poles and ``from_edge`` (bool, each).
 
     Examples
     --------
@@ -113,15 +123,16 @@ def residual_peaks(
     >>> rng = np.random.default_rng(0)
     >>> H = np.stack([terms[0] + s * terms[1] for s in (1.0, -0.7, 0.4)])
     >>> H = H + 1e-4 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
-    >>> start = residual_peaks(f, H, lam[:1], "receptance")
-    >>> (start.imag / (2 * np.pi)).round(1).tolist()
-    [120.0]
+    >>> start, from_edge = residual_peaks(f, H, lam[:1], "receptance")
+    >>> (start.imag / (2 * np.pi)).round(1).tolist(), from_edge.tolist()
+    ([120.0], [False])
     """
     freq_hz = np.asarray(freq_hz, dtype=float)
     n = freq_hz.size
     start = np.zeros(0, complex)
+    from_edge = np.zeros(0, bool)
     if n < 16:
-        return start
+        return start, from_edge
     df = freq_hz[1] - freq_hz[0]
     edge = np.zeros(n, bool)
     edge[: max(2, int(0.02 * n))] = edge[-max(2, int(0.02 * n)):] = True
@@ -146,14 +157,30 @@ def residual_peaks(
         while hi < n - 1 and ratio[hi + 1] > ratio[k] / 2:
             hi += 1
         ends = [j for j in (lo - 1, hi + 1) if 0 <= j < n]
-        if any((edge[j] or skip[j]) and raw[j] > ratio[k] / 2 for j in ends) or any(
+        width = hi - lo + 1
+        at_edge = [j for j in ends if edge[j] and raw[j] > ratio[k] / 2]
+        if at_edge:
+            # not down to half its height before the band's edge zone: the
+            # tail of a mode outside the band, or a heavily damped mode whose
+            # half-power band reaches past the edge. A pole fitted to the
+            # lines from the peak to the band's end tells them apart.
+            sl = slice(max(0, lo - width - 3), n) if at_edge[0] > k else slice(
+                0, min(n, hi + width + 4))
+            lam = peak_pole(freq_hz[sl], R[:, sl])
+            j = int(np.argmin(np.abs(freq_hz - lam.imag / (2 * np.pi))))
+            inner = freq_hz[0] < lam.imag / (2 * np.pi) < freq_hz[-1] and not edge[j]
+            if lam.real < 0 and -lam.real < 0.2 * abs(lam) and inner:
+                start = np.append(start, complex(min(lam.real, -2 * np.pi * df), lam.imag))
+                from_edge = np.append(from_edge, True)
+                R = None
+            skip[lo : hi + 1] = True  # a bump beside it continues the slope
+            continue
+        if any(skip[j] and raw[j] > ratio[k] / 2 for j in ends) or any(
                 excluded[j] and raw[j] >= ratio[k] for j in ends):
-            # not down to half its height before the band's edge zone (the
-            # tail of a mode outside the band) or a slope passed over, or
-            # still rising into a kept mode's zone (its misfit): a slope
+            # the continuation of a slope passed over, or still rising into
+            # a kept mode's zone (its misfit): a slope
             skip[lo : hi + 1] = True
             continue
-        width = hi - lo + 1
         around = np.zeros(n, bool)  # the surroundings: 1-4 widths (+ 20 lines) away
         around[max(0, lo - 4 * width - 20) : min(n, hi + 4 * width + 21)] = True
         around[max(0, lo - width) : min(n, hi + width + 1)] = False
@@ -171,8 +198,10 @@ def residual_peaks(
         # a half-power band of at least 2 lines (narrower is not resolved)
         lam = complex(min(lam.real, -2 * np.pi * df), lam.imag)
         start = np.append(start, lam)
+        from_edge = np.append(from_edge, False)
         R = None
-    return start[np.argsort(start.imag)]
+    order = np.argsort(start.imag)
+    return start[order], from_edge[order]
 
 
 def near(freq_hz: np.ndarray, pole: np.ndarray, df: float) -> np.ndarray:
