@@ -44,7 +44,7 @@ modes that the diagrams missed: close modes hidden in a kept resonance
 (:func:`close_partners`) and peaks of the residual of the kept modes' fit
 (:func:`residual_search`, see
 :mod:`ema_pipeline.identification.residual_search`; on four seed ranges of
-the hard cases, 2712 modes, missed 22 -> 2). Their candidates
+the hard cases, 2712 modes, missed 22 -> 1). Their candidates
 are refined and tested together with the kept ones; when none passes, the
 previous fit stands (a failed candidate bends its neighbours' local fits:
 on the measured beam two model-error peaks beside 414.6 Hz cost that mode),
@@ -53,6 +53,7 @@ else the fit is repeated with those that pass.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -522,40 +523,25 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                            force_window_s=force_s)
         keep = np.ones(sel.pole.size, bool)
         if expect_hz is None:
-            keep = final_tests(freq, Hc, Hn_c, ref, sub.quantity, sel.n_members)
-            partner = np.zeros(sel.pole.size, bool)
-            strict = np.zeros(sel.pole.size, bool)
-            # close modes hidden in a kept resonance, then modes that no diagram
-            # resolved (peaks of the residual): refined and tested with the rest
-            for step in ("close partners", "residual peaks"):
-                if step == "close partners":
-                    new = close_partners(freq, Hc, ref.pole[keep], sub.quantity,
-                                         window_tau_s=tau, force_window_s=force_s)
-                    new_partner, new_strict = np.ones(new.size, bool), np.zeros(new.size, bool)
-                else:
-                    new, new_strict = residual_search(freq, Hc, ref.pole[keep], sub.quantity)
-                    new_partner = np.zeros(new.size, bool)
-                while new.size:
-                    # refined and tested with the kept ones; when none passes,
-                    # the previous fit stands (a failed candidate can bend its
-                    # neighbours' local fits), else once more with those that pass
-                    sel_new = sel.subset(keep).concatenate(unseen_candidates(new))
-                    partner_new = np.concatenate([partner[keep], new_partner])
-                    strict_new = np.concatenate([strict[keep], new_strict])
-                    ref_new = refine_poles(freq, Hc, sel_new.pole, quantity=sub.quantity,
-                                           window_tau_s=tau, force_window_s=force_s)
-                    keep_new = final_tests(freq, Hc, Hn_c, ref_new, sub.quantity,
-                                           sel_new.n_members, partner=partner_new,
-                                           strict=strict_new)
-                    passed = keep_new[-new.size:]
-                    if not passed.any():
-                        break
-                    if passed.all():
-                        sel, ref, keep = sel_new, ref_new, keep_new
-                        partner, strict = partner_new, strict_new
-                        break
-                    new, new_partner = new[passed], new_partner[passed]
-                    new_strict = new_strict[passed]
+
+            def retest(c: SelectedPoles, partner: np.ndarray,
+                       strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
+                r = refine_poles(freq, Hc, c.pole, quantity=sub.quantity, window_tau_s=tau,
+                                 force_window_s=force_s)
+                return r, final_tests(freq, Hc, Hn_c, r, sub.quantity, c.n_members,
+                                      partner=partner, strict=strict)
+
+            none = np.zeros(sel.pole.size, bool)
+            found = Candidates(sel, ref, final_tests(freq, Hc, Hn_c, ref, sub.quantity,
+                                                     sel.n_members), none, none)
+            # close modes hidden in a kept resonance, then modes that no
+            # diagram resolved (peaks of the residual)
+            partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
+                                      window_tau_s=tau, force_window_s=force_s)
+            found = add_found(found, partners, True, np.zeros(partners.size, bool), retest)
+            peaks, from_edge = residual_search(freq, Hc, found.kept_poles(), sub.quantity)
+            found = add_found(found, peaks, False, from_edge, retest)
+            sel, ref, keep = found.sel, found.ref, found.keep
         order_s = np.argsort(ref.pole[keep].imag)
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
         cov = ref.cov[keep][order_s]
@@ -592,6 +578,60 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             else "scatter of the trajectory's poles over model orders",
         ),
     )
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """Candidates, their refinement and the verdict of :func:`final_tests`
+    (``keep``); ``partner`` and ``strict`` mark how each was found (the
+    arguments of :func:`final_tests`)."""
+
+    sel: SelectedPoles
+    ref: RefinedPoles
+    keep: np.ndarray
+    partner: np.ndarray
+    strict: np.ndarray
+
+    def kept_poles(self) -> np.ndarray:
+        """The refined poles that passed."""
+        return np.asarray(self.ref.pole[self.keep])
+
+
+def add_found(
+    found: Candidates,
+    new: np.ndarray,
+    partner: bool,
+    strict: np.ndarray,
+    retest: Callable[[SelectedPoles, np.ndarray, np.ndarray], tuple[RefinedPoles, np.ndarray]],
+) -> Candidates:
+    """``found``'s kept candidates plus the start poles ``new`` (found outside
+    the diagrams, each ``partner`` or not, ``strict`` per pole), refined and
+    tested together by ``retest(candidates, partner, strict)`` -> (refined,
+    keep). When none of ``new`` passes, ``found`` stands (a failed candidate
+    bends its neighbours' local fits: on the measured beam two model-error
+    peaks beside 414.6 Hz cost that mode); else the fit is repeated with
+    those that pass until all do.
+
+    Examples
+    --------
+    >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
+    >>> empty = Candidates(none, None, np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, bool))
+    >>> add_found(empty, np.zeros(0, complex), False, np.zeros(0, bool), None) is empty
+    True
+    """
+    is_partner = np.full(new.size, partner)
+    while new.size:
+        sel = found.sel.subset(found.keep).concatenate(unseen_candidates(new))
+        partner_all = np.concatenate([found.partner[found.keep], is_partner])
+        strict_all = np.concatenate([found.strict[found.keep], strict])
+        ref, keep = retest(sel, partner_all, strict_all)
+        passed = keep[-new.size:]
+        if not passed.any():
+            break
+        if passed.all():
+            return Candidates(sel, ref, keep, partner_all, strict_all)
+        new, is_partner, strict = new[passed], is_partner[passed], strict[passed]
+    return found
 
 
 def unseen_candidates(pole: np.ndarray) -> SelectedPoles:
