@@ -14,7 +14,8 @@ modes 90-98 % of the errors within 2 sigma and the 68th percentile of
 |error| / sigma in 0.75-1.35, for f_n and zeta separately.
 
 Budget: a few seeds per family (the whole file must stay well under a minute
-or two on a loaded 2-core machine); the seeds here (1-3) are not those of
+or two on a loaded 2-core machine); the seeds here (1-3, 1-2 for the dense
+families) are not those of
 ``benchmarks/eval_identification.py`` (100+).
 """
 
@@ -32,6 +33,9 @@ import hardcases  # noqa: E402
 from ema_pipeline.identification import identify  # noqa: E402
 
 SEEDS = (1, 2, 3)
+#: the dense families take 5-11 s a file; two seeds (55-75 modes each) keep
+#: the suite within its budget (the benchmark runs hundreds of files)
+DENSE_SEEDS = (1, 2)
 PENDING = pytest.mark.xfail(strict=False, reason="issue 11 pending")
 #: families that do not yet meet the detection target (missed/spurious <= 2 %)
 #: on SEEDS, and those whose sigmas are not yet calibrated on them
@@ -70,7 +74,7 @@ def _family_scores(family: str) -> dict:
     n_true = missed = spurious = 0
     rf: list[float] = []
     rz: list[float] = []
-    for seed in SEEDS:
+    for seed in DENSE_SEEDS if family.startswith("dense") else SEEDS:
         case = hardcases.make_case(family, seed)
         out = _identify(case)
         pairs = _match(case.fn_hz, case.zeta, out["fn_hz"])
