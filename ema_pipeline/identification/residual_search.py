@@ -151,11 +151,7 @@ def residual_peaks(
         k = int(np.argmax(ratio))
         if ratio[k] < min_ratio:
             break
-        lo, hi = k, k  # the peak region: down to half its height
-        while lo > 0 and ratio[lo - 1] > ratio[k] / 2:
-            lo -= 1
-        while hi < n - 1 and ratio[hi + 1] > ratio[k] / 2:
-            hi += 1
+        lo, hi = peak_region(ratio, k)
         ends = [j for j in (lo - 1, hi + 1) if 0 <= j < n]
         width = hi - lo + 1
         at_edge = [j for j in ends if edge[j] and raw[j] > ratio[k] / 2]
@@ -202,6 +198,23 @@ def residual_peaks(
         R = None
     order = np.argsort(start.imag)
     return start[order], from_edge[order]
+
+
+def peak_region(ratio: np.ndarray, k: int) -> tuple[int, int]:
+    """First and last line (inclusive) of the run of lines around ``k`` where
+    ``ratio`` stays above half of ``ratio[k]``.
+
+    Examples
+    --------
+    >>> peak_region(np.array([0.0, 1.0, 3.0, 8.0, 5.0, 4.5, 1.0]), 3)
+    (3, 5)
+    """
+    lo, hi = k, k
+    while lo > 0 and ratio[lo - 1] > ratio[k] / 2:
+        lo -= 1
+    while hi < ratio.size - 1 and ratio[hi + 1] > ratio[k] / 2:
+        hi += 1
+    return lo, hi
 
 
 def near(freq_hz: np.ndarray, pole: np.ndarray, df: float) -> np.ndarray:
