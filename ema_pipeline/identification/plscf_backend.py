@@ -42,9 +42,8 @@ when it is a resonance of the data (:func:`resonant`) and when it is not the
 same mode found twice (:func:`distinct_shapes`). Then two searches look for
 modes that the diagrams missed: close modes hidden in a kept resonance
 (:func:`close_partners`) and peaks of the residual of the kept modes' fit
-(:func:`residual_search`, see
-:mod:`ema_pipeline.identification.residual_search`; on four seed ranges of
-the hard cases, 2712 modes, missed 22 -> 1). Their candidates
+(:func:`~ema_pipeline.identification.residual_search.residual_peaks`; on four
+seed ranges of the hard cases, 2712 modes, missed 22 -> 1). Their candidates
 are refined and tested together with the kept ones; when none passes, the
 previous fit stands (a failed candidate bends its neighbours' local fits:
 on the measured beam two model-error peaks beside 414.6 Hz cost that mode),
@@ -539,7 +538,9 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
                                       window_tau_s=tau, force_window_s=force_s)
             found = add_found(found, partners, True, np.zeros(partners.size, bool), retest)
-            peaks, from_edge = residual_search(freq, Hc, found.kept_poles(), sub.quantity)
+            # starts from a slope into the band's edge (a mode outside the band
+            # looks the same) must pass the resonance test by their peak
+            peaks, from_edge = residual_peaks(freq, Hc, found.kept_poles(), sub.quantity)
             found = add_found(found, peaks, False, from_edge, retest)
             sel, ref, keep = found.sel, found.ref, found.keep
         order_s = np.argsort(ref.pole[keep].imag)
@@ -647,29 +648,6 @@ def unseen_candidates(pole: np.ndarray) -> SelectedPoles:
                          np.zeros(n, int))
 
 
-def residual_search(
-    freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str
-) -> tuple[np.ndarray, np.ndarray]:
-    """Start poles of modes that the diagrams missed (peaks of the residual
-    of the kept ``pole``,
-    :func:`~ema_pipeline.identification.residual_search.residual_peaks`) and
-    which of them came from a slope into the band's edge (the tail of a mode
-    outside the band looks the same: :func:`final_tests` holds them to the
-    peak test, ``strict``).
-
-    Examples
-    --------
-    >>> f = np.linspace(50.0, 150.0, 801)
-    >>> lam = np.array([-2.0 + 2j * np.pi * 80.0, -1.5 + 2j * np.pi * 120.0])
-    >>> jw = 2j * np.pi * f
-    >>> H = sum(1 / (jw - p) + 1 / (jw - p.conj()) for p in lam)[None] * np.ones((3, 1))
-    >>> start, from_edge = residual_search(f, H, lam[:1], "receptance")
-    >>> (start.imag / (2 * np.pi)).round(1).tolist(), from_edge.tolist()
-    ([120.0], [False])
-    """
-    return residual_peaks(freq_hz, H, pole, quantity)
-
-
 def decay_determined(pole: np.ndarray, cov: np.ndarray) -> np.ndarray:
     """True where the decay rate sigma = -Re(pole) is determined:
     std(sigma) / sigma < :data:`MAX_REL_DECAY_STD`; ``cov`` (n, 2, 2) is the
@@ -708,8 +686,8 @@ def final_tests(
     resonance test; a weak partner's shape in its neighbour's shadow has an
     MPC of 0.9-0.95, which the resonance test asks only of lone weak poles.
     Poles marked ``strict`` (a residual slope into the band's edge,
-    :func:`residual_search`) must pass the resonance test by their peak,
-    not by their shape alone.
+    :func:`~ema_pipeline.identification.residual_search.residual_peaks`) must
+    pass the resonance test by their peak, not by their shape alone.
 
     Examples
     --------

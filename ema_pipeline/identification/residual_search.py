@@ -160,41 +160,38 @@ def residual_peaks(
             # tail of a mode outside the band, or a heavily damped mode whose
             # half-power band reaches past the edge. A pole fitted to the
             # lines from the peak to the band's end tells them apart.
+            skip[lo : hi + 1] = True  # a bump beside it continues the slope
             sl = slice(max(0, lo - width - 3), n) if at_edge[0] > k else slice(
                 0, min(n, hi + width + 4))
             lam = peak_pole(freq_hz[sl], R[:, sl])
             j = int(np.argmin(np.abs(freq_hz - lam.imag / (2 * np.pi))))
             inner = freq_hz[0] < lam.imag / (2 * np.pi) < freq_hz[-1] and not edge[j]
-            if lam.real < 0 and -lam.real < 0.2 * abs(lam) and inner:
-                start = np.append(start, complex(min(lam.real, -2 * np.pi * df), lam.imag))
-                from_edge = np.append(from_edge, True)
-                R = None
-            skip[lo : hi + 1] = True  # a bump beside it continues the slope
-            continue
-        if any(skip[j] and raw[j] > ratio[k] / 2 for j in ends) or any(
-                excluded[j] and raw[j] >= ratio[k] for j in ends):
-            # the continuation of a slope passed over, or still rising into
-            # a kept mode's zone (its misfit): a slope
-            skip[lo : hi + 1] = True
-            continue
-        around = np.zeros(n, bool)  # the surroundings: 1-4 widths (+ 20 lines) away
-        around[max(0, lo - 4 * width - 20) : min(n, hi + 4 * width + 21)] = True
-        around[max(0, lo - width) : min(n, hi + width + 1)] = False
-        around &= ~(excluded | skip)
-        if around.any() and ratio[k] < RESIDUAL_PEAK_CONTRAST * np.median(raw[around]):
-            # no higher than its surroundings: a noisy stretch (the top of a
-            # measured axis, where the anti-alias filter acts), not a mode
-            skip[lo : hi + 1] = True
-            continue
-        sl = slice(max(0, lo - width - 3), min(n, hi + width + 4))
-        lam = peak_pole(freq_hz[sl], R[:, sl])
-        inside = freq_hz[lo] <= lam.imag / (2 * np.pi) <= freq_hz[hi]
-        if not (lam.real < 0 and inside and -lam.real < 0.2 * abs(lam)):
-            lam = 2 * np.pi * freq_hz[k] * (-width * df / (2 * freq_hz[k]) + 1j)
+            if not (lam.real < 0 and -lam.real < 0.2 * abs(lam) and inner):
+                continue
+        else:
+            if any(skip[j] and raw[j] > ratio[k] / 2 for j in ends) or any(
+                    excluded[j] and raw[j] >= ratio[k] for j in ends):
+                # the continuation of a slope passed over, or still rising
+                # into a kept mode's zone (its misfit): a slope
+                skip[lo : hi + 1] = True
+                continue
+            around = np.zeros(n, bool)  # the surroundings: 1-4 widths (+ 20 lines) away
+            around[max(0, lo - 4 * width - 20) : min(n, hi + 4 * width + 21)] = True
+            around[max(0, lo - width) : min(n, hi + width + 1)] = False
+            around &= ~(excluded | skip)
+            if around.any() and ratio[k] < RESIDUAL_PEAK_CONTRAST * np.median(raw[around]):
+                # no higher than its surroundings: a noisy stretch (the top of
+                # a measured axis, where the anti-alias filter acts), not a mode
+                skip[lo : hi + 1] = True
+                continue
+            sl = slice(max(0, lo - width - 3), min(n, hi + width + 4))
+            lam = peak_pole(freq_hz[sl], R[:, sl])
+            inside = freq_hz[lo] <= lam.imag / (2 * np.pi) <= freq_hz[hi]
+            if not (lam.real < 0 and inside and -lam.real < 0.2 * abs(lam)):
+                lam = 2 * np.pi * freq_hz[k] * (-width * df / (2 * freq_hz[k]) + 1j)
         # a half-power band of at least 2 lines (narrower is not resolved)
-        lam = complex(min(lam.real, -2 * np.pi * df), lam.imag)
-        start = np.append(start, lam)
-        from_edge = np.append(from_edge, False)
+        start = np.append(start, complex(min(lam.real, -2 * np.pi * df), lam.imag))
+        from_edge = np.append(from_edge, bool(at_edge))
         R = None
     order = np.argsort(start.imag)
     return start[order], from_edge[order]
