@@ -40,7 +40,9 @@ PENDING = pytest.mark.xfail(strict=False, reason="issue 11 pending")
 #: families that do not yet meet the detection target (missed/spurious <= 2 %)
 #: on SEEDS, and those whose sigmas are not yet calibrated on them
 DETECTION_PENDING: set[str] = set()
-SIGMA_PENDING = {"baseline", "close_2ref", "damping", "roving", "quantity"}
+#: (impact: p68 of the f errors 0.71 on the 23 modes of SEEDS, 1.00 pooled
+#: over the 233 of the held-out seeds of the README)
+SIGMA_PENDING = {"baseline", "close_2ref", "damping", "roving", "quantity", "impact"}
 
 
 def _families(pending: set[str]) -> list:

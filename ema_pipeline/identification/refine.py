@@ -25,6 +25,7 @@ import numpy as np
 from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack
 from ema_pipeline.identification.uncertainty import (
     correlated_information,
+    correlated_leverage,
     exponential_window_correlation,
     noise_model,
     rect_window_correlation,
@@ -116,9 +117,10 @@ def _vp_solve(
         return float(np.sum(Rw**2 * inv_s2[None, :]))
 
     def normal(
-        lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray
+        lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray, fitted: tuple | None = None
     ) -> tuple[np.ndarray, np.ndarray, float]:
-        Qm, Rw, X = fit(lam, u)
+        """Fisher matrix, gradient and cost at ``lam`` (``fitted``: its fit, if known)."""
+        Qm, Rw, X = fit(lam, u) if fitted is None else fitted
         Jw = pole_jacobian(jw, lam, X) * u[:, None, None]
         Jf = Jw.reshape(Jw.shape[0], -1)
         Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jw.shape)
@@ -153,13 +155,11 @@ def _vp_solve(
             except np.linalg.LinAlgError:
                 break
             trial = theta + step
-            if np.all(trial[0::2] > 0):
-                cost_t = cost_of(fit(lam_of(trial), u)[1], inv_s2)
-            else:
-                cost_t = np.inf
+            fitted = fit(lam_of(trial), u) if np.all(trial[0::2] > 0) else None
+            cost_t = np.inf if fitted is None else cost_of(fitted[1], inv_s2)
             if cost_t < cost:
                 theta = trial
-                F, g, cost_new = normal(lam_of(theta), u, inv_s2)
+                F, g, cost_new = normal(lam_of(theta), u, inv_s2, fitted)
                 sd = np.sqrt(1.0 / np.maximum(np.diag(F), 1e-300))
                 done = (cost - cost_new) < 1e-8 * cost or np.all(np.abs(step) < 1e-3 * sd)
                 cost = cost_new
@@ -184,6 +184,20 @@ def _vp_solve(
     # from this weighted fit's residual, each line's share corrected by its
     # leverage, that of the linear terms plus that of the poles
     lev = np.sum(Qm**2, axis=1)[:, None] + np.einsum("kjc,ji,kic->kc", Jp, Finv, Jp)
+    df = freq_hz[1] - freq_hz[0]
+    if window_tau_s is not None and window_tau_s > 0:
+        # the exponential window correlates the additive noise over about
+        # 1/(pi tau df) lines, as wide as a resonance that the window
+        # dominates: the fit takes up more of it than lev says. The part
+        # proportional to |H| (with a force window) keeps lev.
+        lev_w = correlated_leverage(Qm, Jp, Finv,
+                                    exponential_window_correlation(window_tau_s * df, n))
+        if force_window_s:
+            _, frac_b = noise_model(Rw / u[:, None], Y, n_lin, with_fraction=True, leverage=lev)
+            beta = np.concatenate([frac_b, frac_b], axis=0)
+            lev = beta * lev + (1 - beta) * lev_w
+        else:
+            lev = lev_w
     std, frac_b = noise_model(Rw / u[:, None], Y, n_lin, with_fraction=True, leverage=lev)
     Rw = Rw * sq[None, :]
     # the weights are separable (std_ck ~ s_c u_k); the weighted noise keeps
@@ -195,7 +209,6 @@ def _vp_solve(
         # is truncated and tapered): the additive part of the noise is that of
         # the exponential window; the part proportional to |H| (force noise,
         # dH = -H dF/F) that of the force window
-        df = freq_hz[1] - freq_hz[0]
         rho = exponential_window_correlation(window_tau_s * df, n)
         beta = frac_b if force_window_s else np.zeros_like(frac_b)
         G = correlated_information(Jc * np.sqrt(1 - beta)[:, None, :], rho)
