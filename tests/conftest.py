@@ -64,7 +64,8 @@ def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
 
 
 # Background jobs: two checks that run whole programs (mypy, the fuzz corpus of
-# issue 15 through the CLI) start in child processes as soon as their tests are
+# issue 15 through the CLI) and the identification of the slow dense hard cases
+# (tests/hard_job.py) start in child processes as soon as their tests are
 # collected. The rest of the suite mostly runs on one core meanwhile, so on the
 # 2-core machine they cost little wall time; their tests then wait for them and
 # assert on their output exactly as before.
@@ -73,6 +74,7 @@ def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
 MYPY_COMMAND = [sys.executable, "-m", "mypy", "ema_pipeline"]
 #: Worker threads of the background fuzz run (one: it shares the machine with the suite).
 FUZZ_WORKERS = 1
+_HARD_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 _MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
 _FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 
@@ -96,6 +98,23 @@ def _start_fuzz() -> tuple[subprocess.Popen[bytes], Path]:
     return proc, root
 
 
+def _start_hard(jobs: dict[str, tuple[int, ...]]) -> tuple[subprocess.Popen[bytes], Path]:
+    """``python tests/hard_job.py ROOT/hard.json FAMILY:SEEDS ...`` (hard cases
+    identified in the background; ``jobs`` is test_identification_hard.BACKGROUND)."""
+    root = Path(tempfile.mkdtemp(prefix="ema-hard-"))
+    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
+               PYTHONPATH=os.pathsep.join(
+                   filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    specs = [f"{fam}:{','.join(str(s) for s in seeds)}" for fam, seeds in jobs.items()]
+    with open(root / "runner.log", "wb") as log:
+        proc = subprocess.Popen(
+            [sys.executable, str(REPO / "tests" / "hard_job.py"), str(root / "hard.json"),
+             *specs],
+            cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+        )
+    return proc, root
+
+
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Start the background jobs whose tests were collected (and not deselected)."""
     if importlib.util.find_spec("mypy") is not None and any(
@@ -104,18 +123,24 @@ def pytest_collection_finish(session: pytest.Session) -> None:
         session.config.stash[_MYPY_KEY] = _start_mypy()
     if any("fuzz" in getattr(item, "fixturenames", ()) for item in session.items):
         session.config.stash[_FUZZ_KEY] = _start_fuzz()
+    hard = [item for item in session.items
+            if "hard_background" in getattr(item, "fixturenames", ())]
+    if hard:
+        session.config.stash[_HARD_KEY] = _start_hard(hard[0].module.BACKGROUND)
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
     """Stop jobs the run did not wait for (stopped early); remove the fuzz folder."""
     mypy = config.stash.get(_MYPY_KEY, None)
     fuzz = config.stash.get(_FUZZ_KEY, None)
-    for proc in (mypy, fuzz[0] if fuzz else None):
+    hard = config.stash.get(_HARD_KEY, None)
+    for proc in (mypy, fuzz[0] if fuzz else None, hard[0] if hard else None):
         if proc is not None and proc.poll() is None:
             proc.kill()
             proc.wait()
-    if fuzz is not None:
-        shutil.rmtree(fuzz[1], ignore_errors=True)
+    for job in (fuzz, hard):
+        if job is not None:
+            shutil.rmtree(job[1], ignore_errors=True)
 
 
 @pytest.fixture
@@ -142,3 +167,18 @@ def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
     log = (root / "runner.log").read_text(errors="replace")
     assert proc.returncode == 0, f"fuzz corpus run failed:\n{log[-3000:]}"
     return json.loads((root / "verdicts.json").read_text())
+
+
+@pytest.fixture(scope="session")
+def hard_background(request: pytest.FixtureRequest) -> dict[str, list[dict]]:
+    """Family -> [{"seed", "fn_hz", "zeta", "fn_std_hz", "zeta_std"}, ...] of the
+    hard cases identified in the background (``tests/hard_job.py``); empty when
+    the job was not started (the tests then identify those cases themselves)."""
+    job = request.config.stash.get(_HARD_KEY, None)
+    if job is None:
+        return {}
+    proc, root = job
+    proc.wait()
+    log = (root / "runner.log").read_text(errors="replace")
+    assert proc.returncode == 0, f"background hard-case run failed:\n{log[-3000:]}"
+    return dict(json.loads((root / "hard.json").read_text()))

@@ -366,8 +366,7 @@ def test_real_roving_hammer_data(real_uff):
     extra = np.sum((dist.min(axis=1) >= 1.0) & (res.fn_hz < 800))
     assert matched >= 12, res.fn_hz  # issue 11 asks for 13 (measured 12)
     assert extra <= 1, res.fn_hz  # issue 11's target (measured 0)
-    res = res_band = identify(frf.reciprocal(), band_hz=(5, 790))
-    assert np.sum(np.abs(res_band.fn_hz[:, None] - PUBLISHED_HZ[None, :]).min(axis=0) < 1) >= 9
+    # (the README's example with --band 5 790 runs in tests/test_readme.py)
     assert res.modes.shapes.shape == (30, res.modes.n_modes)
     assert np.all(res.zeta > 0) and np.all(res.zeta < 0.05)
     assert np.median(res.frac) > 0.8

@@ -36,6 +36,10 @@ SEEDS = (1, 2, 3)
 #: the dense families take 5-11 s a file; two seeds (55-75 modes each) keep
 #: the suite within its budget (the benchmark runs hundreds of files)
 DENSE_SEEDS = (1, 2)
+#: hard cases that ``tests/hard_job.py`` identifies in a background process
+#: (started by conftest.py at collection, read through the ``hard_background``
+#: fixture): the slow dense files run on the second core
+BACKGROUND = {"dense_log": (*DENSE_SEEDS, 803), "dense_uniform": DENSE_SEEDS}
 PENDING = pytest.mark.xfail(strict=False, reason="issue 11 pending")
 #: families that do not yet meet the detection target (missed/spurious <= 2 %)
 #: on SEEDS, and those whose sigmas are not yet calibrated on them
@@ -49,8 +53,9 @@ def _families(pending: set[str]) -> list:
     return [pytest.param(f, marks=PENDING) if f in pending else f for f in hardcases.FAMILIES]
 
 
-def _identify(case: hardcases.HardCase) -> dict[str, np.ndarray]:
-    """The one call of the identification (adapt to identify(frf, options))."""
+def identify_case(case: hardcases.HardCase) -> dict[str, np.ndarray]:
+    """The one call of the identification (adapt to identify(frf, options));
+    ``tests/hard_job.py`` runs it for the dense families in the background."""
     frf = case.frf.reciprocal() if case.roving else case.frf
     res = identify(frf, band_hz=case.band_hz)
     m = res.modes
@@ -70,15 +75,19 @@ def _match(f_true: np.ndarray, z_true: np.ndarray, f_id: np.ndarray) -> list[tup
 _CACHE: dict[str, dict] = {}
 
 
-def _family_scores(family: str) -> dict:
+def _family_scores(family: str, background: dict[str, list[dict]]) -> dict:
+    """Scores of ``family`` on its seeds; the identification outputs come
+    from ``background`` (the ``hard_background`` fixture) where it has them."""
     if family in _CACHE:
         return _CACHE[family]
     n_true = missed = spurious = 0
     rf: list[float] = []
     rz: list[float] = []
+    done = {d["seed"]: d for d in background.get(family, [])}
     for seed in DENSE_SEEDS if family.startswith("dense") else SEEDS:
         case = hardcases.make_case(family, seed)
-        out = _identify(case)
+        out = ({k: np.asarray(v) for k, v in done[seed].items() if k != "seed"}
+               if seed in done else identify_case(case))
         pairs = _match(case.fn_hz, case.zeta, out["fn_hz"])
         n_true += case.fn_hz.size
         missed += case.fn_hz.size - len(pairs)
@@ -152,7 +161,7 @@ def test_mode_resolved_in_another_diagram_is_kept() -> None:
     diagram, and 54.5 Hz, a determined resonance at 220, is added to it.
     (34.2 Hz comes from the search of the band's lowest eighth.)"""
     case = hardcases.make_case("snr", 609)
-    out = _identify(case)
+    out = identify_case(case)
     pairs = _match(case.fn_hz, case.zeta, out["fn_hz"])
     assert len(pairs) == case.fn_hz.size == 5, out["fn_hz"]
     assert out["fn_hz"].size == 5, out["fn_hz"]
@@ -165,13 +174,13 @@ def test_weak_close_partner_is_kept() -> None:
     weaker one with local shapes of MPC 1.0 and 0.91. The partner is kept,
     though a lone weak pole with that MPC would fail the resonance test."""
     case = hardcases.make_case("close_1ref", 702)
-    out = _identify(case)
+    out = identify_case(case)
     pairs = _match(case.fn_hz, case.zeta, out["fn_hz"])
     assert len(pairs) == case.fn_hz.size, (case.fn_hz, out["fn_hz"])
     assert out["fn_hz"].size == case.fn_hz.size, out["fn_hz"]
 
 
-def test_low_cluster_of_a_wide_band_is_found() -> None:
+def test_low_cluster_of_a_wide_band_is_found(hard_background: dict) -> None:
     """23 modes at 10-24.5 Hz (2-6 % apart, zeta 0.2-0.8 %) in a band of
     4.7-162 Hz, one reference, 4 outputs. The full band's diagram holds 4
     poorly resolved candidates there, and a wide one (15.95 Hz) bent the
@@ -179,7 +188,9 @@ def test_low_cluster_of_a_wide_band_is_found() -> None:
     24.5 Hz lie just above the zoom's window (24.3 Hz). Before the residual
     check 5 were missed (23.29 Hz: its residual peak 52 times the floor)."""
     case = hardcases.make_case("dense_log", 803)
-    out = _identify(case)
+    done = {d["seed"]: d for d in hard_background.get("dense_log", [])}
+    out = ({k: np.asarray(v) for k, v in done[803].items() if k != "seed"}
+           if 803 in done else identify_case(case))
     pairs = _match(case.fn_hz, case.zeta, out["fn_hz"])
     assert case.fn_hz.size == 23
     assert len(pairs) == 23, (case.fn_hz, out["fn_hz"])
@@ -204,17 +215,17 @@ def test_impact_case_window_shift_is_exact() -> None:
 
 # --------------------------------------------------------------------------- targets
 @pytest.mark.parametrize("family", _families(DETECTION_PENDING))
-def test_no_mode_missed_or_invented(family: str) -> None:
-    s = _family_scores(family)
+def test_no_mode_missed_or_invented(family: str, hard_background: dict) -> None:
+    s = _family_scores(family, hard_background)
     assert s["missed"] <= 0.02 * s["n_true"], s
     assert s["spurious"] <= 0.02 * s["n_true"], s
 
 
 @pytest.mark.parametrize("family", _families(SIGMA_PENDING))
-def test_sigmas_are_calibrated_per_family(family: str) -> None:
+def test_sigmas_are_calibrated_per_family(family: str, hard_background: dict) -> None:
     """68th percentile of |error|/sigma in 0.75-1.35 (f and zeta); with ~15
     modes per family the coverage is only checked loosely here (>= 80 %)."""
-    s = _family_scores(family)
+    s = _family_scores(family, hard_background)
     for key in ("rf", "rz"):
         r = s[key]
         assert r.size >= 5
@@ -223,8 +234,8 @@ def test_sigmas_are_calibrated_per_family(family: str) -> None:
 
 
 @PENDING
-def test_sigma_coverage_over_all_families() -> None:
+def test_sigma_coverage_over_all_families(hard_background: dict) -> None:
     """90-98 % of the errors within 2 sigma over all families (~150 modes)."""
     for key in ("rf", "rz"):
-        r = np.concatenate([_family_scores(f)[key] for f in hardcases.FAMILIES])
+        r = np.concatenate([_family_scores(f, hard_background)[key] for f in hardcases.FAMILIES])
         assert 0.90 <= np.mean(r <= 2) <= 0.98, (key, np.mean(r <= 2))
