@@ -22,9 +22,10 @@ reference, ``method="sdypy-lscf"``, and test against):
 Modules: ``options`` (:class:`IdentificationOptions`), ``core`` (:func:`identify`
 and the method table :data:`METHODS`), ``plscf_backend`` / ``sdypy_backend``
 (the methods), ``common`` (band checks and the shared finish), ``plscf``,
-``stabilization``, ``selection``, ``refine`` (pole refinement), ``uncertainty``
-(noise and covariance model), ``lsfd`` (residues and fit
-indicators), ``result``. The MAC lives in :mod:`ema_pipeline.modal`, the
+``stabilization``, ``selection``, ``refine`` (pole refinement), ``acceptance``
+(the final tests: which refined candidates are modes), ``residual_search``
+(modes the diagrams missed), ``uncertainty`` (noise and covariance model),
+``lsfd`` (residues and fit indicators), ``result``. The MAC lives in :mod:`ema_pipeline.modal`, the
 diagrams in :mod:`ema_pipeline.plots`.
 """
 
