@@ -233,9 +233,13 @@ def test_sigmas_are_calibrated_per_family(family: str, hard_background: dict) ->
         assert np.mean(r <= 2) >= 0.80, (key, np.mean(r <= 2))
 
 
-@PENDING
 def test_sigma_coverage_over_all_families(hard_background: dict) -> None:
-    """90-98 % of the errors within 2 sigma over all families (~150 modes)."""
+    """90-98 % of the errors within 2 sigma and p68 of |error|/sigma in
+    0.75-1.35 over all families (299 modes; measured f 94.3 % / 1.04, zeta
+    92.3 % / 1.06). Per family the ~15-25 modes of these seeds scatter too
+    much for the p68 target (SIGMA_PENDING); the README's held-out ranges
+    meet it per family."""
     for key in ("rf", "rz"):
         r = np.concatenate([_family_scores(f, hard_background)[key] for f in hardcases.FAMILIES])
         assert 0.90 <= np.mean(r <= 2) <= 0.98, (key, np.mean(r <= 2))
+        assert 0.75 <= np.percentile(r, 68) <= 1.35, (key, np.percentile(r, 68))
