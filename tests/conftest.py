@@ -75,6 +75,7 @@ MYPY_COMMAND = [sys.executable, "-m", "mypy", "ema_pipeline"]
 #: Worker threads of the background fuzz run (one: it shares the machine with the suite).
 FUZZ_WORKERS = 1
 _HARD_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
+_HARD_FAMILIES_KEY = pytest.StashKey[set[str]]()
 _MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
 _FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 
@@ -123,10 +124,15 @@ def pytest_collection_finish(session: pytest.Session) -> None:
         session.config.stash[_MYPY_KEY] = _start_mypy()
     if any("fuzz" in getattr(item, "fixturenames", ()) for item in session.items):
         session.config.stash[_FUZZ_KEY] = _start_fuzz()
+    # the background hard cases, when a selected test may read them (a test of
+    # one family that the job does not run does not wait for it)
     hard = [item for item in session.items
-            if "hard_background" in getattr(item, "fixturenames", ())]
+            if "hard_background" in getattr(item, "fixturenames", ())
+            and getattr(getattr(item, "callspec", None), "params", {}).get(
+                "family", next(iter(item.module.BACKGROUND))) in item.module.BACKGROUND]
     if hard:
         session.config.stash[_HARD_KEY] = _start_hard(hard[0].module.BACKGROUND)
+        session.config.stash[_HARD_FAMILIES_KEY] = set(hard[0].module.BACKGROUND)
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
@@ -169,16 +175,32 @@ def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
     return json.loads((root / "verdicts.json").read_text())
 
 
+class HardBackground:
+    """The hard cases identified by the background job (``tests/hard_job.py``):
+    :meth:`outputs` waits for the job only for a family that it runs."""
+
+    def __init__(self, job: tuple[subprocess.Popen[bytes], Path] | None,
+                 families: set[str]) -> None:
+        self.job = job
+        self.families = families if job is not None else set()
+        self.data: dict[str, list[dict]] | None = None
+
+    def outputs(self, family: str) -> list[dict]:
+        """[{"seed", "fn_hz", "zeta", "fn_std_hz", "zeta_std"}, ...] of ``family``
+        (empty when the job does not run it: the test identifies itself)."""
+        if family not in self.families or self.job is None:
+            return []
+        if self.data is None:
+            proc, root = self.job
+            proc.wait()
+            log = (root / "runner.log").read_text(errors="replace")
+            assert proc.returncode == 0, f"background hard-case run failed:\n{log[-3000:]}"
+            self.data = dict(json.loads((root / "hard.json").read_text()))
+        return list(self.data.get(family, []))
+
+
 @pytest.fixture(scope="session")
-def hard_background(request: pytest.FixtureRequest) -> dict[str, list[dict]]:
-    """Family -> [{"seed", "fn_hz", "zeta", "fn_std_hz", "zeta_std"}, ...] of the
-    hard cases identified in the background (``tests/hard_job.py``); empty when
-    the job was not started (the tests then identify those cases themselves)."""
+def hard_background(request: pytest.FixtureRequest) -> HardBackground:
+    """The hard cases identified in the background (:class:`HardBackground`)."""
     job = request.config.stash.get(_HARD_KEY, None)
-    if job is None:
-        return {}
-    proc, root = job
-    proc.wait()
-    log = (root / "runner.log").read_text(errors="replace")
-    assert proc.returncode == 0, f"background hard-case run failed:\n{log[-3000:]}"
-    return dict(json.loads((root / "hard.json").read_text()))
+    return HardBackground(job, request.config.stash.get(_HARD_FAMILIES_KEY, set()))

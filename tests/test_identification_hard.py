@@ -29,6 +29,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import hardcases  # noqa: E402
+from conftest import HardBackground  # noqa: E402
 
 from ema_pipeline.identification import identify  # noqa: E402
 
@@ -75,7 +76,7 @@ def _match(f_true: np.ndarray, z_true: np.ndarray, f_id: np.ndarray) -> list[tup
 _CACHE: dict[str, dict] = {}
 
 
-def _family_scores(family: str, background: dict[str, list[dict]]) -> dict:
+def _family_scores(family: str, background: HardBackground) -> dict:
     """Scores of ``family`` on its seeds; the identification outputs come
     from ``background`` (the ``hard_background`` fixture) where it has them."""
     if family in _CACHE:
@@ -83,7 +84,7 @@ def _family_scores(family: str, background: dict[str, list[dict]]) -> dict:
     n_true = missed = spurious = 0
     rf: list[float] = []
     rz: list[float] = []
-    done = {d["seed"]: d for d in background.get(family, [])}
+    done = {d["seed"]: d for d in background.outputs(family)}
     for seed in DENSE_SEEDS if family.startswith("dense") else SEEDS:
         case = hardcases.make_case(family, seed)
         out = ({k: np.asarray(v) for k, v in done[seed].items() if k != "seed"}
@@ -180,7 +181,7 @@ def test_weak_close_partner_is_kept() -> None:
     assert out["fn_hz"].size == case.fn_hz.size, out["fn_hz"]
 
 
-def test_low_cluster_of_a_wide_band_is_found(hard_background: dict) -> None:
+def test_low_cluster_of_a_wide_band_is_found(hard_background: HardBackground) -> None:
     """23 modes at 10-24.5 Hz (2-6 % apart, zeta 0.2-0.8 %) in a band of
     4.7-162 Hz, one reference, 4 outputs. The full band's diagram holds 4
     poorly resolved candidates there, and a wide one (15.95 Hz) bent the
@@ -188,7 +189,7 @@ def test_low_cluster_of_a_wide_band_is_found(hard_background: dict) -> None:
     24.5 Hz lie just above the zoom's window (24.3 Hz). Before the residual
     check 5 were missed (23.29 Hz: its residual peak 52 times the floor)."""
     case = hardcases.make_case("dense_log", 803)
-    done = {d["seed"]: d for d in hard_background.get("dense_log", [])}
+    done = {d["seed"]: d for d in hard_background.outputs("dense_log")}
     out = ({k: np.asarray(v) for k, v in done[803].items() if k != "seed"}
            if 803 in done else identify_case(case))
     pairs = _match(case.fn_hz, case.zeta, out["fn_hz"])
@@ -215,14 +216,14 @@ def test_impact_case_window_shift_is_exact() -> None:
 
 # --------------------------------------------------------------------------- targets
 @pytest.mark.parametrize("family", _families(DETECTION_PENDING))
-def test_no_mode_missed_or_invented(family: str, hard_background: dict) -> None:
+def test_no_mode_missed_or_invented(family: str, hard_background: HardBackground) -> None:
     s = _family_scores(family, hard_background)
     assert s["missed"] <= 0.02 * s["n_true"], s
     assert s["spurious"] <= 0.02 * s["n_true"], s
 
 
 @pytest.mark.parametrize("family", _families(SIGMA_PENDING))
-def test_sigmas_are_calibrated_per_family(family: str, hard_background: dict) -> None:
+def test_sigmas_are_calibrated_per_family(family: str, hard_background: HardBackground) -> None:
     """68th percentile of |error|/sigma in 0.75-1.35 (f and zeta); with ~15
     modes per family the coverage is only checked loosely here (>= 80 %)."""
     s = _family_scores(family, hard_background)
@@ -233,7 +234,7 @@ def test_sigmas_are_calibrated_per_family(family: str, hard_background: dict) ->
         assert np.mean(r <= 2) >= 0.80, (key, np.mean(r <= 2))
 
 
-def test_sigma_coverage_over_all_families(hard_background: dict) -> None:
+def test_sigma_coverage_over_all_families(hard_background: HardBackground) -> None:
     """90-98 % of the errors within 2 sigma and p68 of |error|/sigma in
     0.75-1.35 over all families (299 modes; measured f 94.3 % / 1.04, zeta
     92.3 % / 1.06). Per family the ~15-25 modes of these seeds scatter too
