@@ -11,6 +11,7 @@ import sys
 import tempfile
 from pathlib import Path
 
+import numpy as np
 import pytest
 import tqdm
 
@@ -65,7 +66,7 @@ def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
 
 # Background jobs: two checks that run whole programs (mypy, the fuzz corpus of
 # issue 15 through the CLI) and the identification of the slow dense hard cases
-# (tests/hard_job.py) start in child processes as soon as their tests are
+# (tests/background_job.py) start in child processes as soon as their tests are
 # collected. The rest of the suite mostly runs on one core meanwhile, so on the
 # 2-core machine they cost little wall time; their tests then wait for them and
 # assert on their output exactly as before.
@@ -74,8 +75,7 @@ def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
 MYPY_COMMAND = [sys.executable, "-m", "mypy", "ema_pipeline"]
 #: Worker threads of the background fuzz run (one: it shares the machine with the suite).
 FUZZ_WORKERS = 1
-_HARD_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
-_HARD_FAMILIES_KEY = pytest.StashKey[set[str]]()
+_BG_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path, set[str]]]()
 _MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
 _FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 
@@ -99,21 +99,38 @@ def _start_fuzz() -> tuple[subprocess.Popen[bytes], Path]:
     return proc, root
 
 
-def _start_hard(jobs: dict[str, tuple[int, ...]]) -> tuple[subprocess.Popen[bytes], Path]:
-    """``python tests/hard_job.py ROOT/hard.json FAMILY:SEEDS ...`` (hard cases
-    identified in the background; ``jobs`` is test_identification_hard.BACKGROUND)."""
-    root = Path(tempfile.mkdtemp(prefix="ema-hard-"))
+def _start_background(jobs: dict[str, tuple[int, ...]]) -> tuple[subprocess.Popen[bytes], Path]:
+    """``python tests/background_job.py ROOT/cases.json KIND:NAME:SEEDS ...``: the
+    cases ``jobs`` ("KIND:NAME" -> seeds) identified in the background."""
+    root = Path(tempfile.mkdtemp(prefix="ema-bg-"))
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
                PYTHONPATH=os.pathsep.join(
                    filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
-    specs = [f"{fam}:{','.join(str(s) for s in seeds)}" for fam, seeds in jobs.items()]
+    specs = [f"{key}:{','.join(str(s) for s in seeds)}" for key, seeds in jobs.items()]
     with open(root / "runner.log", "wb") as log:
         proc = subprocess.Popen(
-            [sys.executable, str(REPO / "tests" / "hard_job.py"), str(root / "hard.json"),
-             *specs],
+            [sys.executable, str(REPO / "tests" / "background_job.py"),
+             str(root / "cases.json"), *specs],
             cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
         )
     return proc, root
+
+
+def _background_needed(items: list[pytest.Item]) -> dict[str, tuple[int, ...]]:
+    """The entries of the test modules' ``BACKGROUND`` ("KIND:NAME" -> seeds) that
+    the selected tests using the ``background`` fixture may read: for a test
+    parametrized by ``family`` or ``configuration`` only that NAME's entry, else
+    all of its module's."""
+    needed: dict[str, tuple[int, ...]] = {}
+    for item in items:
+        if "background" not in getattr(item, "fixturenames", ()):
+            continue
+        jobs = getattr(getattr(item, "module", None), "BACKGROUND", {})
+        params = getattr(getattr(item, "callspec", None), "params", {})
+        name = params.get("family", params.get("configuration"))
+        needed.update({k: v for k, v in jobs.items()
+                       if name is None or k.split(":", 1)[1] == name})
+    return needed
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
@@ -124,27 +141,21 @@ def pytest_collection_finish(session: pytest.Session) -> None:
         session.config.stash[_MYPY_KEY] = _start_mypy()
     if any("fuzz" in getattr(item, "fixturenames", ()) for item in session.items):
         session.config.stash[_FUZZ_KEY] = _start_fuzz()
-    # the background hard cases, when a selected test may read them (a test of
-    # one family that the job does not run does not wait for it)
-    hard = [item for item in session.items
-            if "hard_background" in getattr(item, "fixturenames", ())
-            and getattr(getattr(item, "callspec", None), "params", {}).get(
-                "family", next(iter(item.module.BACKGROUND))) in item.module.BACKGROUND]
-    if hard:
-        session.config.stash[_HARD_KEY] = _start_hard(hard[0].module.BACKGROUND)
-        session.config.stash[_HARD_FAMILIES_KEY] = set(hard[0].module.BACKGROUND)
+    needed = _background_needed(session.items)
+    if needed:
+        session.config.stash[_BG_KEY] = (*_start_background(needed), set(needed))
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
     """Stop jobs the run did not wait for (stopped early); remove the fuzz folder."""
     mypy = config.stash.get(_MYPY_KEY, None)
     fuzz = config.stash.get(_FUZZ_KEY, None)
-    hard = config.stash.get(_HARD_KEY, None)
-    for proc in (mypy, fuzz[0] if fuzz else None, hard[0] if hard else None):
+    bg = config.stash.get(_BG_KEY, None)
+    for proc in (mypy, fuzz[0] if fuzz else None, bg[0] if bg else None):
         if proc is not None and proc.poll() is None:
             proc.kill()
             proc.wait()
-    for job in (fuzz, hard):
+    for job in (fuzz, bg):
         if job is not None:
             shutil.rmtree(job[1], ignore_errors=True)
 
@@ -175,32 +186,31 @@ def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
     return json.loads((root / "verdicts.json").read_text())
 
 
-class HardBackground:
-    """The hard cases identified by the background job (``tests/hard_job.py``):
-    :meth:`outputs` waits for the job only for a family that it runs."""
+class Background:
+    """The cases identified by the background job (``tests/background_job.py``):
+    :meth:`outputs` waits for the job only for a case that it runs."""
 
-    def __init__(self, job: tuple[subprocess.Popen[bytes], Path] | None,
-                 families: set[str]) -> None:
+    def __init__(self, job: tuple[subprocess.Popen[bytes], Path, set[str]] | None) -> None:
         self.job = job
-        self.families = families if job is not None else set()
         self.data: dict[str, list[dict]] | None = None
 
-    def outputs(self, family: str) -> list[dict]:
-        """[{"seed", "fn_hz", "zeta", "fn_std_hz", "zeta_std"}, ...] of ``family``
-        (empty when the job does not run it: the test identifies itself)."""
-        if family not in self.families or self.job is None:
-            return []
+    def outputs(self, key: str) -> dict[int, dict[str, np.ndarray]]:
+        """seed -> {"fn_hz", "zeta", "fn_std_hz", "zeta_std"} of ``key``
+        ("hard:FAMILY" or "paper:CONFIGURATION"); empty when the job does not
+        run it (the test then identifies the case itself)."""
+        if self.job is None or key not in self.job[2]:
+            return {}
         if self.data is None:
-            proc, root = self.job
+            proc, root, _ = self.job
             proc.wait()
             log = (root / "runner.log").read_text(errors="replace")
-            assert proc.returncode == 0, f"background hard-case run failed:\n{log[-3000:]}"
-            self.data = dict(json.loads((root / "hard.json").read_text()))
-        return list(self.data.get(family, []))
+            assert proc.returncode == 0, f"background identification failed:\n{log[-3000:]}"
+            self.data = dict(json.loads((root / "cases.json").read_text()))
+        return {d["seed"]: {k: np.asarray(v) for k, v in d.items() if k != "seed"}
+                for d in self.data.get(key, [])}
 
 
 @pytest.fixture(scope="session")
-def hard_background(request: pytest.FixtureRequest) -> HardBackground:
-    """The hard cases identified in the background (:class:`HardBackground`)."""
-    job = request.config.stash.get(_HARD_KEY, None)
-    return HardBackground(job, request.config.stash.get(_HARD_FAMILIES_KEY, set()))
+def background(request: pytest.FixtureRequest) -> Background:
+    """Cases identified in the background (:class:`Background`)."""
+    return Background(request.config.stash.get(_BG_KEY, None))

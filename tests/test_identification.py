@@ -11,7 +11,7 @@ import pytest
 
 matplotlib.use("Agg")
 
-from conftest import REPO  # noqa: E402
+from conftest import REPO, Background  # noqa: E402
 
 from ema_pipeline import io, paper  # noqa: E402
 from ema_pipeline.acquisition import (  # noqa: E402
@@ -305,21 +305,33 @@ def test_bad_settings_rejected(small_frf):
 
 
 # ------------------------------------------------------ simulated impact tests
+#: the paper's simulated impact tests of test_simulated_impact_tests_20_seeds,
+#: identified by ``tests/background_job.py`` on the second core (conftest.py)
+BACKGROUND = {f"paper:{c}": tuple(range(20)) for c in paper.CONFIGURATIONS}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("configuration", paper.CONFIGURATIONS)
-def test_simulated_impact_tests_20_seeds(configuration):
+def test_simulated_impact_tests_20_seeds(configuration, background: Background):
     """4 averages, 40 dB SNR, exponential window: accuracy, no spurious modes,
-    and standard deviations that hold the truth within 2 sigma."""
+    and standard deviations that hold the truth within 2 sigma (the cases
+    come from the background job where it ran, else are identified here)."""
     truth = paper_modes(configuration)
+    done = background.outputs(f"paper:{configuration}")
     inside = []
     for seed in range(20):
-        frf = simulate_paper_test(configuration, seed=seed)
-        res = identify(frf)
-        assert res.modes.n_modes == 4, (seed, res.fn_hz)
-        np.testing.assert_allclose(res.fn_hz, truth.fn_hz[:4], rtol=5e-4)  # 0.05 %
-        np.testing.assert_allclose(res.zeta, truth.zeta[:4], rtol=5e-2)  # 5 %
-        inside.append(np.abs(res.fn_hz - truth.fn_hz[:4]) < 2 * res.modes.fn_std_hz)
-        inside.append(np.abs(res.zeta - truth.zeta[:4]) < 2 * res.modes.zeta_std)
+        if seed in done:
+            out = done[seed]
+        else:
+            m = identify(simulate_paper_test(configuration, seed=seed)).modes
+            out = {"fn_hz": m.fn_hz, "zeta": m.zeta, "fn_std_hz": m.fn_std_hz,
+                   "zeta_std": m.zeta_std}
+        fn, zeta = out["fn_hz"], out["zeta"]
+        assert fn.size == 4, (seed, fn)
+        np.testing.assert_allclose(fn, truth.fn_hz[:4], rtol=5e-4)  # 0.05 %
+        np.testing.assert_allclose(zeta, truth.zeta[:4], rtol=5e-2)  # 5 %
+        inside.append(np.abs(fn - truth.fn_hz[:4]) < 2 * out["fn_std_hz"])
+        inside.append(np.abs(zeta - truth.zeta[:4]) < 2 * out["zeta_std"])
     assert np.mean(inside) >= 0.8
 
 
