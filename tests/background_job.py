@@ -1,8 +1,12 @@
 """Identify test cases in a child process (a background job of the test run).
 
-``python tests/background_job.py OUT.json KIND:NAME:SEED,SEED ...`` writes
-{"KIND:NAME": [{"seed", "fn_hz", "zeta", "fn_std_hz", "zeta_std"}, ...]}
-to OUT.json, through a temporary file and a rename. KIND is ``hard`` (a family
+``python tests/background_job.py OUT_DIR KIND:NAME:SEED,SEED ...`` writes,
+case by case in the order given, [{"seed", "fn_hz", "zeta", "fn_std_hz",
+"zeta_std"}, ...] to OUT_DIR/KIND_NAME.json, each through a temporary file
+and a rename (a test waits only for its own). Before a case it claims it
+(:func:`claim`, an atomic ``mkdir``); a case that the test process claimed
+first, because it needed it before the job got to it, is skipped, so that
+neither process waits for work the other has not started. KIND is ``hard`` (a family
 of ``tests/hardcases.py``, identified as ``test_identification_hard.identify_case``
 does) or ``paper`` (a configuration of the paper's simulated impact test,
 ``pipeline.simulate.simulate_paper_test``, identified at the defaults).
@@ -40,19 +44,33 @@ def identify_one(kind: str, name: str, seed: int) -> dict[str, np.ndarray]:
     raise ValueError(f"unknown kind {kind!r} (hard or paper)")
 
 
+def output_path(out_dir: Path, key: str) -> Path:
+    """Where the outputs of ``key`` ("KIND:NAME") go."""
+    return out_dir / (key.replace(":", "_") + ".json")
+
+
+def claim(out_dir: Path, key: str) -> bool:
+    """True when this process is the first to claim ``key`` (it then computes it)."""
+    try:
+        os.mkdir(out_dir / ("claim_" + key.replace(":", "_")))
+    except FileExistsError:
+        return False
+    return True
+
+
 def main(argv: list[str]) -> int:
-    out = Path(argv[0])
-    result: dict[str, list[dict]] = {}
+    out_dir = Path(argv[0])
     for spec in argv[1:]:
         kind, name, seeds = spec.split(":")
-        result[f"{kind}:{name}"] = [
-            {"seed": seed, **{k: np.asarray(v).tolist() for k, v in
-                              identify_one(kind, name, seed).items()}}
-            for seed in (int(s) for s in seeds.split(","))
-        ]
-    tmp = out.with_suffix(".tmp")
-    tmp.write_text(json.dumps(result))
-    os.replace(tmp, out)
+        if not claim(out_dir, f"{kind}:{name}"):
+            continue
+        rows = [{"seed": seed, **{k: np.asarray(v).tolist() for k, v in
+                                  identify_one(kind, name, seed).items()}}
+                for seed in (int(s) for s in seeds.split(","))]
+        path = output_path(out_dir, f"{kind}:{name}")
+        tmp = path.with_suffix(".tmp")
+        tmp.write_text(json.dumps(rows))
+        os.replace(tmp, path)
     return 0
 
 

@@ -2,20 +2,32 @@
 
 from __future__ import annotations
 
-import importlib.util
-import json
 import os
-import shutil
-import subprocess
-import sys
-import tempfile
-from pathlib import Path
 
-import numpy as np
-import pytest
-import tqdm
+# One BLAS thread per process: the suite runs its background jobs (below) and
+# the batch tests' workers beside the test process on 2 cores, and BLAS threads
+# on top of them oversubscribe the machine (the measured beam's test took 25 s
+# instead of 10). It takes effect for the child processes, and for this one
+# when numpy is not yet imported (a plugin such as hypothesis may import it
+# first); a value given by the caller wins.
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
 
-from ema_pipeline.cli import main
+import importlib.util  # noqa: E402
+import json  # noqa: E402
+import shutil  # noqa: E402
+import subprocess  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pytest  # noqa: E402
+import tqdm  # noqa: E402
+from background_job import claim, output_path  # noqa: E402
+
+from ema_pipeline.cli import main  # noqa: E402
 
 # tqdm starts a monitor thread with its first bar, even a disabled one (batch
 # --quiet), and keeps it for the life of the process. Any second thread makes
@@ -100,8 +112,9 @@ def _start_fuzz() -> tuple[subprocess.Popen[bytes], Path]:
 
 
 def _start_background(jobs: dict[str, tuple[int, ...]]) -> tuple[subprocess.Popen[bytes], Path]:
-    """``python tests/background_job.py ROOT/cases.json KIND:NAME:SEEDS ...``: the
-    cases ``jobs`` ("KIND:NAME" -> seeds) identified in the background."""
+    """``python tests/background_job.py ROOT KIND:NAME:SEEDS ...``: the cases
+    ``jobs`` ("KIND:NAME" -> seeds, in the order the tests read them)
+    identified in the background, one file per key in ROOT."""
     root = Path(tempfile.mkdtemp(prefix="ema-bg-"))
     env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
                PYTHONPATH=os.pathsep.join(
@@ -109,8 +122,7 @@ def _start_background(jobs: dict[str, tuple[int, ...]]) -> tuple[subprocess.Pope
     specs = [f"{key}:{','.join(str(s) for s in seeds)}" for key, seeds in jobs.items()]
     with open(root / "runner.log", "wb") as log:
         proc = subprocess.Popen(
-            [sys.executable, str(REPO / "tests" / "background_job.py"),
-             str(root / "cases.json"), *specs],
+            [sys.executable, str(REPO / "tests" / "background_job.py"), str(root), *specs],
             cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
         )
     return proc, root
@@ -188,11 +200,12 @@ def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
 
 class Background:
     """The cases identified by the background job (``tests/background_job.py``):
-    :meth:`outputs` waits for the job only for a case that it runs."""
+    :meth:`outputs` reads the job's file of a case, waits for it while the job
+    is computing it, and takes the case over (empty result: the test
+    identifies it) when the job has not started it yet."""
 
     def __init__(self, job: tuple[subprocess.Popen[bytes], Path, set[str]] | None) -> None:
         self.job = job
-        self.data: dict[str, list[dict]] | None = None
 
     def outputs(self, key: str) -> dict[int, dict[str, np.ndarray]]:
         """seed -> {"fn_hz", "zeta", "fn_std_hz", "zeta_std"} of ``key``
@@ -200,14 +213,17 @@ class Background:
         run it (the test then identifies the case itself)."""
         if self.job is None or key not in self.job[2]:
             return {}
-        if self.data is None:
-            proc, root, _ = self.job
-            proc.wait()
+        proc, root, _ = self.job
+        path = output_path(root, key)
+        if not path.exists() and claim(root, key):
+            return {}
+        while not path.exists() and proc.poll() is None:
+            time.sleep(0.1)
+        if not path.exists():
             log = (root / "runner.log").read_text(errors="replace")
-            assert proc.returncode == 0, f"background identification failed:\n{log[-3000:]}"
-            self.data = dict(json.loads((root / "cases.json").read_text()))
+            raise AssertionError(f"background identification failed ({key}):\n{log[-3000:]}")
         return {d["seed"]: {k: np.asarray(v) for k, v in d.items() if k != "seed"}
-                for d in self.data.get(key, [])}
+                for d in json.loads(path.read_text())}
 
 
 @pytest.fixture(scope="session")
