@@ -83,6 +83,7 @@ from ema_pipeline.identification.residual_search import residual_peaks
 from ema_pipeline.identification.resources import order_cap
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
 from ema_pipeline.identification.selection import (
+    MAX_ZETA,
     SelectedPoles,
     link_fragments,
     merge_coincident,
@@ -166,7 +167,7 @@ def young_trajectories(
     ok = (
         (n_of >= 3)
         & ~np.isin(traj[last], selected.cluster)
-        & (zeta > 0) & (zeta < 0.2)
+        & (zeta > 0) & (zeta < MAX_ZETA)
         & (fn > lo + 0.005 * (hi - lo)) & (fn < hi - 0.02 * (hi - lo))
     )
     return np.asarray(poles.pole[last[ok]])

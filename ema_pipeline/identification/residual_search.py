@@ -37,6 +37,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from ema_pipeline.identification.lsfd import lsfd
+from ema_pipeline.identification.selection import MAX_ZETA
 
 #: A residual peak is a candidate when its squared residual (mean over the
 #: channels of each channel's |e|^2 over its median, over 3 lines) exceeds
@@ -166,7 +167,7 @@ def residual_peaks(
             lam = peak_pole(freq_hz[sl], R[:, sl])
             j = int(np.argmin(np.abs(freq_hz - lam.imag / (2 * np.pi))))
             inner = freq_hz[0] < lam.imag / (2 * np.pi) < freq_hz[-1] and not edge[j]
-            if not (lam.real < 0 and -lam.real < 0.2 * abs(lam) and inner):
+            if not (is_physical(lam) and inner):
                 continue
         else:
             if any(skip[j] and raw[j] > ratio[k] / 2 for j in ends) or any(
@@ -187,7 +188,7 @@ def residual_peaks(
             sl = slice(max(0, lo - width - 3), min(n, hi + width + 4))
             lam = peak_pole(freq_hz[sl], R[:, sl])
             inside = freq_hz[lo] <= lam.imag / (2 * np.pi) <= freq_hz[hi]
-            if not (lam.real < 0 and inside and -lam.real < 0.2 * abs(lam)):
+            if not (is_physical(lam) and inside):
                 lam = 2 * np.pi * freq_hz[k] * (-width * df / (2 * freq_hz[k]) + 1j)
         # a half-power band of at least 2 lines (narrower is not resolved)
         start = np.append(start, complex(min(lam.real, -2 * np.pi * df), lam.imag))
@@ -195,6 +196,18 @@ def residual_peaks(
         R = None
     order = np.argsort(start.imag)
     return start[order], from_edge[order]
+
+
+def is_physical(lam: complex) -> bool:
+    """True for a decaying pole with a damping ratio below
+    :data:`~ema_pipeline.identification.selection.MAX_ZETA`.
+
+    Examples
+    --------
+    >>> is_physical(-1.0 + 100j), is_physical(1.0 + 100j), is_physical(-50.0 + 100j)
+    (True, False, False)
+    """
+    return bool(lam.real < 0 and -lam.real < MAX_ZETA * abs(lam))
 
 
 def peak_region(ratio: np.ndarray, k: int) -> tuple[int, int]:

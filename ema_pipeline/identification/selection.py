@@ -25,6 +25,11 @@ from ema_pipeline.data import DataError
 from ema_pipeline.identification.plscf import PoleSet
 from ema_pipeline.identification.stabilization import pole_to_modal
 
+#: A pole with a damping ratio at or above this is not a physical mode of the
+#: structures this tool is for (the selection, the search's young
+#: trajectories and the residual check's start poles all use it).
+MAX_ZETA = 0.2
+
 
 @dataclass(frozen=True)
 class SelectedPoles:
@@ -181,7 +186,7 @@ def link_fragments(
     fn_all, _, z_all = pole_to_modal(poles.pole, window_decay_rate)
     fn, zs = _group_median(fn_all, inv, counts), _group_median(z_all, inv, counts)
     short = counts < max(min_members, int(np.ceil(min_fraction * poles.orders.size)))
-    cand = np.flatnonzero((counts >= 2) & short & (zs >= min_zeta) & (zs < 0.2))
+    cand = np.flatnonzero((counts >= 2) & short & (zs >= min_zeta) & (zs < MAX_ZETA))
     if cand.size < 2:
         return traj
     a, b = cand[:, None], cand[None, :]
@@ -226,7 +231,7 @@ def select_trajectories(
     min_fraction: float = 0.1,
     min_members: int = 6,
     edge: tuple[float, float] = (0.005, 0.02),
-    zeta_max: float = 0.2,
+    zeta_max: float = MAX_ZETA,
     max_scatter: float = 0.15,
 ) -> SelectedPoles:
     """The trajectories that are physical modes, ascending frequency.
