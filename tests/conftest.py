@@ -20,6 +20,7 @@ import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -97,35 +98,39 @@ def _start_mypy() -> subprocess.Popen[str]:
                             stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)
 
 
-def _start_fuzz() -> tuple[subprocess.Popen[bytes], Path]:
-    """``python tests/fuzz_cases.py --save ROOT``: corpus and verdicts in a fresh ROOT."""
-    root = Path(tempfile.mkdtemp(prefix="ema-fuzz-"))
+def _start_script(prefix: str, script: str,
+                  args: Callable[[Path], list[str]]) -> tuple[subprocess.Popen[bytes], Path]:
+    """``python tests/SCRIPT ARGS`` in a child process with the repository on
+    its path, output to ROOT/runner.log, ROOT a fresh folder (``args(ROOT)``)."""
+    root = Path(tempfile.mkdtemp(prefix=prefix))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
     with open(root / "runner.log", "wb") as log:
         proc = subprocess.Popen(
-            [sys.executable, str(REPO / "tests" / "fuzz_cases.py"), "--save", str(root),
-             str(FUZZ_WORKERS)],
+            [sys.executable, str(REPO / "tests" / script), *args(root)],
             cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
         )
     return proc, root
+
+
+def _log_tail(root: Path) -> str:
+    """The end of a background job's runner.log (for a failure message)."""
+    return (root / "runner.log").read_text(errors="replace")[-3000:]
+
+
+def _start_fuzz() -> tuple[subprocess.Popen[bytes], Path]:
+    """``python tests/fuzz_cases.py --save ROOT``: corpus and verdicts in a fresh ROOT."""
+    return _start_script("ema-fuzz-", "fuzz_cases.py",
+                         lambda root: ["--save", str(root), str(FUZZ_WORKERS)])
 
 
 def _start_background(jobs: dict[str, tuple[int, ...]]) -> tuple[subprocess.Popen[bytes], Path]:
     """``python tests/background_job.py ROOT KIND:NAME:SEEDS ...``: the cases
     ``jobs`` ("KIND:NAME" -> seeds, in the order the tests read them)
-    identified in the background, one file per key in ROOT."""
-    root = Path(tempfile.mkdtemp(prefix="ema-bg-"))
-    env = dict(os.environ, OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
-               PYTHONPATH=os.pathsep.join(
-                   filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    identified in the background, one file per key in ROOT (one BLAS thread,
+    as set at the top of this file)."""
     specs = [f"{key}:{','.join(str(s) for s in seeds)}" for key, seeds in jobs.items()]
-    with open(root / "runner.log", "wb") as log:
-        proc = subprocess.Popen(
-            [sys.executable, str(REPO / "tests" / "background_job.py"), str(root), *specs],
-            cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
-        )
-    return proc, root
+    return _start_script("ema-bg-", "background_job.py", lambda root: [str(root), *specs])
 
 
 def _background_needed(items: list[pytest.Item]) -> dict[str, tuple[int, ...]]:
@@ -193,8 +198,7 @@ def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
         job = request.config.stash[_FUZZ_KEY] = _start_fuzz()
     proc, root = job
     proc.wait()
-    log = (root / "runner.log").read_text(errors="replace")
-    assert proc.returncode == 0, f"fuzz corpus run failed:\n{log[-3000:]}"
+    assert proc.returncode == 0, f"fuzz corpus run failed:\n{_log_tail(root)}"
     return json.loads((root / "verdicts.json").read_text())
 
 
@@ -220,8 +224,7 @@ class Background:
         while not path.exists() and proc.poll() is None:
             time.sleep(0.1)
         if not path.exists():
-            log = (root / "runner.log").read_text(errors="replace")
-            raise AssertionError(f"background identification failed ({key}):\n{log[-3000:]}")
+            raise AssertionError(f"background identification failed ({key}):\n{_log_tail(root)}")
         return {d["seed"]: {k: np.asarray(v) for k, v in d.items() if k != "seed"}
                 for d in json.loads(path.read_text())}
 

@@ -78,7 +78,9 @@ class HardCase:
 
 
 # --------------------------------------------------------------------------- building blocks
-def _poles(fn_hz: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+def modal_poles(fn_hz: np.ndarray, zeta: np.ndarray) -> np.ndarray:
+    """Poles (rad/s, Im > 0) of modes with natural frequencies ``fn_hz`` and
+    damping ratios ``zeta``."""
     wn = 2 * np.pi * fn_hz
     return -zeta * wn + 1j * wn * np.sqrt(1 - zeta**2)
 
@@ -252,7 +254,7 @@ def _freq_case(family: str, seed: int, rng: np.random.Generator) -> HardCase:
     f_all = np.concatenate([fn, f_above])
     z_all = np.concatenate([zeta, np.full(n_above, 0.01)])
     n_modes = f_all.size
-    pole = _poles(f_all, z_all)
+    pole = modal_poles(f_all, z_all)
     if roving:
         n_pts = n_in + 1
         out, ref = np.array([n_pts - 1]), np.arange(n_in)
@@ -318,7 +320,7 @@ def _impact_case(seed: int, rng: np.random.Generator) -> HardCase:
     n = int(rng.integers(4, 11))
     fn = _spaced_log(rng, n, 12.0, 780.0, 1.08, 2.5)
     zeta = np.exp(u(np.log(0.002), np.log(0.02), n))
-    pole = _poles(fn, zeta)
+    pole = modal_poles(fn, zeta)
     n_pts = n_out + 1
     out, ref = np.arange(n_out), np.array([n_out])
     phi = _observable(_shapes(rng, n_pts, n, str(rng.choice(["random", "beam"]))), ref, rng)

@@ -11,6 +11,7 @@ import pytest
 
 matplotlib.use("Agg")
 
+from background_job import identify_one  # noqa: E402
 from conftest import REPO, Background  # noqa: E402
 
 from ema_pipeline import io, paper  # noqa: E402
@@ -320,12 +321,7 @@ def test_simulated_impact_tests_20_seeds(configuration, background: Background):
     done = background.outputs(f"paper:{configuration}")
     inside = []
     for seed in range(20):
-        if seed in done:
-            out = done[seed]
-        else:
-            m = identify(simulate_paper_test(configuration, seed=seed)).modes
-            out = {"fn_hz": m.fn_hz, "zeta": m.zeta, "fn_std_hz": m.fn_std_hz,
-                   "zeta_std": m.zeta_std}
+        out = done[seed] if seed in done else identify_one("paper", configuration, seed)
         fn, zeta = out["fn_hz"], out["zeta"]
         assert fn.size == 4, (seed, fn)
         np.testing.assert_allclose(fn, truth.fn_hz[:4], rtol=5e-4)  # 0.05 %

@@ -27,7 +27,7 @@ def _modes(rng: np.random.Generator, f: np.ndarray, fn: np.ndarray, zeta: np.nda
            n_ch: int, snr_db: float) -> tuple[np.ndarray, np.ndarray]:
     """Accelerance of real modes with random shapes plus circular noise
     ``snr_db`` below each channel's RMS; the poles (rad/s)."""
-    lam = -zeta * 2 * np.pi * fn + 2j * np.pi * fn * np.sqrt(1 - zeta**2)
+    lam = hardcases.modal_poles(fn, zeta)
     jw = 2j * np.pi * f[:, None]
     H = rng.standard_normal((n_ch, fn.size)) @ (jw**2 * (1 / (jw - lam)
                                                         + 1 / (jw - lam.conj()))).T
