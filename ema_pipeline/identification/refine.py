@@ -185,13 +185,14 @@ def _vp_solve(
     # leverage, that of the linear terms plus that of the poles
     lev = np.sum(Qm**2, axis=1)[:, None] + np.einsum("kjc,ji,kic->kc", Jp, Finv, Jp)
     df = freq_hz[1] - freq_hz[0]
-    if window_tau_s is not None and window_tau_s > 0:
-        # the exponential window correlates the additive noise over about
-        # 1/(pi tau df) lines, as wide as a resonance that the window
-        # dominates: the fit takes up more of it than lev says. The part
-        # proportional to |H| (with a force window) keeps lev.
-        lev_w = correlated_leverage(Qm, Jp, Finv,
-                                    exponential_window_correlation(window_tau_s * df, n))
+    # the exponential window's correlation of the additive noise, when known
+    rho_w = (exponential_window_correlation(window_tau_s * df, n)
+             if window_tau_s is not None and window_tau_s > 0 else None)
+    if rho_w is not None:
+        # it spans about 1/(pi tau df) lines, as wide as a resonance that the
+        # window dominates: the fit takes up more of that noise than lev
+        # says. The part proportional to |H| (with a force window) keeps lev.
+        lev_w = correlated_leverage(Qm, Jp, Finv, rho_w)
         if force_window_s:
             _, frac_b = noise_model(Rw / u[:, None], Y, n_lin, with_fraction=True, leverage=lev)
             beta = np.concatenate([frac_b, frac_b], axis=0)
@@ -204,14 +205,13 @@ def _vp_solve(
     # the ratio w of the modelled std to that approximation as its std
     w = (std[:n] * np.sqrt(inv_s2)[None, :] * u[:n, None]).astype(float)
     Jc = (Jp[:n] + 1j * Jp[n:]) * w[:, None, :]  # (n, 2m, n_ch)
-    if window_tau_s is not None and window_tau_s > 0:
+    if rho_w is not None:
         # the windows' own correlation, in full (an estimate from the residual
         # is truncated and tapered): the additive part of the noise is that of
         # the exponential window; the part proportional to |H| (force noise,
         # dH = -H dF/F) that of the force window
-        rho = exponential_window_correlation(window_tau_s * df, n)
         beta = frac_b if force_window_s else np.zeros_like(frac_b)
-        G = correlated_information(Jc * np.sqrt(1 - beta)[:, None, :], rho)
+        G = correlated_information(Jc * np.sqrt(1 - beta)[:, None, :], rho_w)
         if force_window_s:
             Hm = Y - Rw / sq[None, :] / u[:, None]  # the fitted model
             h = Hm[:n] + 1j * Hm[n:]
