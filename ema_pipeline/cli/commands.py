@@ -1,0 +1,325 @@
+"""The subcommands' handlers: each takes the parsed options, checks what argparse
+cannot, calls :mod:`ema_pipeline.pipeline` (and ``acquisition``, ``io``) and prints.
+
+A handler returns an exit status of :mod:`ema_pipeline.cli.support`; bad input
+or settings raise :class:`~ema_pipeline.data.EMAError`, which
+:func:`ema_pipeline.cli.main` reports on one line. The library is imported inside
+the handlers, so that ``--help`` and usage errors stay fast.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from ema_pipeline.cli.support import EXIT_INPUT, EXIT_OK, EXIT_RUNTIME, EXIT_USAGE
+from ema_pipeline.data import ConfigError, DataError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import numpy as np
+
+    from ema_pipeline.acquisition import TestSetup
+    from ema_pipeline.data import Experiment, ModalParameters
+    from ema_pipeline.identification.options import IdentificationOptions
+
+__all__ = ["cmd_batch", "cmd_fe", "cmd_identify", "cmd_run", "cmd_simulate"]
+
+
+def cmd_simulate(args: argparse.Namespace) -> int:
+    """``simulate``: one simulated impact test of the paper's cantilever, written as FRFs."""
+    from ema_pipeline import acquisition, paper
+    from ema_pipeline.pipeline.simulate import paper_modes
+
+    if args.added_mass is not None:
+        return _simulate_added_mass(args)
+    setup = acquisition.TestSetup()
+    if args.experiment is not None:
+        raise ConfigError("--experiment goes with --added-mass (the experiment's FE beam)")
+    args.configuration = args.configuration or "genuine"
+    if args.fd_hz is None and args.configuration not in paper.CONFIGURATIONS:
+        raise ConfigError(
+            f"no Table 1 values for configuration {args.configuration!r} (known: "
+            f"{', '.join(paper.CONFIGURATIONS)}); give --fd-hz and --zeta-pct for others"
+        )
+    if (args.fd_hz is None) != (args.zeta_pct is None) or (
+        args.fd_hz is not None and len(args.fd_hz) != len(args.zeta_pct)
+    ):
+        raise ConfigError("--fd-hz and --zeta-pct go together, with one value per mode each")
+    if args.fd_hz is None:
+        modes = paper_modes(args.configuration, setup)
+    else:
+        modes = acquisition.configuration_modes(
+            args.configuration,
+            fd_hz=args.fd_hz,
+            zeta=[z / 100 for z in args.zeta_pct],
+            n_modes_total=setup.n_modes_total,
+            high_mode_zeta=setup.high_mode_zeta,
+        )
+    _simulate_and_write(args, modes, setup)
+    return EXIT_OK
+
+
+def _simulate_format(out: Path, fmt: str | None, binary: bool) -> str:
+    """The format ``simulate`` writes: ``--format`` or the suffix of ``--out``; a
+    contradiction between them (or ``--binary`` with HDF5) is a usage error."""
+    from ema_pipeline import io
+
+    try:
+        by_suffix = io.frf_format_for_writing(out)
+    except DataError:
+        by_suffix = None
+    if fmt is None and by_suffix is None:
+        raise ConfigError(f"{out}: cannot tell the format from the suffix; use .uff or .h5, "
+                          "or give --format")
+    if fmt is not None and by_suffix is not None and fmt != by_suffix:
+        raise ConfigError(f"--format {fmt} contradicts the suffix of {out} ({by_suffix})")
+    chosen = fmt or by_suffix
+    if binary and chosen != "uff":
+        raise ConfigError("--binary is for UFF output, not HDF5")
+    return "uff-binary" if binary else str(chosen)
+
+
+def _simulate_and_write(
+    args: argparse.Namespace,
+    modes: ModalParameters,
+    setup: TestSetup,
+    shapes: tuple[np.ndarray, np.ndarray] | None = None,
+) -> None:
+    """Simulate the test of ``modes`` (time records, then H1 FRFs) with the noise
+    and seed of the options, and write what ``simulate`` was asked to."""
+    from ema_pipeline import acquisition, io
+
+    snr = None if args.snr_db is not None and args.snr_db <= 0 else args.snr_db
+    records = acquisition.simulate_time_records(
+        modes, setup, snr_db=snr, seed=args.seed, configuration=args.configuration,
+        shapes=shapes,
+    )
+    frf = acquisition.estimate_frf(
+        records, force_window_s=setup.force_window_s, exp_window_tau_s=setup.exp_window_tau_s
+    )
+    fmt = _simulate_format(args.out, args.format, args.binary)
+    io.write_frf(frf, args.out, fmt, coherence=args.coherence)
+    if args.time_records:
+        io.write_time_uff(records, args.time_records, binary=args.binary)
+    if not args.quiet:
+        print(
+            f"wrote {args.out}: {args.configuration}, {frf.n_out} FRFs x {frf.freq_hz.size} lines, "
+            f"df = {frf.df_hz:.7g} Hz, {records.n_averages} averages, seed {args.seed}, "
+            f"SNR {'none' if snr is None else f'{snr:g} dB'}"
+        )
+
+
+def _simulate_added_mass(args: argparse.Namespace) -> int:
+    """``simulate --added-mass``: the experiment's FE beam with extra mass (frequencies
+    and shapes from the FE model), damping from --zeta-pct or Table 1's genuine."""
+    from ema_pipeline.added_mass import parse_element_fractions
+    from ema_pipeline.pipeline.simulate import added_mass_modes, experiment_setup
+
+    if args.fd_hz is not None:
+        raise ConfigError("--added-mass takes its frequencies from the FE beam; drop --fd-hz")
+    text = args.added_mass.strip()
+    added = {} if text.lower() in ("", "none") else parse_element_fractions(text)
+    setup = experiment_setup(_experiment_or_default(args.experiment))
+    args.configuration = args.configuration or ("genuine" if not added else "added_mass")
+    zeta = None if args.zeta_pct is None else [z / 100 for z in args.zeta_pct]
+    modes, shapes = added_mass_modes(added, setup, zeta=zeta, configuration=args.configuration)
+    _simulate_and_write(args, modes, setup, shapes)
+    if not args.quiet:
+        freqs = ", ".join(f"{f:.3f}" for f in modes.fn_hz[:4])
+        print(f"FE beam with added mass {added or 'none'}: fn = {freqs}, ... Hz")
+    return EXIT_OK
+
+
+def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
+    """The ``identify`` / ``batch`` arguments as one options object."""
+    import math
+
+    from ema_pipeline.identification.options import IdentificationOptions
+
+    if args.band is not None and not (
+        all(math.isfinite(b) for b in args.band) and 0 <= args.band[0] < args.band[1]
+    ):
+        raise ConfigError(f"--band needs finite 0 <= LO_HZ < HI_HZ, got {args.band[0]} "
+                          f"{args.band[1]}")
+    if args.expect is not None and not all(math.isfinite(f) and f > 0 for f in args.expect):
+        raise ConfigError(f"--expect needs positive frequencies in Hz, got {list(args.expect)}")
+    _memory_limit(args)
+    if args.max_order is not None and args.max_order < 2:
+        raise ConfigError(f"--max-order must be at least 2, got {args.max_order}")
+    tau = args.exp_window_tau
+    if tau is not None and not 0 < tau < float("inf"):
+        raise ConfigError(f"--exp-window-tau needs the exponential window's time constant in "
+                          f"seconds, finite and > 0; got {tau:g}")
+    return IdentificationOptions(
+        band_hz=None if args.band is None else (args.band[0], args.band[1]),
+        max_order=args.max_order,
+        method=args.method,
+        expect_hz=tuple(args.expect or ()),
+        exp_window_tau_s=args.exp_window_tau,
+    )
+
+
+def cmd_identify(args: argparse.Namespace) -> int:
+    """``identify``: modal parameters of each FRF file, one after the other."""
+    from ema_pipeline.pipeline.single import identify_file
+
+    options = _identify_options(args)
+    failed = runtime = 0
+    for path in args.files:
+        outcome = identify_file(path, args.out, options, keep=args.report, uff=args.uff)
+        if outcome.status == "failed":
+            failed += 1
+            runtime += outcome.runtime
+            print(f"ema-pipeline identify: error: {outcome.reason}", file=sys.stderr)
+            continue
+        for warning in outcome.warnings:  # shown even with --quiet
+            print(f"ema-pipeline identify: warning: {warning}", file=sys.stderr)
+        page = None
+        if args.report:
+            from ema_pipeline.pipeline.reports import write_identify_report
+
+            page = write_identify_report(outcome, args.out, options, figures=not args.no_figures)
+        if not args.quiet:
+            freqs = ", ".join(f"{f:.3f}" for f in outcome.fn_hz)
+            print(
+                f"{path}: {outcome.n_modes} modes [{freqs}] Hz -> {outcome.modes_csv} "
+                + (f"and {page} " if page else "")
+                + f"({outcome.seconds:.1f} s)"
+            )
+    return EXIT_RUNTIME if runtime else EXIT_USAGE if failed else EXIT_OK
+
+
+def _memory_limit(args: argparse.Namespace) -> None:
+    """``--memory-limit-gb``: checked, and passed on (also to batch workers) as
+    ``$EMA_MEMORY_LIMIT_GB``."""
+    from ema_pipeline.identification.resources import MEMORY_LIMIT_ENV, memory_limit_bytes
+
+    limit = getattr(args, "memory_limit_gb", None)
+    memory_limit_bytes(limit)  # refuse a bad value (or a bad environment variable) now
+    if limit is not None:
+        os.environ[MEMORY_LIMIT_ENV] = repr(float(limit))
+
+
+def cmd_batch(args: argparse.Namespace) -> int:
+    """``batch``: every FRF file under a folder, in parallel and resumable."""
+    from ema_pipeline.pipeline.batch import run_batch
+
+    options = _identify_options(args)
+    if args.workers is not None and args.workers < 1:
+        raise ConfigError(f"--workers must be at least 1, got {args.workers}")
+    report = run_batch(
+        args.folder,
+        args.out,
+        options=options,
+        workers=args.workers,
+        scheduler=args.scheduler,
+        force=args.force,
+        progress=not args.quiet,
+        uff=args.uff,
+    )
+    print(report.summary_line(), file=sys.stderr if report.n_failed else sys.stdout)
+    if args.report:
+        from ema_pipeline.pipeline.reports import write_batch_report
+
+        page = write_batch_report(
+            report.out, report.folder, options, seconds=report.seconds,
+            interrupted=report.interrupted, figures=not args.no_figures,
+        )
+        if not args.quiet:
+            print(f"report: {page}")
+    return EXIT_INPUT if report.n_failed else EXIT_OK
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """``run``: the whole study of an experiment file, Tables 1-6 and the report."""
+    import json
+
+    from ema_pipeline.pipeline import study
+
+    experiment_path = args.experiment or args.raw / "experiment.toml"
+    _memory_limit(args)
+    experiment = study.load_experiment(experiment_path)
+    frfs = study.prepare_study(experiment, experiment_path)  # every input checked: exit 2
+
+    def say(message: str) -> None:
+        if not args.quiet and not args.json:
+            print(message, file=sys.stderr, flush=True)
+
+    result = study.run_study(experiment, progress=say, progress_bars=not (args.quiet or args.json),
+                             frfs=frfs)
+    if not result.ok and Path(args.results).exists():
+        for problem in result.problems:
+            print(f"ema-pipeline run: {problem}", file=sys.stderr)
+        print(f"ema-pipeline run: error: the study has problems; the earlier results in "
+              f"{args.results} are kept unchanged (use a new --results folder to see the "
+              "incomplete ones)", file=sys.stderr)
+        return EXIT_RUNTIME
+    study.write_study(
+        result, args.results, say, figures=not args.no_figures, experiment_file=experiment_path,
+        uff=args.uff,
+    )
+    if args.json:
+        payload = study.summary(result)
+        payload["results"] = str(args.results)
+        print(json.dumps(payload, indent=2))
+    elif not args.quiet:
+        print(study.summary_text(result, args.results))
+    elif result.problems:
+        for problem in result.problems:
+            print(f"ema-pipeline run: {problem}", file=sys.stderr)
+    return EXIT_OK if result.ok else EXIT_INPUT
+
+
+def cmd_fe(args: argparse.Namespace) -> int:
+    """``fe``: Tables 2-6 from a measured modal table in the Table 1 form."""
+    import numpy as np
+
+    from ema_pipeline import added_mass, io
+    from ema_pipeline.data import Beam
+    from ema_pipeline.pipeline import fe_stage
+
+    experiment = _experiment_or_default(args.experiment)
+    table = io.read_csv(args.table1, required=("configuration", "mode", "fd_hz", "zeta_pct"))
+    genuine = experiment.genuine_name if experiment else "genuine"
+    measured = added_mass.modal_parameters_from_table(
+        table, genuine=genuine, source=str(args.table1)
+    )
+    stds = [m.fn_std_hz for m in measured.values()]
+    has_std = "fn_std_hz" in table.columns and all(np.all(np.isfinite(s)) for s in stds)
+    stage = fe_stage.run_fe_stage(
+        experiment.beam if experiment else Beam(),
+        measured,
+        genuine=genuine,
+        immersed_elements=experiment.immersed_elements if experiment else (10,),
+        n_repeats=experiment.update_repeats if experiment else 5,
+        seed=experiment.seed if experiment else 0,
+        progress=not args.quiet,
+    )
+    for name, frame in fe_stage.fe_stage_tables(stage).items():
+        path = io.write_csv(frame, args.out / f"{name}.csv")
+        if not args.quiet:
+            print(f"wrote {path}")
+    if not args.quiet:
+        print(
+            "note: Table 6 delta_m_std (method exact) is the frequencies' fn_std_hz propagated "
+            "through the fit" if has_std else f"note: {args.table1} has no (complete) fn_std_hz "
+            "column: Table 6 delta_m_std (method exact) is the misfit std, from the fit residual "
+            "(delta_m_std_source)"
+        )
+        for message in stage.messages:
+            print(f"note: {message}")
+    return EXIT_OK
+
+
+def _experiment_or_default(path: Path | None) -> Experiment | None:
+    """The experiment of ``--experiment``, else of ``raw_frf/experiment.toml`` if that
+    file exists, else ``None`` (the paper's beam)."""
+    from ema_pipeline.pipeline import study
+
+    if path is None:
+        default = Path("raw_frf") / "experiment.toml"
+        path = default if default.is_file() else None
+    return None if path is None else study.load_experiment(path)

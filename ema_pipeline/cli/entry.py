@@ -1,0 +1,52 @@
+"""The entry point :func:`main`: parse, run the subcommand's handler, and turn
+exceptions into one-line errors on stderr and the exit statuses of
+:mod:`ema_pipeline.cli.support`."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+
+from ema_pipeline.cli.parser import build_parser
+from ema_pipeline.cli.support import (
+    EXIT_RUNTIME,
+    EXIT_USAGE,
+    capture_warnings,
+    verbose_logging,
+)
+from ema_pipeline.data import EMAError
+
+__all__ = ["main"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``ema-pipeline ARGV`` (default ``sys.argv[1:]``) and return its exit status."""
+    capture_warnings()
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if getattr(args, "verbose", False):
+        verbose_logging()
+    func: Callable[[argparse.Namespace], int] = args.func
+    try:
+        return func(args)
+    except EMAError as exc:  # bad input or settings (DataError, ConfigError)
+        print(f"ema-pipeline {args.command}: error: {_one_line(exc)}", file=sys.stderr)
+        return EXIT_USAGE
+    except OSError as exc:  # unwritable output folder, disk full, ...
+        where = f" {exc.filename}:" if getattr(exc, "filename", None) else ""
+        print(f"ema-pipeline {args.command}: error:{where} {_one_line(exc.strerror or exc)}",
+              file=sys.stderr)
+        return EXIT_RUNTIME
+    except MemoryError:
+        print(f"ema-pipeline {args.command}: error: out of memory; lower the order or narrow "
+              "the band (see --memory-limit-gb)", file=sys.stderr)
+        return EXIT_RUNTIME
+    except KeyboardInterrupt:
+        print(f"ema-pipeline {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+def _one_line(message: object) -> str:
+    """An error message on one line."""
+    return " ".join(str(message).split())
