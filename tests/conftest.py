@@ -212,7 +212,7 @@ class Background:
         self.job = job
 
     def outputs(self, key: str) -> dict[int, dict[str, np.ndarray]]:
-        """seed -> {"fn_hz", "zeta", "fn_std_hz", "zeta_std"} of ``key``
+        """seed -> {"fn_hz", "zeta", "fn_std_hz", "zeta_std", ...} of ``key``
         ("hard:FAMILY" or "paper:CONFIGURATION"); empty when the job does not
         run it (the test then identifies the case itself)."""
         if self.job is None or key not in self.job[2]:

@@ -379,6 +379,12 @@ def test_real_roving_hammer_data(real_uff):
     assert res.modes.shapes.shape == (30, res.modes.n_modes)
     assert np.all(res.zeta > 0) and np.all(res.zeta < 0.05)
     assert np.median(res.frac) > 0.8
+    # resonances the FRFs show that are not kept (and not published) are listed
+    # (test_real_beam_has_resonances_the_published_list_lacks)
+    for f_hz in (42.0, 274.7, 325.1):
+        k = np.argmin(np.abs(res.not_kept_hz - f_hz))
+        assert abs(res.not_kept_hz[k] - f_hz) < 1.0, res.not_kept_hz
+        assert res.not_kept_frfs[k] >= 6, res.not_kept_frfs
 
 
 def _peak_prominence(real_uff: Path, freq_hz: np.ndarray, within_hz: float = 3.0

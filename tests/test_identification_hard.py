@@ -73,7 +73,8 @@ def identify_case(case: hardcases.HardCase) -> dict[str, np.ndarray]:
     frf = case.frf.reciprocal() if case.roving else case.frf
     res = identify(frf, band_hz=case.band_hz)
     m = res.modes
-    return {"fn_hz": m.fn_hz, "zeta": m.zeta, "fn_std_hz": m.fn_std_hz, "zeta_std": m.zeta_std}
+    return {"fn_hz": m.fn_hz, "zeta": m.zeta, "fn_std_hz": m.fn_std_hz, "zeta_std": m.zeta_std,
+            "not_kept_hz": res.not_kept_hz}
 
 
 def _match(f_true: np.ndarray, z_true: np.ndarray, f_id: np.ndarray) -> list[tuple[int, int]]:
@@ -96,7 +97,7 @@ def _family_scores(family: str, background: Background, sigma: bool = False) -> 
     seeds = SIGMA_SEEDS[family] if sigma else DENSE_SEEDS if family.startswith("dense") else SEEDS
     if (family, seeds) in _CACHE:
         return _CACHE[family, seeds]
-    n_true = missed = spurious = 0
+    n_true = missed = spurious = false_alarms = 0
     rf: list[float] = []
     rz: list[float] = []
     done = background.outputs(f"hard:{family}")
@@ -107,11 +108,17 @@ def _family_scores(family: str, background: Background, sigma: bool = False) -> 
         n_true += case.fn_hz.size
         missed += case.fn_hz.size - len(pairs)
         spurious += out["fn_hz"].size - len(pairs)
+        # a resonance listed as not kept where no true mode was missed
+        lost = np.ones(case.fn_hz.size, bool)
+        lost[[i for i, _ in pairs]] = False
+        for f_hz in out["not_kept_hz"]:
+            false_alarms += not _match(case.fn_hz[lost], case.zeta[lost], np.array([f_hz]))
         for i, j in pairs:
             sf, sz = out["fn_std_hz"][j], out["zeta_std"][j]
             rf.append(abs(out["fn_hz"][j] - case.fn_hz[i]) / sf if sf > 0 else np.inf)
             rz.append(abs(out["zeta"][j] - case.zeta[i]) / sz if sz > 0 else np.inf)
     _CACHE[family, seeds] = {"n_true": n_true, "missed": missed, "spurious": spurious,
+                             "false_alarms": false_alarms,
                              "rf": np.nan_to_num(np.array(rf), nan=np.inf),
                              "rz": np.nan_to_num(np.array(rz), nan=np.inf)}
     return _CACHE[family, seeds]
@@ -245,6 +252,18 @@ def test_sigmas_are_calibrated_per_family(family: str, background: Background) -
         r = s[key]
         assert 0.75 <= np.percentile(r, 68) <= 1.35, (key, np.percentile(r, 68))
         assert np.mean(r <= 2) >= 0.80, (key, np.mean(r <= 2))
+
+
+def test_no_resonance_listed_as_not_kept_where_no_mode_was_missed(
+        background: Background) -> None:
+    """``IdentificationResult.not_kept_hz`` lists only what the data show:
+    over SIGMA_SEEDS of all families (about 150 files) no entry lies away
+    from a true mode that the identification missed (measured: none listed
+    at all; on the measured beam 42.1, 274.7 and 325.1 Hz, in
+    tests/test_identification.py)."""
+    alarms = {f: _family_scores(f, background, sigma=True)["false_alarms"]
+              for f in hardcases.FAMILIES}
+    assert sum(alarms.values()) == 0, alarms
 
 
 def test_sigma_coverage_over_all_families(background: Background) -> None:

@@ -64,6 +64,7 @@ from ema_pipeline.identification.acceptance import (
     Candidates,
     add_found,
     close_partners,
+    decay_determined,
     final_tests,
 )
 from ema_pipeline.identification.common import (
@@ -71,6 +72,7 @@ from ema_pipeline.identification.common import (
     finish_identification,
     resolve_band,
 )
+from ema_pipeline.identification.not_kept import resonances_not_kept
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf import PoleSet, plscf
 from ema_pipeline.identification.refine import (
@@ -471,6 +473,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     Hc = sub.H.reshape(n_out * n_in, n_freq)
     cov = None
     tau, force_s = frf.acquisition.exp_window_tau_s, frf.acquisition.force_window_s
+    rejected: list[np.ndarray] = []  # refined candidates that failed the final tests
     if options.refine and sel.pole.size:
         ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
                            force_window_s=force_s)
@@ -481,12 +484,15 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                        strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
                 r = refine_poles(freq, Hc, c.pole, quantity=sub.quantity, window_tau_s=tau,
                                  force_window_s=force_s)
-                return r, final_tests(freq, Hc, Hn_c, r, sub.quantity, c.n_members,
-                                      partner=partner, strict=strict)
+                ok = final_tests(freq, Hc, Hn_c, r, sub.quantity, c.n_members,
+                                 partner=partner, strict=strict)
+                rejected.append(r.pole[~ok & decay_determined(r.pole, r.cov)])
+                return r, ok
 
             none = np.zeros(sel.pole.size, bool)
             found = Candidates(sel, ref, final_tests(freq, Hc, Hn_c, ref, sub.quantity,
                                                      sel.n_members), none, none)
+            rejected.append(ref.pole[~found.keep & decay_determined(ref.pole, ref.cov)])
             # close modes hidden in a kept resonance, then modes that no
             # diagram resolved (peaks of the residual)
             partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
@@ -503,7 +509,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         # the local model's own error (band choice), added in quadrature
         cov = cov + band_sensitivity(freq, Hc, sel.pole, quantity=sub.quantity,
                                      window_tau_s=tau, force_window_s=force_s)
-    return finish_identification(
+    result = finish_identification(
         sub,
         sel.pole,
         decay=decay,
@@ -533,3 +539,8 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             else "scatter of the trajectory's poles over model orders",
         ),
     )
+    if not rejected:
+        return result
+    not_kept_hz, not_kept_frfs = resonances_not_kept(freq, Hc, np.concatenate(rejected),
+                                                     sel.pole)
+    return replace(result, not_kept_hz=not_kept_hz, not_kept_frfs=not_kept_frfs)

@@ -64,6 +64,11 @@ class IdentificationResult:
     stabilization : StabilizationData (empty arrays for the sdypy backend).
     selected : SelectedPoles (cluster bookkeeping; ``None`` for the sdypy backend).
     settings : ResolvedSettings
+    not_kept_hz : (n,) float  resonances the FRFs show that no mode was kept
+        for (candidates that failed the final tests but stand out as a peak in
+        ``not_kept_frfs`` of the FRFs; :mod:`ema_pipeline.identification.not_kept`),
+        Hz, ascending; empty when there is none and for the sdypy backend.
+    not_kept_frfs : (n,) int  in how many FRFs each stands out.
     """
 
     modes: ModalParameters
@@ -83,6 +88,8 @@ class IdentificationResult:
     selected: SelectedPoles | None
     settings: ResolvedSettings
     extras: dict[str, float] = field(default_factory=dict)
+    not_kept_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    not_kept_frfs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def __repr__(self) -> str:
         """Short: configuration, modes, band, method and order, mean fit error."""

@@ -30,6 +30,7 @@ from ema_pipeline.identification.expect import (
     not_found_message,
     with_expected_rows,
 )
+from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.identification.resources import check_identification
 
 
@@ -173,6 +174,10 @@ def identify_file(
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_table(result)
+        message = not_kept_message(result.not_kept_hz, result.not_kept_frfs,
+                                   frf.n_out * frf.n_in)
+        if message:
+            outcome.warnings.append(f"{path}: {message}")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
             table = with_expected_rows(table, options.expect_hz)
             message = not_found_message(options.expect_hz, match_expected(

@@ -1,0 +1,171 @@
+"""Resonances that the FRFs show but the identification did not keep as modes.
+
+The final tests (:mod:`~ema_pipeline.identification.acceptance`) judge a
+candidate by what it adds to the fit of all FRFs together. A resonance that
+stands out in some FRFs only, beside a much stronger mode, can fail them: on
+the measured beam (``../shared/data``) 42.0, 274.7 and 325.1 Hz are clear
+peaks in 9, 16 and 15 of the 30 FRFs (at 274.7 Hz a factor of up to 250
+over the valleys beside it, at the nodal lines of the 265.6 Hz bending mode)
+but explain less of the local response than that mode's skirt, and none of
+them is in the published list of the test. They are not made modes, and they
+are not dropped silently either: :func:`resonances_not_kept` lists every
+rejected candidate at which enough FRFs have a clear peak of their own
+(:data:`MIN_LOG_PROMINENCE`, :data:`MIN_FRF_SHARE`), the result carries them
+(``IdentificationResult.not_kept_hz``, ``not_kept_frfs``) and
+``ema-pipeline identify`` prints them as a warning (``batch`` keeps them in
+each file's ``<stem>_result.h5``; on the
+beam, ``--band 240 300`` keeps 274.6 Hz as a mode beside 265.5 Hz).
+
+A peak is a local maximum of |H| of one FRF (:func:`scipy.signal.find_peaks`,
+the library's prominence: the height over the higher of the two valleys that
+separate it from higher ground). Peaks within a kept mode's half-power band
+(plus 1.5 lines) are that mode's and never count for a candidate.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import find_peaks
+
+#: A peak of |H| stands out when its prominence in log|H| exceeds this: a
+#: factor e^0.5 = 1.65 over the valleys beside it. On the measured beam the
+#: rejected candidates that are not resonances have such a peak in at most 3
+#: of the 30 FRFs, the three resonances above in 9-16.
+MIN_LOG_PROMINENCE = 0.5
+#: A rejected candidate is listed when it stands out in at least this share of
+#: the FRFs, and in at least MIN_FRFS of them, ...
+MIN_FRF_SHARE = 0.2
+MIN_FRFS = 2
+#: ... with a peak within PEAK_LINES lines of its natural frequency. With the
+#: candidate's half-power band as the window instead, the random peaks of
+#: FRFs that are mostly noise counted for broad poles of the noise (hard cases
+#: baseline-9 at 176 Hz and close_1ref-9 at 1269 and 1302 Hz, 2 of 3 and 2 of
+#: 6 FRFs); only candidates whose decay rate is determined are passed.
+PEAK_LINES = 1.5
+
+
+def half_width_hz(freq_hz: np.ndarray, pole: np.ndarray) -> np.ndarray:
+    """The band (Hz, each side) that belongs to each pole (rad/s): its
+    half-power half-width |Re lambda| / 2 pi plus 1.5 lines.
+
+    Examples
+    --------
+    >>> f = np.arange(0.0, 101.0)
+    >>> half_width_hz(f, np.array([-2 * np.pi + 2j * np.pi * 50.0]))
+    array([2.5])
+    """
+    df = float(np.median(np.diff(freq_hz))) if freq_hz.size > 1 else 0.0
+    return np.abs(np.asarray(pole).real) / (2 * np.pi) + 1.5 * df
+
+
+def visible_peaks(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    center_hz: np.ndarray,
+    within_hz: float,
+    exclude_hz: np.ndarray | None = None,
+    exclude_within_hz: np.ndarray | None = None,
+) -> np.ndarray:
+    """In how many FRFs a peak of |H| stands out (log-prominence above
+    :data:`MIN_LOG_PROMINENCE`) within ``within_hz`` of each ``center_hz``,
+    not counting peaks within ``exclude_within_hz`` of an ``exclude_hz`` (the
+    kept modes). ``H`` (n_ch, n_freq) on the lines ``freq_hz``.
+
+    Examples
+    --------
+    >>> f = np.linspace(0.0, 100.0, 201)
+    >>> jw = 2j * np.pi * f
+    >>> lam = -1.0 + 2j * np.pi * 40.0
+    >>> H = np.array([1 / (jw - lam) + 1 / (jw - np.conj(lam)), np.ones(f.size)])
+    >>> visible_peaks(f, H, np.array([40.0, 70.0]), 1.0).tolist()
+    [1, 0]
+    """
+    center = np.asarray(center_hz, dtype=float)
+    count = np.zeros(center.size, dtype=int)
+    ex = np.zeros(0) if exclude_hz is None else np.asarray(exclude_hz, dtype=float)
+    ex_w = np.zeros(0) if exclude_within_hz is None else np.asarray(exclude_within_hz, float)
+    if center.size == 0:
+        return count
+    with np.errstate(divide="ignore"):
+        log_mag = np.log(np.abs(np.asarray(H)))
+    for row in log_mag:
+        finite = np.isfinite(row)
+        peaks, _ = find_peaks(np.where(finite, row, row[finite].min(initial=0.0)),
+                              prominence=MIN_LOG_PROMINENCE)
+        f_pk = freq_hz[peaks]
+        if ex.size:
+            f_pk = f_pk[np.all(np.abs(f_pk[:, None] - ex[None, :]) > ex_w[None, :], axis=1)]
+        count += np.any(np.abs(f_pk[:, None] - center[None, :]) <= within_hz, axis=0)
+    return count
+
+
+def resonances_not_kept(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    rejected: np.ndarray,
+    kept: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``rejected`` candidate poles (rad/s) at which the FRFs ``H``
+    (n_ch, n_freq) show a resonance of their own: a peak
+    that stands out in at least :data:`MIN_FRF_SHARE` of the FRFs (and
+    :data:`MIN_FRFS`), away from the ``kept`` poles' half-power bands, where
+    the global fit of the kept poles leaves a residual of at least
+    :data:`~ema_pipeline.identification.residual_search.RESIDUAL_PEAK_RATIO`
+    times its floor (:func:`~ema_pipeline.identification.residual_search.residual_ratio`:
+    where the FRFs are mostly noise, random peaks stand out too). Returns
+    their natural frequencies (Hz, ascending, one per peak) and the number of
+    FRFs in which each stands out.
+
+    Examples
+    --------
+    A weak mode at 60 Hz seen by two FRFs that do not see the strong one at
+    50 Hz, rejected by the fit:
+
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> jw = 2j * np.pi * f
+    >>> def mode(fn):
+    ...     lam = -0.5 + 2j * np.pi * fn
+    ...     return 1 / (jw - lam) + 1 / (jw - np.conj(lam))
+    >>> H = np.array([mode(50.0), mode(50.0), 0.01 * mode(60.0), 0.01 * mode(60.0)])
+    >>> kept = np.array([-0.5 + 2j * np.pi * 50.0])
+    >>> rejected = np.array([-0.5 + 2j * np.pi * 60.0, -3.0 + 2j * np.pi * 80.0])
+    >>> resonances_not_kept(f, H, rejected, kept)
+    (array([60.]), array([2]))
+    """
+    rejected = np.asarray(rejected, dtype=complex)
+    rejected = rejected[rejected.imag > 0]
+    kept = np.asarray(kept, dtype=complex)
+    if rejected.size == 0:
+        return np.zeros(0), np.zeros(0, dtype=int)
+    fn = np.abs(rejected) / (2 * np.pi)
+    df = float(np.median(np.diff(freq_hz)))
+    n_frfs = visible_peaks(freq_hz, H, fn, PEAK_LINES * df, kept.imag / (2 * np.pi),
+                           half_width_hz(freq_hz, kept))
+    listed = n_frfs >= max(MIN_FRFS, int(np.ceil(MIN_FRF_SHARE * np.shape(H)[0])))
+    fn, n_frfs, width = fn[listed], n_frfs[listed], half_width_hz(freq_hz, rejected[listed])
+    # one entry per resonance: of candidates within each other's bands, the
+    # one seen in most FRFs
+    out_f: list[float] = []
+    out_n: list[int] = []
+    for k in np.argsort(-n_frfs, kind="stable"):
+        if all(abs(fn[k] - g) > width[k] for g in out_f):
+            out_f.append(float(fn[k]))
+            out_n.append(int(n_frfs[k]))
+    order = np.argsort(out_f)
+    return np.asarray(out_f)[order], np.asarray(out_n, dtype=int)[order]
+
+
+def not_kept_message(not_kept_hz: np.ndarray, not_kept_frfs: np.ndarray, n_frfs: int) -> str:
+    """The warning for :func:`resonances_not_kept`'s list ("" when empty).
+
+    Examples
+    --------
+    >>> print(not_kept_message(np.array([274.69]), np.array([16]), 30))
+    resonances in the FRFs with no mode kept: 274.7 Hz (a peak in 16 of 30 FRFs); ...
+    """
+    if len(not_kept_hz) == 0:
+        return ""
+    listed = ", ".join(f"{f:.1f} Hz (a peak in {n} of {n_frfs} FRFs)"
+                       for f, n in zip(not_kept_hz, not_kept_frfs, strict=True))
+    return (f"resonances in the FRFs with no mode kept: {listed}; they fail the final tests "
+            "of the fit over all FRFs (too weak beside their neighbours)")
