@@ -12,21 +12,27 @@ Sections of the study report, in order: summary, test setup, geometry, FRFs
 with coherence, stabilization diagrams, mode tables (f, zeta, sigma, MPC, MPD,
 stable orders), AutoMAC, mode shapes, measured vs synthesised FRFs with their
 fit error, the paper's Tables 1-6 beside ours, provenance.
+
+Modules: :mod:`.inputs` (what a page is drawn from), :mod:`.result_tables`
+(tables computed from the results), :mod:`.tables` (the paper's values and
+number formatting), :mod:`.page_figures` (which figures a page shows),
+:mod:`.figures` and :mod:`.svg` (drawing), :mod:`.htmlparts` (HTML building
+blocks) and :mod:`.renderers` (the pages).
 """
 
 from __future__ import annotations
 
-from ema_pipeline.report.pages import (
-    BatchReportInput,
-    Geometry,
-    ReportInput,
-    make_figures,
-    mode_table,
-    mode_table_html,
+from ema_pipeline.report.inputs import BatchReportInput, Geometry, ReportInput
+from ema_pipeline.report.page_figures import make_figures
+from ema_pipeline.report.renderers import (
     render_batch_html,
     render_html,
     render_identify_html,
     render_markdown,
+)
+from ema_pipeline.report.result_tables import (
+    mode_table,
+    mode_table_html,
     report_tables,
     stable_order_range,
 )

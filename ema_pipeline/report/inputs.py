@@ -1,0 +1,86 @@
+"""What the report pages are drawn from: the plain inputs of the study page
+(:class:`ReportInput`, with the test :class:`Geometry`) and of the batch page
+(:class:`BatchReportInput`). The pipeline fills them; nothing here computes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from ema_pipeline.data import FRFSet
+
+__all__ = ["BatchReportInput", "Geometry", "ReportInput"]
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """Where the sensors and the hammer are: a cantilever of ``length_m``
+    divided into ``n_elements`` measurement elements (node 1 clamped)."""
+
+    length_m: float
+    n_elements: int
+    response_nodes: tuple[int, ...]
+    hammer_node: int
+    immersed_elements: tuple[int, ...] = ()
+    direction: int = 3
+
+    @property
+    def direction_label(self) -> str:
+        axis = "SXYZ"[abs(self.direction)] if abs(self.direction) <= 3 else "?"
+        return ("-" if self.direction < 0 else "+") + axis
+
+    def node_x_m(self, node: int) -> float:
+        return (node - 1) * self.length_m / self.n_elements
+
+
+@dataclass
+class ReportInput:
+    """What the study report shows.
+
+    ``tables`` are the six result tables in DESIGN.md form (any may be missing);
+    ``frfs`` and ``identification`` are keyed by configuration name;
+    ``fe_node_x``/``fe_shapes`` (n_points, n_modes) the updated FE mode shapes
+    along the beam and ``sensor_x`` the accelerometer positions, both as x/L;
+    ``compare_with_paper`` adds the paper's values and deviations to the tables.
+    ``descriptions`` maps configuration names to what was tested; ``inputs``
+    are ``(role, path, sha256)`` of every input file; ``settings`` the
+    settings as text; ``version`` the package version; ``generated`` the date.
+    """
+
+    title: str
+    tables: dict[str, pd.DataFrame]
+    frfs: dict[str, FRFSet] = field(default_factory=dict)
+    identification: dict[str, Any] = field(default_factory=dict)
+    genuine: str = "genuine"
+    fe_node_x: np.ndarray | None = None
+    fe_shapes: np.ndarray | None = None
+    sensor_x: np.ndarray | None = None
+    notes: list[str] = field(default_factory=list)
+    problems: list[str] = field(default_factory=list)
+    compare_with_paper: bool = True
+    descriptions: dict[str, str] = field(default_factory=dict)
+    geometry: Geometry | None = None
+    inputs: list[tuple[str, str, str]] = field(default_factory=list)
+    settings: dict[str, str] = field(default_factory=dict)
+    version: str = ""
+    generated: str = ""
+
+
+@dataclass
+class BatchReportInput:
+    """What the batch page shows: ``summary`` and ``failures`` are the rows of
+    ``summary.csv`` and ``failures.csv`` (:mod:`ema_pipeline.pipeline.batch`)."""
+
+    title: str
+    folder: str
+    summary: pd.DataFrame
+    failures: pd.DataFrame
+    settings: dict[str, str] = field(default_factory=dict)
+    seconds: float = float("nan")
+    interrupted: bool = False
+    version: str = ""
+    generated: str = ""

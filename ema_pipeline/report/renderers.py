@@ -1,0 +1,326 @@
+"""The report pages: a study (``run``), one FRF file (``identify --report``) and
+a batch (``batch --report``), as self-contained HTML, and the study as Markdown.
+
+Every string that comes from data (configuration and file names, problems,
+settings) goes through :func:`.htmlparts.esc`; figures are inline SVG.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from ema_pipeline.data import FRFSet
+from ema_pipeline.report import figures as figs
+from ema_pipeline.report.htmlparts import (
+    Page,
+    esc,
+    figure,
+    item_list,
+    no_figures,
+    provenance,
+)
+from ema_pipeline.report.inputs import BatchReportInput, ReportInput
+from ema_pipeline.report.page_figures import identification_figures, safe_name
+from ema_pipeline.report.result_tables import (
+    COLUMN_TITLES,
+    fit_table,
+    mac_section,
+    mode_table,
+    mode_table_html,
+    report_tables,
+    setup_table,
+)
+from ema_pipeline.report.tables import TABLE_TITLES, html_table, markdown_table
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ema_pipeline.identification.result import IdentificationResult
+
+__all__ = [
+    "render_batch_html",
+    "render_html",
+    "render_identify_html",
+    "render_markdown",
+]
+
+
+# --------------------------------------------------------------------------
+# The study: run
+# --------------------------------------------------------------------------
+
+
+def _summary_study(report: ReportInput) -> str:
+    n_prob = len(report.problems)
+    status = (
+        '<p class="status ok">Complete: every configuration identified, no problems.</p>'
+        if not n_prob
+        else f'<p class="status bad">{n_prob} problem(s): see the list below; what could be '
+        "computed is shown.</p>"
+    )
+    what = []
+    g = report.geometry
+    if g is not None:
+        what.append(
+            f"Cantilever beam, L = {g.length_m:g} m, measured at nodes "
+            f"{', '.join(str(n) for n in g.response_nodes)} (accelerometers, "
+            f"{g.direction_label}) with the hammer at node {g.hammer_node}"
+            + (f"; immersed element(s) {', '.join(map(str, g.immersed_elements))}"
+               if g.immersed_elements else "")
+            + "."
+        )
+    rows = []
+    t2 = report.tables.get("table2_modal_added_mass")
+    t6 = report.tables.get("table6_local_added_mass")
+    for name in report.descriptions or report.identification:
+        r = report.identification.get(name)
+        desc = report.descriptions.get(name, "")
+        if r is None:
+            rows.append({"configuration": name, "description": desc,
+                         "natural frequencies / Hz": "not identified"})
+            continue
+        row = {
+            "configuration": name,
+            "description": desc,
+            "natural frequencies / Hz": ", ".join(f"{f:.2f}" for f in np.sort(r.modes.fn_hz)),
+            "damping / %": ", ".join(f"{100 * z:.3f}" for z in r.modes.zeta[
+                np.argsort(r.modes.fn_hz)]),
+            "fit error / %": f"{100 * float(np.mean(r.error)):.2f}",
+        }
+        if t2 is not None and len(t2):
+            sub = t2[t2["configuration"] == name]
+            row["added mass m_ar/m_r"] = ", ".join(f"{v:.4f}" for v in sub["added_mass_ratio"])
+        if t6 is not None and len(t6):
+            sub = t6[(t6["configuration"] == name) & (t6["method"] == "block")]
+            row["local delta_m (block, eq. 20)"] = ", ".join(f"{v:.4f}" for v in sub["delta_m"])
+        rows.append(row)
+    table = html_table(pd.DataFrame(rows).fillna(""), split=False) if rows else ""
+    return (
+        status + "".join(f"<p>{esc(w)}</p>" for w in what) + table
+        + item_list(report.problems, "problems") + item_list(report.notes, "notes")
+    )
+
+
+def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
+    """The self-contained HTML study report; ``figures`` from :func:`make_figures`
+    (``None``: drawn without figures)."""
+    fg = figures or {}
+    page = Page(report.title)
+    page.section("summary", "Summary").append(_summary_study(report))
+    if report.frfs:
+        page.section("setup", "Test setup").append(
+            html_table(setup_table(report.frfs, report.geometry), split=False)
+        )
+    if report.geometry is not None:
+        g = report.geometry
+        sec = page.section("geometry", "Geometry: sensors and hammer")
+        sec.append(figure("geometry", fg, "Measurement mesh, accelerometers (squares), "
+                           "hammer (arrow), immersed element(s) (blue)"))
+        nodes = pd.DataFrame(
+            [("accelerometer", n, g.node_x_m(n)) for n in g.response_nodes]
+            + [("hammer", g.hammer_node, g.node_x_m(g.hammer_node))],
+            columns=["role", "node", "x_m"],
+        )
+        sec.append(html_table(nodes))
+    if report.frfs:
+        sec = page.section("frf", "FRFs and coherence")
+        sec.append(no_figures(figures))
+        for name in report.frfs:
+            sec.append(figure(f"frf_{safe_name(name)}", fg, f"|H| and coherence: {name}"))
+        sec.append(figure("fig4_frf_overlay", fg, "FRF overlay of the configurations "
+                           "(paper Fig. 4)"))
+        sec.append(figure("fig5_zoom_mode2", fg, "Zoom on mode 2 (paper Fig. 5)"))
+    if report.identification:
+        sec = page.section("stabilization", "Stabilization diagrams")
+        sec.append(no_figures(figures))
+        for name in report.identification:
+            sec.append(figure(f"stabilization_{safe_name(name)}", fg,
+                               f"Stabilization diagram: {name}"))
+        sec = page.section("modes", "Modes (MPC, MPD, stable orders)")
+        for name, r in report.identification.items():
+            sec.append(f"<h3>{esc(name)}</h3>" + mode_table_html(r))
+        if not any(getattr(r, "mpd", None) is not None for r in report.identification.values()):
+            sec.append('<p class="muted">MPD: not provided by this identification result.</p>')
+        page.section("mac", "AutoMAC").append(
+            mac_section(report.identification, report.genuine)
+        )
+        sec = page.section("shapes", "Mode shapes")
+        sec.append(no_figures(figures))
+        if "mode_shapes" in fg:
+            sec.append(figure("mode_shapes", fg, "Measured mode shapes at the sensors vs "
+                               "the updated FE model"))
+        sec = page.section("fit", "Measured vs synthesised FRFs")
+        sec.append(html_table(fit_table(report.identification, report.frfs),
+                              titles=COLUMN_TITLES))
+        sec.append(no_figures(figures))
+        for name in report.identification:
+            sec.append(figure(f"fit_{safe_name(name)}", fg, f"LSFD fit: {name}"))
+    tables = report_tables(report)
+    if tables:
+        title = "Tables 1-6 beside the paper" if report.compare_with_paper else "Tables 1-6"
+        sec = page.section("tables", title)
+        for name, table in tables.items():
+            sec.append(f'<h3 id="{name}">{esc(TABLE_TITLES[name])}</h3>')
+            sec.append(html_table(table))
+            if name == "table2_modal_added_mass":
+                sec.append(figure("modal_added_mass", fg, "Modal added mass per mode"))
+    page.section("provenance", "Provenance").append(
+        provenance(report.inputs, report.settings, report.version, report.generated)
+    )
+    return page.html()
+
+
+def render_markdown(report: ReportInput, figures: Sequence[str]) -> str:
+    """The Markdown report; figures are referenced as ``figures/<name>.svg``."""
+    parts = [f"# {report.title}", ""]
+    if report.problems:
+        parts += ["## Problems", ""] + [f"- {p}" for p in report.problems] + [""]
+    if report.notes:
+        parts += ["## Notes", ""] + [f"- {n}" for n in report.notes] + [""]
+    if report.frfs:
+        parts += ["## Test setup", "", markdown_table(setup_table(report.frfs,
+                                                                   report.geometry)), ""]
+    for name, r in report.identification.items():
+        parts += [f"## Modes: {name}", "", markdown_table(mode_table(r)), ""]
+    if report.identification:
+        parts += ["## Fit quality", "",
+                  markdown_table(fit_table(report.identification, report.frfs)), ""]
+    for name, table in report_tables(report).items():
+        parts += [f"## {TABLE_TITLES[name]}", "", markdown_table(table), ""]
+    if figures:
+        parts += ["## Figures", ""]
+        parts += [f"![{name}](figures/{name}.svg)" for name in figures]
+        parts.append("")
+    if report.inputs:
+        parts += ["## Provenance", "", "| input | path | sha256 |", "|---|---|---|"]
+        parts += [f"| {r} | {p} | {s} |" for r, p, s in report.inputs]
+        parts += ["", f"ema-pipeline {report.version}, generated {report.generated}", ""]
+    return "\n".join(parts)
+
+
+# --------------------------------------------------------------------------
+# One file: identify --report
+# --------------------------------------------------------------------------
+
+
+def render_identify_html(
+    frf: FRFSet,
+    result: IdentificationResult,
+    *,
+    settings: Mapping[str, str] | None = None,
+    version: str = "",
+    generated: str = "",
+    figures: bool = True,
+) -> str:
+    """The report of one identified FRF file: the study report's sections that
+    apply to a single file (no geometry, FE or paper tables)."""
+    name = frf.configuration or frf.source.path or "FRF set"
+    fg: dict[str, str] = {}
+    if figures:
+        identification_figures("one", frf, result, fg, name)
+        fg["shapes_one"] = figs.figure_shapes_by_dof(
+            result, [d.label() for d in frf.response_dofs]
+        )
+    page = Page(f"Modal identification: {frf.source.path or name}")
+    m = result.modes
+    summary = pd.DataFrame(
+        {
+            "file": [frf.source.path],
+            "configuration": [frf.configuration],
+            "modes": [m.n_modes],
+            "natural frequencies / Hz": [", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz))],
+            "mean fit error / %": [f"{100 * float(np.mean(result.error)):.2f}"],
+        }
+    )
+    page.section("summary", "Summary").append(html_table(summary))
+    page.section("setup", "Test setup").append(
+        html_table(setup_table({name: frf}, None), split=False)
+    )
+    no = no_figures(None if not figures else fg)
+    page.section("frf", "FRFs and coherence").append(
+        no + figure("frf_one", fg, f"|H| and coherence: {name}")
+    )
+    page.section("stabilization", "Stabilization diagram").append(
+        no + figure("stabilization_one", fg, "Stabilization diagram")
+    )
+    page.section("modes", "Modes (MPC, MPD, stable orders)").append(mode_table_html(result))
+    page.section("mac", "AutoMAC").append(mac_section({name: result}, name))
+    page.section("shapes", "Mode shapes").append(
+        no + figure("shapes_one", fg, "Real-normalised mode shapes at the measured DOFs")
+    )
+    sec = page.section("fit", "Measured vs synthesised FRFs")
+    sec.append(html_table(fit_table({name: result}, {name: frf}), titles=COLUMN_TITLES))
+    sec.append(no + figure("fit_one", fg, "LSFD fit"))
+    inputs = [("FRF file", frf.source.path, frf.source.sha256)]
+    page.section("provenance", "Provenance").append(
+        provenance(inputs, dict(settings or {}), version, generated)
+    )
+    return page.html()
+
+
+# --------------------------------------------------------------------------
+# A batch: batch --report
+# --------------------------------------------------------------------------
+
+
+def _frequencies(cell: Any) -> list[float]:
+    if cell is None or (isinstance(cell, float) and np.isnan(cell)) or str(cell) == "":
+        return []
+    return [float(v) for v in str(cell).split(";") if v]
+
+
+def render_batch_html(batch: BatchReportInput, *, figures: bool = True) -> str:
+    """One page over a batch: status per file (with the failure reason), modes
+    per file, each mode's frequency across the files."""
+    s = batch.summary.copy()
+    reasons = dict(zip(batch.failures.get("file", []), batch.failures.get("reason", []),
+                       strict=False))
+    page = Page(batch.title)
+    counts = s["status"].value_counts() if len(s) else pd.Series(dtype=int)
+    n_failed = int(counts.get("failed", 0))
+    state = "interrupted; " if batch.interrupted else ""
+    cls = "bad" if n_failed or batch.interrupted else "ok"
+    head = (
+        f'<p class="status {cls}">{state}{len(s)} files: {int(counts.get("ok", 0))} ok, '
+        f'{int(counts.get("skipped", 0))} skipped, {n_failed} failed'
+        + (f" in {batch.seconds:.1f} s" if np.isfinite(batch.seconds) else "") + "</p>"
+        + f"<p>Input folder: <code>{esc(batch.folder)}</code></p>"
+    )
+    page.section("summary", "Summary").append(head)
+    if n_failed:
+        failed = s[s["status"] == "failed"]
+        ft = pd.DataFrame({"file": failed["file"],
+                           "reason": [reasons.get(f, "") for f in failed["file"]]})
+        page.section("failures", "Failed files").append(html_table(ft))
+    freqs = [_frequencies(c) for c in s.get("frequencies_hz", [])]
+    n_modes = max((len(f) for f in freqs), default=0)
+    table = pd.DataFrame({"#": np.arange(1, len(s) + 1), "file": s["file"],
+                          "status": s["status"], "configuration": s.get("configuration", "")})
+    for k in range(n_modes):
+        table[f"f{k + 1}_hz"] = [f[k] if len(f) > k else np.nan for f in freqs]
+    if "fit_error" in s:
+        table["fit_error_pct"] = 100 * pd.to_numeric(s["fit_error"], errors="coerce")
+    table = table.fillna({"configuration": ""})
+    page.section("files", "Status and modes per file").append(
+        html_table(table) + ('<p class="muted">Failed files and why: see above.</p>'
+                             if n_failed else "")
+    )
+    sec = page.section("trend", "Each mode's frequency across the files")
+    if figures:
+        ok = [(str(f), fr) for f, fr, st in zip(s["file"], freqs, s["status"], strict=True)]
+        sec.append(
+            '<figure id="fig-batch_frequencies">'
+            + figs.figure_batch_frequencies([f for f, _ in ok], [fr for _, fr in ok])
+            + "<figcaption>Deviation of each file's natural frequency from the mode's median "
+            "(red: outliers); file numbers as in the table above.</figcaption></figure>"
+        )
+    else:
+        sec.append(no_figures(None))
+    inputs = [("FRF file", str(f), str(h) if isinstance(h, str) else "")
+              for f, h in zip(s["file"], s.get("sha256", [""] * len(s)), strict=False)]
+    page.section("provenance", "Provenance").append(
+        provenance(inputs, batch.settings, batch.version, batch.generated)
+    )
+    return page.html()

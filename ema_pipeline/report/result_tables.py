@@ -1,0 +1,195 @@
+"""Tables computed from the results, as ``pandas.DataFrame`` (or HTML built from
+them): the six paper tables as printed, the mode table of one identification,
+the fit quality, the test setup and the AutoMAC matrices.
+
+Formatting and the paper's values live in :mod:`.tables`; this module only
+decides what the rows and columns are.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from ema_pipeline.data import FRFSet
+from ema_pipeline.modal import mac
+from ema_pipeline.report.inputs import Geometry, ReportInput
+from ema_pipeline.report.tables import (
+    TABLE_TITLES,
+    compare_with_paper,
+    html_matrix,
+    html_table,
+)
+
+if TYPE_CHECKING:  # pragma: no cover
+    from ema_pipeline.identification.result import IdentificationResult
+
+__all__ = [
+    "COLUMN_TITLES",
+    "fit_table",
+    "mac_section",
+    "mode_table",
+    "mode_table_html",
+    "report_tables",
+    "setup_table",
+    "stable_order_range",
+]
+
+
+def report_tables(report: ReportInput) -> dict[str, pd.DataFrame]:
+    """The tables as printed: with the paper's values and deviations when comparing."""
+    out = {}
+    for name in TABLE_TITLES:
+        if name in report.tables:
+            t = report.tables[name]
+            out[name] = compare_with_paper(name, t) if report.compare_with_paper else t
+    return out
+
+
+def stable_order_range(result: IdentificationResult) -> list[str]:
+    """Per selected mode (ascending frequency) the model orders at which its pole
+    cluster is stable, ``"lo-hi (n of N)"``; empty strings without cluster data."""
+    from ema_pipeline.identification.result import stable_orders
+
+    if result.selected is None or result.stabilization.order.size == 0:
+        return [""] * result.modes.n_modes
+    first, last, count = stable_orders(result)
+    n_orders = np.unique(result.stabilization.order).size
+    return [
+        f"{first[k]}-{last[k]} ({count[k]} of {n_orders})" if count[k] else ""
+        for k in np.argsort(result.modes.fn_hz)
+    ]
+
+
+def mode_table(result: IdentificationResult) -> pd.DataFrame:
+    """The modal table of one identification, ascending frequency: ``mode,
+    fn_hz, fn_std_hz, fd_hz, zeta_pct, zeta_std_pct, sigma_1_s`` (decay rate
+    -Re(lambda), 1/s), ``mpc``, ``mpd_deg``, ``doubtful`` and ``stable_orders``
+    (first-last order, count)."""
+    from ema_pipeline.identification.result import modes_table
+
+    table = modes_table(result)
+    order = np.argsort(result.modes.fn_hz)
+    table["sigma_1_s"] = -np.real(np.asarray(result.pole))[order]
+    table["stable_orders"] = stable_order_range(result)
+    columns = ["mode", "fn_hz", "fn_std_hz", "fd_hz", "zeta_pct", "zeta_std_pct", "sigma_1_s",
+               "mpc", "stable_orders", "mpd_deg", "doubtful"]
+    return table[columns]
+
+
+def mode_table_html(result: IdentificationResult) -> str:
+    """The modal table as HTML (``value ± std`` cells, consistent decimals)."""
+    return html_table(mode_table(result), titles=COLUMN_TITLES)
+
+
+#: Tooltips of the mode and fit table columns (HTML ``title`` of the header).
+COLUMN_TITLES = {
+    "fn_hz": "undamped natural frequency, Hz, ± one standard deviation",
+    "fd_hz": "damped natural frequency, Hz (eq. 4)",
+    "zeta_pct": "damping ratio in per cent, ± one standard deviation",
+    "sigma_1_s": "decay rate sigma = zeta omega_n = -Re(lambda), 1/s",
+    "mpc": "modal phase collinearity (1 = real mode)",
+    "mpd_deg": "mean phase deviation, degrees (0 = real mode)",
+    "doubtful": "marked for a second look: few stable orders, loose damping or complex shape",
+    "stable_orders": "model orders at which the pole is stable (count of orders computed)",
+    "frac": "FRF assurance criterion of the synthesis",
+    "error_pct": "normalised fit error ||H - H_fit|| / ||H||, per cent",
+}
+
+
+def fit_table(identification: Mapping[str, Any], frfs: Mapping[str, FRFSet]) -> pd.DataFrame:
+    """Fit quality per configuration and FRF: FRAC and normalised error (per cent)
+    of the synthesis, rows labelled with the DOFs of ``frfs`` when present."""
+    rows = []
+    for name, r in identification.items():
+        frf = frfs.get(name)
+        for o in range(r.frac.shape[0]):
+            for i in range(r.frac.shape[1]):
+                rows.append(
+                    {
+                        "configuration": name,
+                        "response": frf.response_dofs[o].label() if frf else str(o + 1),
+                        "reference": frf.reference_dofs[i].label() if frf else str(i + 1),
+                        "frac": float(r.frac[o, i]),
+                        "error_pct": 100 * float(r.error[o, i]),
+                    }
+                )
+    return pd.DataFrame(rows, columns=["configuration", "response", "reference", "frac",
+                                       "error_pct"])
+
+
+def setup_table(frfs: Mapping[str, FRFSet], geometry: Geometry | None) -> pd.DataFrame:
+    """Test setup, one column per configuration (rows: what an engineer checks)."""
+
+    def fmt(v: Any, unit: str = "", spec: str = "g") -> str:
+        return "" if v is None else f"{v:{spec}}{unit}"
+
+    def positions(dofs: Sequence[Any]) -> str:
+        if geometry is None:
+            return ", ".join(d.label() for d in dofs)
+        return ", ".join(
+            f"{d.label()} (x = {geometry.node_x_m(d.node):.4g} m)"
+            if 1 <= d.node <= geometry.n_elements + 1 else d.label()
+            for d in dofs
+        )
+
+    rows: dict[str, list[str]] = {}
+    for frf in frfs.values():
+        a = frf.acquisition
+        col = {
+            "file": frf.source.path or "(in memory)",
+            "sample rate": fmt(a.sample_rate_hz, " Hz"),
+            "record length": (
+                f"{a.duration_s:.4g} s ({a.n_samples} samples)" if a.duration_s else ""
+            ),
+            "frequency lines": f"{frf.freq_hz.size}, df = {frf.df_hz:.5g} Hz, "
+            f"{frf.freq_hz[0]:.4g}-{frf.freq_hz[-1]:.5g} Hz",
+            "averages": fmt(a.n_averages),
+            "estimator": a.estimator,
+            "force window": a.force_window,
+            "response window": a.response_window,
+            "exponential window tau": (
+                f"{a.exp_window_tau_s:.5g} s (adds {a.window_decay_rate:.4g} 1/s to sigma)"
+                if a.exp_window_tau_s else "none"
+            ),
+            "quantity": f"{frf.quantity} ({frf.units})",
+            "hammer (reference)": positions(frf.reference_dofs),
+            "sensors (responses)": positions(frf.response_dofs),
+            "coherence": "in the file" if frf.coherence is not None else "not in the file",
+        }
+        for key, value in col.items():
+            rows.setdefault(key, []).append(value)
+    return pd.DataFrame(
+        [[k, *v] for k, v in rows.items()], columns=["", *[str(n) for n in frfs]]
+    )
+
+
+def mac_section(identification: Mapping[str, Any], genuine: str) -> str:
+    """The AutoMAC of each identification as HTML matrices, then the MAC of the
+    ``genuine`` configuration against each other one with as many DOFs."""
+    parts = []
+    for name, r in identification.items():
+        labels = [f"{f:.2f} Hz" for f in r.modes.fn_hz]
+        parts.append(html_matrix(r.mac, labels, labels, caption=f"AutoMAC - {name}"))
+    ref = identification.get(genuine)
+    if ref is not None and ref.modes.shapes is not None:
+        for name, r in identification.items():
+            if name == genuine or r.modes.shapes is None:
+                continue
+            if r.modes.shapes.shape[0] != ref.modes.shapes.shape[0]:
+                continue
+            m = mac(ref.modes.shapes, r.modes.shapes)
+            parts.append(html_matrix(
+                m, [f"{f:.2f} Hz" for f in ref.modes.fn_hz],
+                [f"{f:.2f} Hz" for f in r.modes.fn_hz],
+                caption=f"MAC {genuine} (rows) vs {name} (columns)",
+            ))
+    note = (
+        '<p class="muted">With few sensors the AutoMAC cannot separate all modes: '
+        "off-diagonal values near 1 say the sensors do not tell those shapes apart, "
+        "not that the modes are the same.</p>"
+    )
+    return "".join(parts) + note
