@@ -7,6 +7,7 @@ from __future__ import annotations
 import hashlib
 import re
 import shutil
+from dataclasses import replace
 from html.parser import HTMLParser
 from pathlib import Path
 
@@ -149,6 +150,18 @@ def test_no_figures(example_study_uff_no_figures):
     page = _parse(res / "report.html")
     assert page.svgs == 0 and page.sections == SECTIONS
     assert "Figures not drawn (--no-figures)" in " ".join(page.text)
+
+
+def test_identify_report_lists_resonances_not_kept(example_dir):
+    """A resonance the FRFs show but no mode was kept for is named on the
+    page (identification.not_kept), and nothing is said when there is none."""
+    frf = io.read_frf(example_dir / "larger_tank.h5")
+    result = identify(frf)
+    assert result.not_kept_hz.size == 0
+    assert "no mode kept" not in render_identify_html(frf, result, figures=False)
+    listed = replace(result, not_kept_hz=np.array([274.69]), not_kept_frfs=np.array([2]))
+    page = render_identify_html(frf, listed, figures=False)
+    assert "no mode kept: 274.7 Hz (a peak in 2 of 2 FRFs)" in page
 
 
 def test_names_from_the_data_are_escaped(example_dir):

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from ema_pipeline.data import FRFSet
+from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.report import figures as figs
 from ema_pipeline.report.htmlparts import (
     Page,
@@ -245,7 +246,10 @@ def render_identify_html(
     page.section("stabilization", "Stabilization diagram").append(
         no + figure("stabilization_one", fg, "Stabilization diagram")
     )
-    page.section("modes", "Modes (MPC, MPD, stable orders)").append(mode_table_html(result))
+    not_kept = not_kept_message(result.not_kept_hz, result.not_kept_frfs, frf.n_out * frf.n_in)
+    page.section("modes", "Modes (MPC, MPD, stable orders)").append(
+        mode_table_html(result) + item_list([not_kept] if not_kept else [], "notes")
+    )
     page.section("mac", "AutoMAC").append(mac_section({name: result}, name))
     page.section("shapes", "Mode shapes").append(
         no + figure("shapes_one", fg, "Real-normalised mode shapes at the measured DOFs")
