@@ -260,6 +260,23 @@ def test_too_few_lines_for_order(small_frf):
         identify(small_frf, band_hz=(100, 110), max_order=80)
 
 
+def test_band_of_few_lines_finds_its_modes():
+    """46 lines at one reference allow orders 2-10 only (five diagrams): a
+    mode stable from the second of them on is kept (it needed six, and such a
+    band gave no mode at all). Two modes, 1 % and 0.6 %, 4 outputs, 1 Hz lines."""
+    from ema_pipeline.acquisition import modal_frf
+
+    f = np.arange(0.0, 401.0)
+    truth = ModalParameters(fn_hz=[265.5, 274.6], zeta=[0.01, 0.006])
+    phi = np.array([[1.0, 0.3], [0.6, -0.9], [-0.4, 1.0], [0.9, 0.5]])
+    H = modal_frf(f, truth, phi, phi[:1])
+    H = H + 1e-3 * np.abs(H).mean() * np.random.default_rng(5).standard_normal(H.shape)
+    res = identify(FRFSet(freq_hz=f, H=H), band_hz=(255.0, 300.0))
+    assert res.settings.orders.size == 5
+    np.testing.assert_allclose(res.fn_hz, truth.fn_hz, rtol=2e-3)
+    np.testing.assert_allclose(res.zeta, truth.zeta, rtol=0.1)
+
+
 UFF_FILES = REPO / "tests" / "data" / "uff"
 
 

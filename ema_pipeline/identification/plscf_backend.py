@@ -221,12 +221,15 @@ class OrderSearch:
                         "max_order or a wider band"
                     ) from None
                 break  # too ill-conditioned to grow further: keep the last diagram
+            # a band of few lines allows few orders (46 lines at one reference:
+            # orders 2-10): a mode stable from the second of them on still counts
+            members = min(min_members, max(orders.size - 1, 2))
             traj = link_fragments(poles, track_poles(poles), decay,
-                                  min_fraction=min_fraction, min_members=min_members)
+                                  min_fraction=min_fraction, min_members=members)
             sel = select_trajectories(
                 poles, traj, (lo, hi), decay,
                 min_fraction=min_fraction,
-                min_members=min_members,
+                min_members=members,
             )
             sel = merge_coincident(sel)
             if fixed:
