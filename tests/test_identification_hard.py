@@ -162,9 +162,9 @@ def test_generator_frf_matches_pole_residue_model() -> None:
 def test_true_modes_have_real_local_shapes(family: str, seed: int) -> None:
     """The resonance test judges a weak mode by the MPC of its shape. At the
     exact poles, one global LSFD gives weak real modes of these cases MPC
-    0.09-0.87; each mode's own local fit (refine.local_shapes) gives > 0.98."""
+    0.09-0.87; each mode's own local fit (local_fits.local_shapes) gives > 0.98."""
+    from ema_pipeline.identification.local_fits import local_shapes
     from ema_pipeline.identification.lsfd import mpc
-    from ema_pipeline.identification.refine import local_shapes
 
     case = hardcases.make_case(family, seed)
     frf = case.frf.reciprocal() if case.roving else case.frf

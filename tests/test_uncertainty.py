@@ -7,8 +7,9 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ema_pipeline.identification.local_band import background_columns, pole_columns
 from ema_pipeline.identification.lsfd import real_stack
-from ema_pipeline.identification.refine import background_columns, pole_columns, refine_poles
+from ema_pipeline.identification.refine import refine_poles
 from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.uncertainty import modal_std, noise_model
 

@@ -33,13 +33,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import lsfd, mpc
-from ema_pipeline.identification.refine import (
-    RefinedPoles,
+from ema_pipeline.identification.local_fits import (
     local_shapes,
     quick_significance,
     split_fit,
 )
+from ema_pipeline.identification.lsfd import lsfd, mpc
+from ema_pipeline.identification.refine import RefinedPoles
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.modal import mac
 
@@ -48,7 +48,7 @@ from ema_pipeline.modal import mac
 #: response than the modes and background around it) is kept only when that
 #: peak exceeds the standard deviation of the local fit's residual by at least
 #: MIN_WEAK_PEAK_SNR, or (with at least 3 channels) its shape in its own local
-#: fit (:func:`~ema_pipeline.identification.refine.local_shapes`) is nearly
+#: fit (:func:`~ema_pipeline.identification.local_fits.local_shapes`) is nearly
 #: real (MPC >= WEAK_MIN_MPC, a normal mode; one global LSFD bends a weak
 #: mode's shape, down to MPC 0.2 for real modes of the hard families, where
 #: the local fit gives 0.93-1.0 and the measured beam's other poles 0.89 at
@@ -236,7 +236,7 @@ def close_partners(
     force_window_s: float | None = None,
 ) -> np.ndarray:
     """Poles of close modes hidden in the resonances of the kept ``pole``: for
-    each, the extra pole of :func:`~ema_pipeline.identification.refine.split_fit`
+    each, the extra pole of :func:`~ema_pipeline.identification.local_fits.split_fit`
     when it passes the tests of :data:`PARTNER_MAX_RESIDUAL_RATIO` (rad/s,
     ascending frequency; empty when there is none). ``H`` (n_ch, n_freq) on
     the lines ``freq_hz``; with fewer than 3 channels no shape tells two
@@ -280,7 +280,7 @@ def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity:
     """True when the last two of ``pole`` have nearly real shapes (MPC >=
     :data:`PARTNER_MIN_MPC`) in one global LSFD of all of them or, failing
     that, each in its own local fit
-    (:func:`~ema_pipeline.identification.refine.local_shapes`). A weak mode
+    (:func:`~ema_pipeline.identification.local_fits.local_shapes`). A weak mode
     beside a strong one has its shape bent by what either model misses (on
     the hard close pairs the true partners reach 0.9 in one of the two, at
     0.82-0.91 in the other); the measured beam's split pairs stay below 0.75
@@ -315,9 +315,9 @@ def resonant(
 ) -> np.ndarray:
     """True for poles that are resonances of the data: own peak ratio at least
     :data:`WEAK_PEAK_RATIO`, or peak SNR at least :data:`MIN_WEAK_PEAK_SNR`
-    (both from :func:`~ema_pipeline.identification.refine.quick_significance`),
+    (both from :func:`~ema_pipeline.identification.local_fits.quick_significance`),
     or, with at least 3 channels ``H`` (n_ch, n_freq), a local shape
-    (:func:`~ema_pipeline.identification.refine.local_shapes`) of
+    (:func:`~ema_pipeline.identification.local_fits.local_shapes`) of
     MPC >= :data:`WEAK_MIN_MPC` (only the poles marked ``by_shape``, when
     given); with fewer channels every pole is kept.
 

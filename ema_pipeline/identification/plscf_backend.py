@@ -11,7 +11,7 @@ fewer than 4 pole pairs per mode found plus 16 to spare (noise and the modes
 outside the band take poles too) -- and stops after two doublings without a
 gain in determined modes, or at :func:`order_cap`, which depends on the number
 of lines and references only. "Determined" is the screen
-:func:`~ema_pipeline.identification.refine.quick_significance`
+:func:`~ema_pipeline.identification.local_fits.quick_significance`
 (std(sigma)/sigma below ``MAX_REL_SIGMA_STD``, own peak above
 :data:`MIN_PEAK_RATIO` of the local data) over the *mature* trajectories
 (started at or below :data:`MATURE_FRACTION` of the order). The diagram with
@@ -72,15 +72,11 @@ from ema_pipeline.identification.common import (
     finish_identification,
     resolve_band,
 )
+from ema_pipeline.identification.local_fits import quick_significance
 from ema_pipeline.identification.not_kept import resonances_not_kept
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf import PoleSet, plscf
-from ema_pipeline.identification.refine import (
-    RefinedPoles,
-    band_sensitivity,
-    quick_significance,
-    refine_poles,
-)
+from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, refine_poles
 from ema_pipeline.identification.residual_search import residual_peaks
 from ema_pipeline.identification.resources import order_cap
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings

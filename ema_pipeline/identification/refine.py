@@ -7,9 +7,14 @@ is estimated from the residual of the initial fit
 (:func:`ema_pipeline.identification.uncertainty.noise_model`); the covariance of
 the pole parameters (sigma_r, omega_dr) is the sandwich covariance of that fit
 with the line correlation of the noise (see
-:mod:`ema_pipeline.identification.uncertainty`).
-:func:`quick_significance` solves the same local problem once, without iterating;
-:func:`split_fit` solves one mode's problem with one pole more (a hidden close mode).
+:mod:`ema_pipeline.identification.uncertainty`). :func:`vp_solve` is that fit on
+one local problem (:mod:`ema_pipeline.identification.local_band`);
+:func:`band_sensitivity` repeats the refinement on a narrower band for the
+model-choice part of the covariance. The screens that solve the same local
+problem once (:func:`~ema_pipeline.identification.local_fits.quick_significance`)
+or with one pole more
+(:func:`~ema_pipeline.identification.local_fits.split_fit`) live in
+:mod:`ema_pipeline.identification.local_fits`.
 
 Why written here: scipy's ``least_squares`` neither eliminates the linear terms
 (variable projection) nor shares one projection between channels, which is what
@@ -22,7 +27,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack
+from ema_pipeline.identification.local_band import (
+    background_columns,
+    global_residues,
+    local_problem,
+    pole_columns,
+    pole_jacobian,
+    scaled_solve,
+)
 from ema_pipeline.identification.uncertainty import (
     correlated_information,
     correlated_leverage,
@@ -52,37 +64,7 @@ class RefinedPoles:
     n_iter: np.ndarray
 
 
-def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.ndarray:
-    """Real-stacked design (2n, 2m + K_bg) of sum_r a_r/(jw - l_r) + conj + background:
-    the modal columns of :func:`~ema_pipeline.identification.lsfd.design_matrix`
-    (no residual terms) and ``bg_r``, the real-stacked background columns."""
-    modal = design_matrix(freq_hz, lam, "receptance", lower=False, upper=False)
-    return np.concatenate([real_stack(modal), bg_r], axis=1)
-
-
-def pole_jacobian(jw: np.ndarray, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
-    """Real-stacked derivative (2n, 2m, n_ch) of the model of :func:`pole_columns`
-    with coefficients ``X`` (K, n_ch) with respect to (sigma_r, omega_dr)."""
-    m = lam.size
-    a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
-    t1 = (1.0 / (jw - lam[None, :]) ** 2)[:, :, None] * a[None, :, :]
-    t2 = (1.0 / (jw - np.conj(lam)[None, :]) ** 2)[:, :, None] * np.conj(a)[None, :, :]
-    J = np.empty((jw.shape[0], 2 * m, a.shape[1]), dtype=complex)
-    J[:, 0::2] = -(t1 + t2)  # d/d sigma
-    J[:, 1::2] = 1j * (t1 - t2)  # d/d omega_d
-    return np.concatenate([J.real, J.imag], axis=0)
-
-
-def background_columns(background: np.ndarray) -> np.ndarray:
-    """Real-stacked columns (2n, 2 K) of a complex background with real
-    coefficients: each basis column and 1j times it."""
-    bg = np.empty((background.shape[0], 2 * background.shape[1]), dtype=complex)
-    bg[:, 0::2] = background
-    bg[:, 1::2] = 1j * background
-    return real_stack(bg)
-
-
-def _vp_solve(
+def vp_solve(
     freq_hz: np.ndarray,
     Y: np.ndarray,
     poles: np.ndarray,
@@ -111,7 +93,7 @@ def _vp_solve(
     def fit(lam: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
         """Projection with row weights u (2n,) shared by all channels; the
         residual is row-weighted (2n, n_ch)."""
-        return _scaled_solve(pole_columns(freq_hz, lam, bg_r) * u[:, None], Y * u[:, None])
+        return scaled_solve(pole_columns(freq_hz, lam, bg_r) * u[:, None], Y * u[:, None])
 
     def cost_of(Rw: np.ndarray, inv_s2: np.ndarray) -> float:
         return float(np.sum(Rw**2 * inv_s2[None, :]))
@@ -280,19 +262,19 @@ def refine_poles(
     noise = np.full((m, n_ch), np.nan)
     bands = np.zeros((m, 2))
     iters = np.zeros(m, dtype=int)
-    a_all = _global_residues(freq_hz, H, poles, quantity)
+    a_all = global_residues(freq_hz, H, poles, quantity)
     for r in range(m):
-        local = _local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
+        local = local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
         if local is None:
             continue
         f, Y, members, background, k, band = local
         bands[r] = band
-        lam, Finv, s, it = _vp_solve(f, Y, poles[members], background, max_iter,
+        lam, Finv, s, it = vp_solve(f, Y, poles[members], background, max_iter,
                                      window_tau_s, force_window_s)
         lam_r = lam[k]
         if abs(lam_r - poles[r]) > max_shift * abs(poles[r].real) + 2 * np.pi * df:
             # refinement wandered off: keep the start pole, covariance there
-            lam, Finv, s, it = _vp_solve(f, Y, poles[members], background, 0, window_tau_s,
+            lam, Finv, s, it = vp_solve(f, Y, poles[members], background, 0, window_tau_s,
                                          force_window_s)
             lam_r = poles[r]
         out[r] = lam_r
@@ -341,256 +323,3 @@ def band_sensitivity(
     d = np.stack([other.pole.real - poles.real, poles.imag - other.pole.imag], axis=1)
     d = np.nan_to_num(d)
     return d[:, :, None] * d[:, None, :] / 4.0
-
-
-def local_shapes(
-    freq_hz: np.ndarray,
-    H: np.ndarray,
-    poles: np.ndarray,
-    *,
-    half_width: float = 12.0,
-    min_lines: int = 40,
-    quantity: str | None = "accelerance",
-) -> np.ndarray:
-    """(n_modes, n_ch) complex residues of each pole from its own local
-    problem (the band, member poles and quadratic background of
-    :func:`refine_poles`, the global LSFD terms of the other modes
-    subtracted), at the given poles; NaN where the band is too short.
-
-    A weak mode's shape from one global LSFD is bent by everything the global
-    model misses across the band (its MPC can drop to 0.2 for a real mode);
-    its local fit, with a background of its own, sees the shape the data
-    hold around its resonance.
-
-    Examples
-    --------
-    >>> f = np.linspace(50.0, 150.0, 401)
-    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
-    >>> jw = 2j * np.pi * f
-    >>> H = np.array([[1.0], [-2.0]]) * (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
-    >>> a = local_shapes(f, H, lam, quantity=None)
-    >>> np.round(a[0] / a[0, 0], 6).tolist()
-    [(1+0j), (-2+0j)]
-    """
-    freq_hz = np.asarray(freq_hz, dtype=float)
-    H = np.asarray(H)
-    out = np.full((poles.size, H.shape[0]), np.nan + 0j)
-    a_all = _global_residues(freq_hz, H, poles, quantity)
-    for r in range(poles.size):
-        local = _local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
-        if local is None:
-            continue
-        f, Y, members, background, k, _ = local
-        _, _, X = _scaled_solve(pole_columns(f, poles[members], background_columns(background)), Y)
-        out[r] = X[2 * k] + 1j * X[2 * k + 1]
-    return out
-
-
-@dataclass(frozen=True)
-class SplitFit:
-    """One pole's local problem fitted with one extra pole (:func:`split_fit`).
-
-    Attributes
-    ----------
-    pole : (2,) complex   the refined pole and the extra one (rad/s)
-    cov : (2, 2, 2)       their covariance in (sigma, omega_d), (rad/s)^2
-    residual_ratio : float  residual variance with the extra pole over without it
-    """
-
-    pole: np.ndarray
-    cov: np.ndarray
-    residual_ratio: float
-
-
-def split_fit(
-    freq_hz: np.ndarray,
-    H: np.ndarray,
-    poles: np.ndarray,
-    r: int,
-    *,
-    half_width: float = 6.0,
-    min_lines: int = 40,
-    quantity: str | None = "accelerance",
-    window_tau_s: float | None = None,
-    force_window_s: float | None = None,
-    residues: np.ndarray | None = None,
-) -> SplitFit | None:
-    """Refit pole r's local problem (as :func:`refine_poles`, on +-``half_width``
-    half-power bandwidths) with one extra pole started one decay rate above and
-    below it; the better of the two, or None when the band is too short.
-
-    A close mode that the diagram merged with pole r (one reference, a weak
-    partner inside its resonance) leaves a residual that the extra pole
-    removes: ``residual_ratio`` well below 1. On noise alone the ratio stays
-    near 1 (one pole more of 2 + 2 n_ch parameters among 2 n_lines n_ch
-    equations). ``residues`` (n_modes, n_ch): a global LSFD of ``poles``
-    (its other modes' terms are subtracted; computed when not given).
-
-    Examples
-    --------
-    >>> f = np.linspace(80.0, 120.0, 801)
-    >>> lam = np.array([-3.0 + 2j * np.pi * 100.0, -3.0 + 2j * np.pi * 100.6])
-    >>> jw = 2j * np.pi * f
-    >>> H = np.stack([1 / (jw - lam[0]) + 0.5 / (jw - lam[1]),
-    ...               1 / (jw - lam[0]) - 0.5 / (jw - lam[1])])
-    >>> H = H + 1e-5 * np.random.default_rng(0).standard_normal(H.shape)
-    >>> fit = split_fit(f, H, lam[:1], 0, quantity=None)
-    >>> np.sort(fit.pole.imag / (2 * np.pi)).round(2).tolist(), fit.residual_ratio < 0.01
-    ([100.0, 100.6], True)
-    """
-    freq_hz = np.asarray(freq_hz, dtype=float)
-    H = np.asarray(H)
-    a_all = residues if residues is not None else _global_residues(freq_hz, H, poles, quantity)
-    local = _local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
-    if local is None:
-        return None
-    f, Y, members, background, k, _ = local
-    fits = []
-    try:
-        _, _, s_a, _ = _vp_solve(f, Y, poles[members], background, 10, window_tau_s,
-                                 force_window_s)
-        for side in (1.0, -1.0):
-            start = np.append(poles[members], poles[r] + side * 1j * abs(poles[r].real))
-            lam, Finv, s_b, _ = _vp_solve(f, Y, start, background, 20, window_tau_s,
-                                          force_window_s)
-            fits.append((float(np.mean(s_b**2) / np.mean(s_a**2)), lam, Finv))
-    except (np.linalg.LinAlgError, ValueError):
-        return None
-    ratio, lam, Finv = min(fits, key=lambda fit: fit[0])
-    j = lam.size - 1
-    cov = np.stack([Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2], Finv[2 * j :, 2 * j :]])
-    return SplitFit(pole=lam[[k, j]], cov=cov, residual_ratio=ratio)
-
-
-def _scaled_solve(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Least squares of Y (2n, n_ch) on the real design A (2n, K) with its
-    columns scaled to unit maximum: the orthonormal basis Q of A, the
-    residual (2n, n_ch) and the solution X (K, n_ch). One projection serves
-    every channel (the local problems of this module)."""
-    scale = np.max(np.abs(A), axis=0)
-    scale[scale == 0] = 1.0
-    Q, R = batched_qr(A / scale)
-    QtY = Q.T @ Y
-    return Q, Y - Q @ QtY, np.linalg.solve(R, QtY) / scale[:, None]
-
-
-def _global_residues(
-    freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, quantity: str | None
-) -> np.ndarray | None:
-    """Residues (n_modes, n_ch) of one global LSFD of ``poles``, whose terms
-    are subtracted from the local problems; None without ``quantity``, for a
-    single pole or when the fit fails."""
-    if quantity is None or poles.size < 2:
-        return None
-    try:
-        return lsfd(freq_hz, H, poles, quantity).a
-    except (np.linalg.LinAlgError, ValueError):
-        return None
-
-
-def _local_problem(
-    freq_hz: np.ndarray,
-    H: np.ndarray,
-    poles: np.ndarray,
-    r: int,
-    half_width: float,
-    min_lines: int,
-    a_all: np.ndarray | None = None,
-) -> tuple | None:
-    """Lines, data, member poles and background of mode r's local band
-    (less the terms of the other modes with residues ``a_all`` (m, n_ch))."""
-    df = freq_hz[1] - freq_hz[0]
-    f_r = poles.imag / (2 * np.pi)
-    hpb = np.abs(poles.real) / np.pi  # half-power bandwidth in Hz
-    width = max(half_width * hpb[r], 0.5 * min_lines * df)
-    width = min(width, 0.2 * f_r[r]) if 0.2 * f_r[r] > 6.5 * df else width  # >= 13 lines
-    lo, hi = f_r[r] - width, f_r[r] + width
-    sel = (freq_hz >= lo) & (freq_hz <= hi)
-    if sel.sum() < 12:
-        return None
-    f = freq_hz[sel]
-    members = np.union1d(np.flatnonzero((f_r + hpb > lo) & (f_r - hpb < hi)), [r])
-    x = (f - f_r[r]) / width
-    background = np.stack([np.ones_like(x), x, x**2], axis=1).astype(complex)
-    Hl = H[:, sel].T
-    if a_all is not None:
-        other = np.setdiff1d(np.arange(poles.size), members)
-        if other.size:
-            jw = 2j * np.pi * f[:, None]
-            lam = poles[other][None, :]
-            Hl = Hl - (1.0 / (jw - lam)) @ a_all[other] - (1.0 / (jw - lam.conj())) @ a_all[
-                other].conj()
-    Y = real_stack(Hl)
-    k = int(np.flatnonzero(members == r)[0])
-    return f, Y, members, background, k, (lo, hi)
-
-
-def quick_significance(
-    freq_hz: np.ndarray,
-    H: np.ndarray,
-    poles: np.ndarray,
-    *,
-    half_width: float = 12.0,
-    min_lines: int = 40,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Cheap screen of candidate poles: std(sigma_r)/sigma_r, peak ratio and peak SNR.
-
-    The local problem of :func:`refine_poles` at the given poles, solved once
-    without iterating, with white noise per channel whose variance is the
-    residual's mean square over the degrees of freedom. The *peak ratio* is the
-    peak of the mode's own term, sqrt(sum_c |a_rc|^2) / sigma_r, relative to the
-    RMS of the data in its local band: a pole that models a small part of the
-    response (leakage, a smooth background) has a small ratio even in
-    noise-free data. The *peak SNR* is that peak over the residual's standard
-    deviation, sqrt(sum_c |a_rc|^2 / s2_c) / sigma_r: everything the local model
-    does not explain (noise, and on measured data model error) is the floor a
-    mode must stand out from. inf / 0 / 0 where the local band is too short.
-
-    Examples
-    --------
-    >>> f = np.linspace(50.0, 150.0, 401)
-    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
-    >>> jw = 2j * np.pi * f
-    >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
-    >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
-    >>> rel, peak, snr = quick_significance(f, H, lam)
-    >>> bool(rel[0] < 0.01), bool(peak[0] > 1), bool(snr[0] > 1e3)
-    (True, True, True)
-    """
-    freq_hz = np.asarray(freq_hz, dtype=float)
-    H = np.asarray(H)
-    rel = np.full(poles.size, np.inf)
-    peak = np.zeros(poles.size)
-    snr = np.zeros(poles.size)
-    for r in range(poles.size):
-        local = _local_problem(freq_hz, H, poles, r, half_width, min_lines)
-        if local is None:
-            continue
-        f, Y, members, background, k, _ = local
-        lam = poles[members]
-        m = lam.size
-        jw = 2j * np.pi * f[:, None]
-        A = pole_columns(f, lam, background_columns(background))
-        try:
-            Qm, res, X = _scaled_solve(A, Y)  # X (K, n_ch)
-        except np.linalg.LinAlgError:
-            continue
-        dof = max(Y.shape[0] - A.shape[1] - 2 * m / Y.shape[1], 1.0)
-        s2 = np.maximum(np.sum(res**2, axis=0) / dof, 1e-300)
-        a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
-        Jr = pole_jacobian(jw, lam, X) / np.sqrt(s2)[None, None, :]
-        Jf = Jr.reshape(Jr.shape[0], -1)
-        Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jr.shape)
-        Js = np.transpose(Jp, (0, 2, 1)).reshape(-1, 2 * m)
-        try:
-            var = np.linalg.inv(Js.T @ Js)[2 * k, 2 * k]
-        except np.linalg.LinAlgError:
-            continue
-        sigma_r = abs(lam[k].real)
-        rel[r] = np.sqrt(max(var, 0.0)) / sigma_r
-        ak = a[k]
-        n = f.size
-        data_ms = np.mean(np.sum(Y[:n] ** 2 + Y[n:] ** 2, axis=1))
-        peak[r] = np.sqrt(np.sum(np.abs(ak) ** 2) / max(data_ms, 1e-300)) / sigma_r
-        snr[r] = np.sqrt(np.sum(np.abs(ak) ** 2 / s2)) / sigma_r
-    return rel, peak, snr

@@ -1,0 +1,124 @@
+"""The local problem of one mode, shared by pole refinement and the local screens.
+
+:func:`local_problem` cuts mode r's local band (a number of half-power
+bandwidths around it), its member poles (the modes whose half-power band reaches
+into it) and a complex quadratic background per channel, and subtracts the terms
+of the other modes from one global LSFD (:func:`global_residues`).
+:func:`pole_columns` and :func:`background_columns` are the real-stacked design
+of that local model, :func:`pole_jacobian` its derivative with respect to the
+poles, and :func:`scaled_solve` the one least-squares projection that serves
+every channel. The variable-projection fit of
+:mod:`ema_pipeline.identification.refine` and the screens of
+:mod:`ema_pipeline.identification.local_fits` are built on these.
+
+Why written here: what makes the local fits cheap enough to run on every mode
+is eliminating the linear terms (variable projection) and sharing one
+projection between channels, neither of which scipy's ``least_squares`` does.
+This module holds the pieces both need for that: the design of the linear
+terms apart from the poles, the poles' Jacobian and one projection for all
+channels.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack
+
+
+def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.ndarray:
+    """Real-stacked design (2n, 2m + K_bg) of sum_r a_r/(jw - l_r) + conj + background:
+    the modal columns of :func:`~ema_pipeline.identification.lsfd.design_matrix`
+    (no residual terms) and ``bg_r``, the real-stacked background columns."""
+    modal = design_matrix(freq_hz, lam, "receptance", lower=False, upper=False)
+    return np.concatenate([real_stack(modal), bg_r], axis=1)
+
+
+def pole_jacobian(jw: np.ndarray, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
+    """Real-stacked derivative (2n, 2m, n_ch) of the model of :func:`pole_columns`
+    with coefficients ``X`` (K, n_ch) with respect to (sigma_r, omega_dr)."""
+    m = lam.size
+    a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
+    t1 = (1.0 / (jw - lam[None, :]) ** 2)[:, :, None] * a[None, :, :]
+    t2 = (1.0 / (jw - np.conj(lam)[None, :]) ** 2)[:, :, None] * np.conj(a)[None, :, :]
+    J = np.empty((jw.shape[0], 2 * m, a.shape[1]), dtype=complex)
+    J[:, 0::2] = -(t1 + t2)  # d/d sigma
+    J[:, 1::2] = 1j * (t1 - t2)  # d/d omega_d
+    return np.concatenate([J.real, J.imag], axis=0)
+
+
+def background_columns(background: np.ndarray) -> np.ndarray:
+    """Real-stacked columns (2n, 2 K) of a complex background with real
+    coefficients: each basis column and 1j times it."""
+    bg = np.empty((background.shape[0], 2 * background.shape[1]), dtype=complex)
+    bg[:, 0::2] = background
+    bg[:, 1::2] = 1j * background
+    return real_stack(bg)
+
+
+def scaled_solve(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Least squares of Y (2n, n_ch) on the real design A (2n, K) with its
+    columns scaled to unit maximum: the orthonormal basis Q of A, the
+    residual (2n, n_ch) and the solution X (K, n_ch). One projection serves
+    every channel (the local problems of :func:`local_problem`)."""
+    scale = np.max(np.abs(A), axis=0)
+    scale[scale == 0] = 1.0
+    Q, R = batched_qr(A / scale)
+    QtY = Q.T @ Y
+    return Q, Y - Q @ QtY, np.linalg.solve(R, QtY) / scale[:, None]
+
+
+def global_residues(
+    freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, quantity: str | None
+) -> np.ndarray | None:
+    """Residues (n_modes, n_ch) of one global LSFD of ``poles``, whose terms
+    are subtracted from the local problems; None without ``quantity``, for a
+    single pole or when the fit fails."""
+    if quantity is None or poles.size < 2:
+        return None
+    try:
+        return lsfd(freq_hz, H, poles, quantity).a
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+
+
+def local_problem(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    poles: np.ndarray,
+    r: int,
+    half_width: float,
+    min_lines: int,
+    a_all: np.ndarray | None = None,
+) -> tuple | None:
+    """Lines, data, member poles and background of mode r's local band
+    (less the terms of the other modes with residues ``a_all`` (m, n_ch)).
+
+    Returns (f, Y, members, background, k, (lo, hi)): the lines (Hz), the
+    real-stacked data (2n, n_ch), the indices of the member poles, the complex
+    quadratic background (n, 3), the position of r among the members and the
+    band; None when the band holds fewer than 12 lines."""
+    df = freq_hz[1] - freq_hz[0]
+    f_r = poles.imag / (2 * np.pi)
+    hpb = np.abs(poles.real) / np.pi  # half-power bandwidth in Hz
+    width = max(half_width * hpb[r], 0.5 * min_lines * df)
+    width = min(width, 0.2 * f_r[r]) if 0.2 * f_r[r] > 6.5 * df else width  # >= 13 lines
+    lo, hi = f_r[r] - width, f_r[r] + width
+    sel = (freq_hz >= lo) & (freq_hz <= hi)
+    if sel.sum() < 12:
+        return None
+    f = freq_hz[sel]
+    members = np.union1d(np.flatnonzero((f_r + hpb > lo) & (f_r - hpb < hi)), [r])
+    x = (f - f_r[r]) / width
+    background = np.stack([np.ones_like(x), x, x**2], axis=1).astype(complex)
+    Hl = H[:, sel].T
+    if a_all is not None:
+        other = np.setdiff1d(np.arange(poles.size), members)
+        if other.size:
+            jw = 2j * np.pi * f[:, None]
+            lam = poles[other][None, :]
+            Hl = Hl - (1.0 / (jw - lam)) @ a_all[other] - (1.0 / (jw - lam.conj())) @ a_all[
+                other].conj()
+    Y = real_stack(Hl)
+    k = int(np.flatnonzero(members == r)[0])
+    return f, Y, members, background, k, (lo, hi)

@@ -1,0 +1,228 @@
+"""Local screens and fits of single modes, used by the acceptance tests.
+
+Each solves the local problem of
+:func:`~ema_pipeline.identification.refine.refine_poles`
+(:func:`~ema_pipeline.identification.local_band.local_problem`: the mode's
+band, its member poles, a quadratic background, the other modes' global LSFD
+terms subtracted) in a cheaper or a different way:
+:func:`quick_significance` solves it once, without iterating (a screen of
+candidate poles); :func:`local_shapes` takes each mode's residues from it (a
+weak mode's shape, which one global LSFD bends); :func:`split_fit` solves one
+mode's problem with one pole more (a hidden close mode). The refinement itself
+lives in :mod:`ema_pipeline.identification.refine`, the tests that use these
+in :mod:`ema_pipeline.identification.acceptance`.
+
+Why written here: as for the refinement, scipy's ``least_squares`` would
+neither eliminate the linear terms (variable projection) nor share one
+projection between channels, and the screens run on every candidate pole, so
+they must be cheaper still than the refinement.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ema_pipeline.identification.local_band import (
+    background_columns,
+    global_residues,
+    local_problem,
+    pole_columns,
+    pole_jacobian,
+    scaled_solve,
+)
+from ema_pipeline.identification.refine import vp_solve
+
+
+def quick_significance(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    poles: np.ndarray,
+    *,
+    half_width: float = 12.0,
+    min_lines: int = 40,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Cheap screen of candidate poles: std(sigma_r)/sigma_r, peak ratio and peak SNR.
+
+    The local problem of :func:`~ema_pipeline.identification.refine.refine_poles`
+    at the given poles, solved once without iterating, with white noise per
+    channel whose variance is the residual's mean square over the degrees of
+    freedom. The *peak ratio* is the peak of the mode's own term,
+    sqrt(sum_c |a_rc|^2) / sigma_r, relative to the RMS of the data in its local
+    band: a pole that models a small part of the
+    response (leakage, a smooth background) has a small ratio even in
+    noise-free data. The *peak SNR* is that peak over the residual's standard
+    deviation, sqrt(sum_c |a_rc|^2 / s2_c) / sigma_r: everything the local model
+    does not explain (noise, and on measured data model error) is the floor a
+    mode must stand out from. inf / 0 / 0 where the local band is too short.
+
+    Examples
+    --------
+    >>> f = np.linspace(50.0, 150.0, 401)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
+    >>> jw = 2j * np.pi * f
+    >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
+    >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
+    >>> rel, peak, snr = quick_significance(f, H, lam)
+    >>> bool(rel[0] < 0.01), bool(peak[0] > 1), bool(snr[0] > 1e3)
+    (True, True, True)
+    """
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    H = np.asarray(H)
+    rel = np.full(poles.size, np.inf)
+    peak = np.zeros(poles.size)
+    snr = np.zeros(poles.size)
+    for r in range(poles.size):
+        local = local_problem(freq_hz, H, poles, r, half_width, min_lines)
+        if local is None:
+            continue
+        f, Y, members, background, k, _ = local
+        lam = poles[members]
+        m = lam.size
+        jw = 2j * np.pi * f[:, None]
+        A = pole_columns(f, lam, background_columns(background))
+        try:
+            Qm, res, X = scaled_solve(A, Y)  # X (K, n_ch)
+        except np.linalg.LinAlgError:
+            continue
+        dof = max(Y.shape[0] - A.shape[1] - 2 * m / Y.shape[1], 1.0)
+        s2 = np.maximum(np.sum(res**2, axis=0) / dof, 1e-300)
+        a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
+        Jr = pole_jacobian(jw, lam, X) / np.sqrt(s2)[None, None, :]
+        Jf = Jr.reshape(Jr.shape[0], -1)
+        Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jr.shape)
+        Js = np.transpose(Jp, (0, 2, 1)).reshape(-1, 2 * m)
+        try:
+            var = np.linalg.inv(Js.T @ Js)[2 * k, 2 * k]
+        except np.linalg.LinAlgError:
+            continue
+        sigma_r = abs(lam[k].real)
+        rel[r] = np.sqrt(max(var, 0.0)) / sigma_r
+        ak = a[k]
+        n = f.size
+        data_ms = np.mean(np.sum(Y[:n] ** 2 + Y[n:] ** 2, axis=1))
+        peak[r] = np.sqrt(np.sum(np.abs(ak) ** 2) / max(data_ms, 1e-300)) / sigma_r
+        snr[r] = np.sqrt(np.sum(np.abs(ak) ** 2 / s2)) / sigma_r
+    return rel, peak, snr
+
+
+def local_shapes(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    poles: np.ndarray,
+    *,
+    half_width: float = 12.0,
+    min_lines: int = 40,
+    quantity: str | None = "accelerance",
+) -> np.ndarray:
+    """(n_modes, n_ch) complex residues of each pole from its own local
+    problem (the band, member poles and quadratic background of
+    :func:`~ema_pipeline.identification.refine.refine_poles`, the global LSFD
+    terms of the other modes subtracted), at the given poles; NaN where the
+    band is too short.
+
+    A weak mode's shape from one global LSFD is bent by everything the global
+    model misses across the band (its MPC can drop to 0.2 for a real mode);
+    its local fit, with a background of its own, sees the shape the data
+    hold around its resonance.
+
+    Examples
+    --------
+    >>> f = np.linspace(50.0, 150.0, 401)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
+    >>> jw = 2j * np.pi * f
+    >>> H = np.array([[1.0], [-2.0]]) * (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
+    >>> a = local_shapes(f, H, lam, quantity=None)
+    >>> np.round(a[0] / a[0, 0], 6).tolist()
+    [(1+0j), (-2+0j)]
+    """
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    H = np.asarray(H)
+    out = np.full((poles.size, H.shape[0]), np.nan + 0j)
+    a_all = global_residues(freq_hz, H, poles, quantity)
+    for r in range(poles.size):
+        local = local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
+        if local is None:
+            continue
+        f, Y, members, background, k, _ = local
+        _, _, X = scaled_solve(pole_columns(f, poles[members], background_columns(background)), Y)
+        out[r] = X[2 * k] + 1j * X[2 * k + 1]
+    return out
+
+
+@dataclass(frozen=True)
+class SplitFit:
+    """One pole's local problem fitted with one extra pole (:func:`split_fit`).
+
+    Attributes
+    ----------
+    pole : (2,) complex   the refined pole and the extra one (rad/s)
+    cov : (2, 2, 2)       their covariance in (sigma, omega_d), (rad/s)^2
+    residual_ratio : float  residual variance with the extra pole over without it
+    """
+
+    pole: np.ndarray
+    cov: np.ndarray
+    residual_ratio: float
+
+
+def split_fit(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    poles: np.ndarray,
+    r: int,
+    *,
+    half_width: float = 6.0,
+    min_lines: int = 40,
+    quantity: str | None = "accelerance",
+    window_tau_s: float | None = None,
+    force_window_s: float | None = None,
+    residues: np.ndarray | None = None,
+) -> SplitFit | None:
+    """Refit pole r's local problem (as
+    :func:`~ema_pipeline.identification.refine.refine_poles`, on +-``half_width``
+    half-power bandwidths) with one extra pole started one decay rate above and
+    below it; the better of the two, or None when the band is too short.
+
+    A close mode that the diagram merged with pole r (one reference, a weak
+    partner inside its resonance) leaves a residual that the extra pole
+    removes: ``residual_ratio`` well below 1. On noise alone the ratio stays
+    near 1 (one pole more of 2 + 2 n_ch parameters among 2 n_lines n_ch
+    equations). ``residues`` (n_modes, n_ch): a global LSFD of ``poles``
+    (its other modes' terms are subtracted; computed when not given).
+
+    Examples
+    --------
+    >>> f = np.linspace(80.0, 120.0, 801)
+    >>> lam = np.array([-3.0 + 2j * np.pi * 100.0, -3.0 + 2j * np.pi * 100.6])
+    >>> jw = 2j * np.pi * f
+    >>> H = np.stack([1 / (jw - lam[0]) + 0.5 / (jw - lam[1]),
+    ...               1 / (jw - lam[0]) - 0.5 / (jw - lam[1])])
+    >>> H = H + 1e-5 * np.random.default_rng(0).standard_normal(H.shape)
+    >>> fit = split_fit(f, H, lam[:1], 0, quantity=None)
+    >>> np.sort(fit.pole.imag / (2 * np.pi)).round(2).tolist(), fit.residual_ratio < 0.01
+    ([100.0, 100.6], True)
+    """
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    H = np.asarray(H)
+    a_all = residues if residues is not None else global_residues(freq_hz, H, poles, quantity)
+    local = local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
+    if local is None:
+        return None
+    f, Y, members, background, k, _ = local
+    fits = []
+    try:
+        _, _, s_a, _ = vp_solve(f, Y, poles[members], background, 10, window_tau_s,
+                                 force_window_s)
+        for side in (1.0, -1.0):
+            start = np.append(poles[members], poles[r] + side * 1j * abs(poles[r].real))
+            lam, Finv, s_b, _ = vp_solve(f, Y, start, background, 20, window_tau_s,
+                                          force_window_s)
+            fits.append((float(np.mean(s_b**2) / np.mean(s_a**2)), lam, Finv))
+    except (np.linalg.LinAlgError, ValueError):
+        return None
+    ratio, lam, Finv = min(fits, key=lambda fit: fit[0])
+    j = lam.size - 1
+    cov = np.stack([Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2], Finv[2 * j :, 2 * j :]])
+    return SplitFit(pole=lam[[k, j]], cov=cov, residual_ratio=ratio)
