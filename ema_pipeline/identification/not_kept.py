@@ -19,7 +19,7 @@ beam, ``--band 240 300`` keeps 274.6 Hz as a mode beside 265.5 Hz).
 A peak is a local maximum of |H| of one FRF (:func:`scipy.signal.find_peaks`,
 the library's prominence: the height over the higher of the two valleys that
 separate it from higher ground). Peaks within a kept mode's half-power band
-(plus 1.5 lines) are that mode's and never count for a candidate.
+(plus :data:`PEAK_LINES` lines) are that mode's and never count for a candidate.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ PEAK_LINES = 1.5
 
 def half_width_hz(freq_hz: np.ndarray, pole: np.ndarray) -> np.ndarray:
     """The band (Hz, each side) that belongs to each pole (rad/s): its
-    half-power half-width |Re lambda| / 2 pi plus 1.5 lines.
+    half-power half-width |Re lambda| / 2 pi plus :data:`PEAK_LINES` lines.
 
     Examples
     --------
@@ -55,7 +55,7 @@ def half_width_hz(freq_hz: np.ndarray, pole: np.ndarray) -> np.ndarray:
     array([2.5])
     """
     df = float(np.median(np.diff(freq_hz))) if freq_hz.size > 1 else 0.0
-    return np.abs(np.asarray(pole).real) / (2 * np.pi) + 1.5 * df
+    return np.abs(np.asarray(pole).real) / (2 * np.pi) + PEAK_LINES * df
 
 
 def visible_peaks(
