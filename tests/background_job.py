@@ -20,6 +20,7 @@ from __future__ import annotations
 import json
 import os
 import sys
+from collections.abc import Iterable
 from pathlib import Path
 
 import numpy as np
@@ -58,19 +59,26 @@ def claim(out_dir: Path, key: str) -> bool:
     return True
 
 
+def write_outputs(out_dir: Path, key: str, seeds: Iterable[int]) -> None:
+    """Identify the cases ``seeds`` of ``key`` ("KIND:NAME") and write their
+    outputs to :func:`output_path` (a temporary file renamed: a reader sees
+    the whole file or none)."""
+    kind, name = key.split(":")
+    rows = [{"seed": seed, **{k: np.asarray(v).tolist() for k, v in
+                              identify_one(kind, name, seed).items()}}
+            for seed in seeds]
+    path = output_path(out_dir, key)
+    tmp = path.with_suffix(".tmp")
+    tmp.write_text(json.dumps(rows))
+    os.replace(tmp, path)
+
+
 def main(argv: list[str]) -> int:
     out_dir = Path(argv[0])
     for spec in argv[1:]:
         kind, name, seeds = spec.split(":")
-        if not claim(out_dir, f"{kind}:{name}"):
-            continue
-        rows = [{"seed": seed, **{k: np.asarray(v).tolist() for k, v in
-                                  identify_one(kind, name, seed).items()}}
-                for seed in (int(s) for s in seeds.split(","))]
-        path = output_path(out_dir, f"{kind}:{name}")
-        tmp = path.with_suffix(".tmp")
-        tmp.write_text(json.dumps(rows))
-        os.replace(tmp, path)
+        if claim(out_dir, f"{kind}:{name}"):
+            write_outputs(out_dir, f"{kind}:{name}", [int(s) for s in seeds.split(",")])
     return 0
 
 

@@ -26,7 +26,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import tqdm  # noqa: E402
-from background_job import claim, output_path  # noqa: E402
+from background_job import claim, output_path, write_outputs  # noqa: E402
 
 from ema_pipeline.cli import main  # noqa: E402
 
@@ -88,7 +88,7 @@ def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
 MYPY_COMMAND = [sys.executable, "-m", "mypy", "ema_pipeline"]
 #: Worker threads of the background fuzz run (one: it shares the machine with the suite).
 FUZZ_WORKERS = 1
-_BG_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path, set[str]]]()
+_BG_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path, dict[str, tuple[int, ...]]]]()
 _MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
 _FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 
@@ -160,7 +160,7 @@ def pytest_collection_finish(session: pytest.Session) -> None:
         session.config.stash[_FUZZ_KEY] = _start_fuzz()
     needed = _background_needed(session.items)
     if needed:
-        session.config.stash[_BG_KEY] = (*_start_background(needed), set(needed))
+        session.config.stash[_BG_KEY] = (*_start_background(needed), needed)
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
@@ -204,11 +204,15 @@ def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
 
 class Background:
     """The cases identified by the background job (``tests/background_job.py``):
-    :meth:`outputs` reads the job's file of a case, waits for it while the job
-    is computing it, and takes the case over (empty result: the test
-    identifies it) when the job has not started it yet."""
+    :meth:`outputs` reads the job's file of a case. A case the job has not
+    started, the test process claims and identifies itself (all its seeds,
+    written like the job's); while the job computes the case a test waits
+    for, the test process identifies cases the job has not started (the
+    last first), so neither core idles while work is left."""
 
-    def __init__(self, job: tuple[subprocess.Popen[bytes], Path, set[str]] | None) -> None:
+    def __init__(
+        self, job: tuple[subprocess.Popen[bytes], Path, dict[str, tuple[int, ...]]] | None
+    ) -> None:
         self.job = job
 
     def outputs(self, key: str) -> dict[int, dict[str, np.ndarray]]:
@@ -217,16 +221,29 @@ class Background:
         run it (the test then identifies the case itself)."""
         if self.job is None or key not in self.job[2]:
             return {}
-        proc, root, _ = self.job
+        proc, root, jobs = self.job
         path = output_path(root, key)
         if not path.exists() and claim(root, key):
-            return {}
-        while not path.exists() and proc.poll() is None:
-            time.sleep(0.1)
-        if not path.exists():
-            raise AssertionError(f"background identification failed ({key}):\n{_log_tail(root)}")
+            write_outputs(root, key, jobs[key])
+        while not path.exists():
+            if proc.poll() is not None:
+                raise AssertionError(
+                    f"background identification failed ({key}):\n{_log_tail(root)}")
+            if not self._take_one():
+                time.sleep(0.1)
         return {d["seed"]: {k: np.asarray(v) for k, v in d.items() if k != "seed"}
                 for d in json.loads(path.read_text())}
+
+    def _take_one(self) -> bool:
+        """Identify one case that nobody has claimed yet (the job's last
+        first); False when there is none."""
+        assert self.job is not None
+        _, root, jobs = self.job
+        for key in reversed(list(jobs)):
+            if not output_path(root, key).exists() and claim(root, key):
+                write_outputs(root, key, jobs[key])
+                return True
+        return False
 
 
 @pytest.fixture(scope="session")
