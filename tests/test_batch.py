@@ -182,6 +182,23 @@ def _local_rows(local_run: Path) -> pd.DataFrame:
     return rows
 
 
+def test_warnings_of_a_file_are_in_the_summary(good_folder: Path, tmp_path: Path) -> None:
+    """What ``identify`` warns about a file (here a guess that no mode
+    answers) is in summary.csv's ``warnings`` column, also when a rerun skips
+    the file (read back from its result)."""
+    folder = tmp_path / "raw"
+    folder.mkdir()
+    shutil.copy(good_folder / "genuine_1.h5", folder / "genuine_1.h5")
+    options = IdentificationOptions(band_hz=OPTIONS.band_hz, expect_hz=(18.0, 112.0, 250.0))
+    out = tmp_path / "out"
+    for skipped in (0, 1):
+        report = run_batch(folder, out, options=options, workers=1, force=False, progress=False)
+        assert (report.n_ok, report.n_skipped) == (1 - skipped, skipped)
+        warning = _read_summary(out)["warnings"].iloc[0]
+        assert warning.startswith(str(folder / "genuine_1.h5")), warning
+        assert "not found within 5 % of 250 Hz" in warning, warning
+
+
 def test_workers_1_and_2_identical_and_rerun_skips(
     good_folder: Path, local_run: Path, tmp_path: Path
 ) -> None:

@@ -12,9 +12,9 @@ are not dropped silently either: :func:`resonances_not_kept` lists every
 rejected candidate at which enough FRFs have a clear peak of their own
 (:data:`MIN_LOG_PROMINENCE`, :data:`MIN_FRF_SHARE`), the result carries them
 (``IdentificationResult.not_kept_hz``, ``not_kept_frfs``) and
-``ema-pipeline identify`` prints them as a warning (``batch`` keeps them in
-each file's ``<stem>_result.h5``; on the
-beam, ``--band 240 300`` keeps 274.6 Hz as a mode beside 265.5 Hz).
+``ema-pipeline identify`` prints them as a warning (``batch``: the
+``warnings`` column of ``summary.csv``). On the beam, ``--band 240 300``
+keeps 274.6 Hz as a mode beside 265.5 Hz.
 
 A peak is a local maximum of |H| of one FRF (:func:`scipy.signal.find_peaks`,
 the library's prominence: the height over the higher of the two valleys that

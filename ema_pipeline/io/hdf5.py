@@ -805,8 +805,10 @@ def result_details(path: str | os.PathLike[str]) -> dict[str, Any]:
     Returns
     -------
     dict with ``configuration`` (str, "" when not stored) and, when stored,
-    ``fn_hz`` (natural frequencies, Hz, from the ``modes`` table) and ``frac``,
-    ``error`` (per-mode fit quality arrays of the ``identification`` section).
+    ``fn_hz`` (natural frequencies, Hz, from the ``modes`` table), ``frac``,
+    ``error`` (per-mode fit quality arrays of the ``identification`` section)
+    and ``warnings`` (list of str: what ``identify`` warned about the file,
+    from the ``input`` section).
 
     Raises
     ------
@@ -825,6 +827,12 @@ def result_details(path: str | os.PathLike[str]) -> dict[str, Any]:
                 details["fn_hz"] = np.asarray(
                     _member(modes, "fn_hz", path, h5py.Dataset)[()], dtype=float
                 )
+            inp = _member(h5, "input", path, h5py.Group, required=False)
+            if inp is not None and "warnings" in inp.attrs:
+                found = np.atleast_1d(_attr(inp, "warnings", path=path))
+                details["warnings"] = [
+                    w.decode() if isinstance(w, bytes) else str(w) for w in found
+                ]
             ident = _member(h5, "identification", path, h5py.Group, required=False)
             if ident is not None and all(
                 ident.get(k, getlink=True) is not None for k in ("frac", "error")

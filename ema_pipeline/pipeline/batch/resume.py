@@ -33,6 +33,8 @@ def completed_details(result_h5: Path) -> dict[str, Any]:
     details: dict[str, Any] = {"configuration": stored["configuration"]}
     if "fn_hz" in stored:
         details["fn_hz"] = tuple(float(f) for f in stored["fn_hz"])
+    if "warnings" in stored:
+        details["warnings"] = tuple(stored["warnings"])
     if "frac" in stored and "error" in stored:
         details["fit_frac"] = float(np.mean(stored["frac"]))
         details["fit_error"] = float(np.mean(stored["error"]))

@@ -35,6 +35,7 @@ SUMMARY_COLUMNS = (
     "seconds",
     "modes_csv",
     "result_h5",
+    "warnings",
 )
 FAILURE_COLUMNS = ("file", "sha256", "reason")
 
@@ -123,6 +124,7 @@ def summary_row(rec: FileRecord, out: Path) -> list[str]:
         f"{rec.seconds:.3f}",
         _relative(rec.modes_csv, out),
         _relative(rec.result_h5, out),
+        " | ".join(rec.warnings),
     ]
 
 

@@ -48,6 +48,7 @@ class FileRecord:
     seconds: float = 0.0
     modes_csv: str = ""
     result_h5: str = ""
+    warnings: tuple[str, ...] = ()  # e.g. resonances not kept (identify's warnings)
 
     @property
     def n_modes(self) -> int:
@@ -109,5 +110,6 @@ def process_file(task: FileTask) -> FileRecord:
         fit_frac=outcome.fit_frac,
         fit_error=outcome.fit_error,
         seconds=outcome.seconds,
+        warnings=tuple(outcome.warnings),
         **outputs,
     )
