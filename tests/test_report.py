@@ -18,7 +18,13 @@ import pytest
 from ema_pipeline import io
 from ema_pipeline.cli import main
 from ema_pipeline.identification import identify
-from ema_pipeline.report import ReportInput, render_html, render_identify_html
+from ema_pipeline.report import (
+    BatchReportInput,
+    ReportInput,
+    render_batch_html,
+    render_html,
+    render_identify_html,
+)
 from ema_pipeline.report.svg import envelope
 from ema_pipeline.report.tables import column_formatters
 
@@ -222,6 +228,22 @@ def test_batch_report_lists_failures_with_reason_and_the_trend(tmp_path, example
     f1 = {r[1]: r[4] for r in files[1:]}
     assert float(f1["genuine.uff"]) == pytest.approx(18.14, abs=0.01)
     assert page.svgs == 1 and "mode 4: median" in (out / "report.html").read_text()
+
+
+def test_batch_report_shows_the_warnings_of_each_file():
+    """summary.csv's warnings column (resonances not kept, guesses not found)
+    becomes a table of the files with warnings; no section without any."""
+    summary = pd.DataFrame({
+        "file": ["a.uff", "b.uff"], "status": ["ok", "ok"], "configuration": ["", ""],
+        "frequencies_hz": ["18.1;112.0", "18.2"], "fit_error": ["0.01", "0.02"],
+        "warnings": ["", "b.uff: resonances in the FRFs with no mode kept: 274.7 Hz"],
+    })
+    inp = BatchReportInput(title="t", folder="in", summary=summary, failures=pd.DataFrame())
+    html = render_batch_html(inp, figures=False)
+    assert '<section id="warnings">' in html
+    assert "b.uff: resonances in the FRFs with no mode kept: 274.7 Hz" in html
+    quiet = render_batch_html(replace(inp, summary=summary.assign(warnings="")), figures=False)
+    assert '<section id="warnings">' not in quiet
 
 
 def test_envelope_keeps_every_columns_extremes():

@@ -298,6 +298,11 @@ def render_batch_html(batch: BatchReportInput, *, figures: bool = True) -> str:
         ft = pd.DataFrame({"file": failed["file"],
                            "reason": [reasons.get(f, "") for f in failed["file"]]})
         page.section("failures", "Failed files").append(html_table(ft))
+    if "warnings" in s:  # what identify warned about a file (resonances not kept, ...)
+        warned = s[s["warnings"].fillna("").astype(str).str.len() > 0]
+        if len(warned):
+            page.section("warnings", "Warnings").append(html_table(
+                pd.DataFrame({"file": warned["file"], "warnings": warned["warnings"]})))
     freqs = [_frequencies(c) for c in s.get("frequencies_hz", [])]
     n_modes = max((len(f) for f in freqs), default=0)
     table = pd.DataFrame({"#": np.arange(1, len(s) + 1), "file": s["file"],
