@@ -299,7 +299,8 @@ def render_batch_html(batch: BatchReportInput, *, figures: bool = True) -> str:
                            "reason": [reasons.get(f, "") for f in failed["file"]]})
         page.section("failures", "Failed files").append(html_table(ft))
     if "warnings" in s:  # what identify warned about a file (resonances not kept, ...)
-        warned = s[s["warnings"].fillna("").astype(str).str.len() > 0]
+        # an all-empty column reads back as NaN (float)
+        warned = s[[isinstance(w, str) and bool(w) for w in s["warnings"]]]
         if len(warned):
             page.section("warnings", "Warnings").append(html_table(
                 pd.DataFrame({"file": warned["file"], "warnings": warned["warnings"]})))
