@@ -106,15 +106,14 @@ def resonances_not_kept(
     kept: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``rejected`` candidate poles (rad/s) at which the FRFs ``H``
-    (n_ch, n_freq) show a resonance of their own: a peak
-    that stands out in at least :data:`MIN_FRF_SHARE` of the FRFs (and
-    :data:`MIN_FRFS`), away from the ``kept`` poles' half-power bands, where
-    the global fit of the kept poles leaves a residual of at least
-    :data:`~ema_pipeline.identification.residual_search.RESIDUAL_PEAK_RATIO`
-    times its floor (:func:`~ema_pipeline.identification.residual_search.residual_ratio`:
-    where the FRFs are mostly noise, random peaks stand out too). Returns
-    their natural frequencies (Hz, ascending, one per peak) and the number of
-    FRFs in which each stands out.
+    (n_ch, n_freq) show a resonance of their own: a peak that stands out in
+    at least :data:`MIN_FRF_SHARE` of the FRFs (and :data:`MIN_FRFS`) within
+    :data:`PEAK_LINES` lines of the candidate's natural frequency, away from
+    the ``kept`` poles' half-power bands. Pass only candidates whose decay
+    rate is determined
+    (:func:`~ema_pipeline.identification.acceptance.decay_determined`).
+    Returns their natural frequencies (Hz, ascending, one per peak) and the
+    number of FRFs in which each stands out.
 
     Examples
     --------
