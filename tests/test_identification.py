@@ -203,7 +203,7 @@ def test_window_search_resolves_ten_narrow_modes():
     12 lines apart, in 120 lines, one reference, 4 outputs. They need order
     40 or more; the window's cap (4:1 equations to coefficients, 59 here) lets
     the search get there, the whole band's n_lines/4 (30) found 3-4 of them."""
-    from ema_pipeline.identification import plscf_backend as pb
+    from ema_pipeline.identification import order_search as pb
     from ema_pipeline.identification.resources import order_cap
 
     f = 20.0 + 0.1 * np.arange(120)

@@ -22,11 +22,14 @@ reference, ``method="sdypy-lscf"``, and test against):
 Modules: ``options`` (:class:`IdentificationOptions`), ``core`` (:func:`identify`
 and the method table :data:`METHODS`), ``plscf_backend`` / ``sdypy_backend``
 (the methods), ``common`` (band checks and the shared finish), ``plscf``,
-``stabilization``, ``selection``, ``refine`` (pole refinement), ``local_band``
+``stabilization``, ``selection``, ``order_search`` (the adaptive order search
+of ``plscf_backend``: diagrams of growing order and their candidates),
+``refine`` (pole refinement), ``local_band``
 (the local problem of one mode, shared by ``refine`` and ``local_fits``),
 ``local_fits`` (local screens and fits of single modes), ``acceptance``
 (the final tests: which refined candidates are modes), ``residual_search``
-(modes the diagrams missed), ``uncertainty`` (noise and covariance model),
+(modes the diagrams missed), ``not_kept`` (resonances the FRFs show that no
+mode was kept for), ``uncertainty`` (noise and covariance model),
 ``lsfd`` (residues and fit indicators), ``result``. The MAC lives in :mod:`ema_pipeline.modal`, the
 diagrams in :mod:`ema_pipeline.plots`.
 """

@@ -32,7 +32,7 @@ class IdentificationOptions:
     max_order : highest pLSCF denominator order p (p * n_in poles), fixed;
         default adaptive: from :func:`ema_pipeline.identification.default_max_order`
         doubled while the diagram gains modes, up to
-        :func:`ema_pipeline.identification.plscf_backend.order_cap`. For
+        :func:`ema_pipeline.identification.resources.order_cap`. For
         ``"sdypy-lscf"`` sdypy-EMA's ``pol_order_high`` (default 100).
     method : a name in :data:`ema_pipeline.identification.METHODS`:
         ``"plscf"`` (this package) or ``"sdypy-lscf"`` (sdypy-EMA).

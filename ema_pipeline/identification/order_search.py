@@ -1,0 +1,393 @@
+"""The adaptive order search of the ``"plscf"`` backend
+(:func:`~ema_pipeline.identification.plscf_backend.identify_plscf`): pLSCF
+diagrams of growing order, pole trajectories, the cheap screen that counts
+the determined modes, and the second searches of a wide band's lowest part
+and of windows of a dense band. It yields the candidates that the backend
+refines and tests.
+
+Order (unless ``max_order`` fixes it): the first diagram is computed at
+:func:`~ema_pipeline.identification.common.default_max_order`. The order is
+doubled while the diagram may be short of modes -- when physical
+trajectories that the data determine are still young at its last order
+(:func:`young_trajectories`: a mode that stabilised late), or when it has
+fewer than 4 pole pairs per mode found plus 16 to spare (noise and the modes
+outside the band take poles too) -- and stops after two doublings without a
+gain in determined modes, or at
+:func:`~ema_pipeline.identification.resources.order_cap`, which depends on the number
+of lines and references only. "Determined" is the screen
+:func:`~ema_pipeline.identification.local_fits.quick_significance`
+(std(sigma)/sigma below ``MAX_REL_SIGMA_STD``, own peak above
+:data:`MIN_PEAK_RATIO` of the local data) over the *mature* trajectories
+(started at or below :data:`MATURE_FRACTION` of the order). The diagram with
+the most determined modes is used, plus the determined resonances (the peak
+test of :func:`~ema_pipeline.identification.acceptance.resonant` passed too) of the other
+diagrams that none of its candidates covers: at low SNR a mode is sometimes
+resolved at one order and a neighbour's trajectory at another, and the best
+diagram alone loses one of them (SNR hard cases, seeds 600-615: 1 -> 0 missed of 66).
+
+Wide bands: when the band's top is more than :data:`ZOOM_RATIO` times its
+bottom, the same search runs once more on its lowest 1/ZOOM_RATIO
+(:func:`add_zoom_modes`) and adds the candidates that the full band missed:
+pLSCF's time step follows the band top, so low modes of a wide band are poorly
+resolved (their poles crowd near z = 1).
+
+Dense bands: when the search selects :data:`WINDOW_MIN_MODES` candidates or
+more, it runs again in overlapping windows of :data:`WINDOW_MODES`
+consecutive candidates (:func:`mode_windows`, :func:`add_window_modes`) and
+adds what they find that no candidate covers. With one common denominator for
+20-40 modes the strong modes take the poles and a weak mode between them
+(a few per cent of the local response) never forms a trajectory; in a window
+of ten it does. The added candidates pass the same tests as all others.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ema_pipeline.data import DataError
+from ema_pipeline.identification.acceptance import MIN_WEAK_PEAK_SNR, WEAK_PEAK_RATIO
+from ema_pipeline.identification.common import default_max_order
+from ema_pipeline.identification.local_fits import quick_significance
+from ema_pipeline.identification.plscf import PoleSet, plscf
+from ema_pipeline.identification.resources import order_cap
+from ema_pipeline.identification.selection import (
+    MAX_ZETA,
+    SelectedPoles,
+    link_fragments,
+    merge_coincident,
+    select_trajectories,
+    track_poles,
+)
+from ema_pipeline.identification.stabilization import pole_to_modal
+from ema_pipeline.identification.uncertainty import MAX_REL_SIGMA_STD
+
+#: A young trajectory asks for a higher order only when the screen determines
+#: its decay rate this well (stricter than ``MAX_REL_SIGMA_STD``: the screen
+#: ignores line correlation and the noise model) ...
+YOUNG_MAX_REL_SIGMA_STD = 0.1
+#: ... and when its own peak is at least this fraction of the local RMS of the
+#: data (noise-free data determine every pole; a mode must also show).
+YOUNG_MIN_PEAK_RATIO = 0.3
+#: A selected mode whose own peak is below this fraction of the local RMS of
+#: the data models background, not a resonance (dropped) ...
+MIN_PEAK_RATIO = 0.05
+#: ... or below this one with 3 or more channels, where the shape test of
+#: :func:`~ema_pipeline.identification.acceptance.resonant` (MPC) judges the weak candidates
+#: that remain.
+MIN_PEAK_RATIO_SHAPES = 0.02
+#: In the adaptive search a trajectory counts (and is kept) only when it starts
+#: below this fraction of the diagram's highest order, unless that is the cap.
+MATURE_FRACTION = 0.75
+
+
+def diagram_orders(p: int, n_in: int, max_orders: int = 40) -> np.ndarray:
+    """Orders of one diagram: every order (every second for one reference, whose
+    odd orders only add a real pole) up to ``max_orders`` of them, else that
+    many evenly spaced up to p (the companion eigenvalues, O(sum n^3), dominate
+    the cost at high order).
+
+    Examples
+    --------
+    >>> diagram_orders(10, 1).tolist(), diagram_orders(200, 2, 4).tolist()
+    ([2, 4, 6, 8, 10], [1, 67, 134, 200])
+    """
+    step = 2 if n_in == 1 else 1
+    orders = np.arange(step, p + 1, step)
+    if orders.size > max_orders:
+        pick = np.unique(np.round(np.linspace(0, orders.size - 1, max_orders)).astype(int))
+        orders = orders[pick]
+    return orders
+
+
+def young_trajectories(
+    poles: PoleSet,
+    traj: np.ndarray,
+    selected: SelectedPoles,
+    band_hz: tuple[float, float],
+    window_decay_rate: float,
+) -> np.ndarray:
+    """Last poles of the trajectories that are still young: alive at the last
+    order, at least 3 members, physical (0 < zeta < 0.2, inside the band less
+    its edges) and not among ``selected`` -- modes that stabilised late and
+    need more orders to be counted (if the data determine them).
+
+    Examples
+    --------
+    >>> order = np.array([2, 4, 6, 6])
+    >>> lam = np.array([-1 + 300j, -1 + 300j, -1 + 300j, -1 + 600j])
+    >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((4, 1), complex),
+    ...              orders=np.array([2, 4, 6]), dt=1 / 400)
+    >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
+    >>> young_trajectories(ps, track_poles(ps), none, (1.0, 190.0), 0.0).size
+    1
+    """
+    p = int(poles.orders[-1])
+    last = np.flatnonzero(poles.order == p)
+    ids, counts = np.unique(traj, return_counts=True)
+    n_of = counts[np.searchsorted(ids, traj[last])]
+    fn, _, zeta = pole_to_modal(poles.pole[last], window_decay_rate)
+    lo, hi = band_hz
+    ok = (
+        (n_of >= 3)
+        & ~np.isin(traj[last], selected.cluster)
+        & (zeta > 0) & (zeta < MAX_ZETA)
+        & (fn > lo + 0.005 * (hi - lo)) & (fn < hi - 0.02 * (hi - lo))
+    )
+    return np.asarray(poles.pole[last[ok]])
+
+
+@dataclass(frozen=True)
+class OrderSearch:
+    """The adaptive order search of one band (see the module docstring):
+    diagrams of growing order, pole trajectories, the cheap screen, the
+    diagram with the most determined modes (and the other diagrams'
+    determined resonances that it does not cover)."""
+
+    weights: np.ndarray | None
+    window_decay_rate: float
+    min_peak: float
+    min_fraction: float
+    expect: bool
+
+    def run(
+        self,
+        freq: np.ndarray,
+        Hn: np.ndarray,
+        band: tuple[float, float],
+        p: int,
+        cap: int,
+        fixed: bool,
+    ) -> tuple[SelectedPoles, np.ndarray, PoleSet]:
+        """Selected candidates, trajectory labels and poles of the chosen diagram.
+        ``Hn`` (n_out, n_in, n_freq) normalised FRFs on the lines ``freq``."""
+        lo, hi = band
+        n_in = Hn.shape[1]
+        Hn_c = Hn.reshape(-1, Hn.shape[-1])
+        decay, min_peak, weights = self.window_decay_rate, self.min_peak, self.weights
+        expect = self.expect
+        # a guess needs fewer members than an automatic pick
+        min_fraction, min_members = (0.0, 4) if expect else (self.min_fraction, 6)
+        history: list[tuple[int, int]] = []
+        resolved: list[SelectedPoles] = []
+        best: tuple[SelectedPoles, np.ndarray, PoleSet] | None = None
+        best_at = 0
+        while True:
+            orders = diagram_orders(p, n_in)
+            try:
+                poles = plscf(freq, Hn, max_order=p, orders=orders, weights=weights)
+            except (np.linalg.LinAlgError, DataError):
+                if best is None:
+                    raise DataError(
+                        f"pLSCF normal equations at order {p} are singular; give a lower "
+                        "max_order or a wider band"
+                    ) from None
+                break  # too ill-conditioned to grow further: keep the last diagram
+            # a band of few lines allows few orders (46 lines at one reference:
+            # orders 2-10): a mode stable from the second of them on still counts
+            members = min(min_members, max(orders.size - 1, 2))
+            traj = link_fragments(poles, track_poles(poles), decay,
+                                  min_fraction=min_fraction, min_members=members)
+            sel = select_trajectories(
+                poles, traj, (lo, hi), decay,
+                min_fraction=min_fraction,
+                min_members=members,
+            )
+            sel = merge_coincident(sel)
+            if fixed:
+                rel, peak, snr = quick_significance(freq, Hn_c, sel.pole)
+                screen = peak > min_peak
+                if expect:  # a guess is answered by a determined resonance
+                    screen &= (rel < MAX_REL_SIGMA_STD) & (
+                        (peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
+                best = (sel.subset(screen), traj, poles)
+                break
+            # count only the modes the data determine (cheap screen, one linear fit)
+            young = young_trajectories(poles, traj, sel, (lo, hi), decay)
+            rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]))
+            ok = (rel < MAX_REL_SIGMA_STD) & (peak > min_peak)
+            # determined resonances (the peak test of acceptance.resonant):
+            # what answers an expected frequency
+            counted = ok & ((peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
+            # mature: stable over at least the last quarter of the orders (a
+            # trajectory born later is confirmed by the next, larger diagram)
+            mature = (sel.first_order < MATURE_FRACTION * p) | (p >= cap)
+            n_modes = int(np.sum(ok[: sel.pole.size] & mature))
+            ok_young = (rel < YOUNG_MAX_REL_SIGMA_STD) & (peak > YOUNG_MIN_PEAK_RATIO)
+            n_young = int(np.sum(ok_young[sel.pole.size :]))
+            history.append((p, n_modes))
+            # determined resonances of every diagram: a mode that one diagram
+            # resolves and the best one (more modes in all) lost is kept
+            resolved.append(sel.subset(counted[: sel.pole.size] & mature))
+            if best is None or n_modes > history[best_at][1]:
+                keep = (peak[: sel.pole.size] > min_peak) & mature
+                if expect:  # a guess is answered by a determined resonance
+                    keep = counted[: sel.pole.size]
+                best, best_at = (sel.subset(keep), traj, poles), len(history) - 1
+            room = p * n_in / 2 >= 4 * n_modes + 16
+            grow = n_young > 0 or not room
+            if len(history) >= 3 and n_modes <= history[-2][1] <= history[-3][1]:
+                grow = False  # two doublings without a gain: the data hold no more
+            if p >= cap or not grow:
+                break
+            p = min(2 * p, cap)
+        assert best is not None
+        if not expect:
+            chosen = best[0]
+            for k, other in enumerate(resolved):
+                if k != best_at:
+                    chosen = add_uncovered(chosen, other)
+            best = (chosen, best[1], best[2])
+        return best
+
+
+#: A band whose top is more than ZOOM_RATIO times its bottom is searched once
+#: more in its lowest 1/ZOOM_RATIO (pLSCF's time step follows the band top, so
+#: the poles of low modes in a wide band crowd near z = 1 and are poorly
+#: resolved: impact tests of 2-900 Hz lose their modes below 50 Hz).
+ZOOM_RATIO = 8.0
+#: A band where the full search selects at least WINDOW_MIN_MODES candidates is
+#: searched again in windows of WINDOW_MODES consecutive candidates, each
+#: shifted by WINDOW_STEP candidates (so that they overlap): one common
+#: denominator for 20-40 modes lets the strong ones take the poles, and weak
+#: modes between them (a few per cent of the local response) never form a
+#: trajectory. In a window of 10 modes they do.
+WINDOW_MIN_MODES = 10
+WINDOW_MODES = 10
+WINDOW_STEP = 4
+
+
+def search_window(
+    search: OrderSearch,
+    freq: np.ndarray,
+    Hn: np.ndarray,
+    window_hz: tuple[float, float],
+) -> SelectedPoles | None:
+    """Candidates of ``search`` run on the lines of ``freq`` inside ``window_hz``
+    alone, from the default order up to the window's cap (:func:`order_cap`
+    with ``window=True``: 4:1 equations to coefficients); None when the window has
+    fewer than 64 lines or its normal equations are singular.
+
+    Examples
+    --------
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> search_window(search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)) is None
+    True
+    """
+    lines = (freq >= window_hz[0]) & (freq <= window_hz[1])
+    if lines.sum() < 64:
+        return None
+    fz, Hz = freq[lines], Hn[:, :, lines]
+    if search.weights is not None:
+        search = replace(search, weights=search.weights[..., lines])
+    n_in = Hz.shape[1]
+    cap = order_cap(fz.size, n_in, window=True)
+    try:
+        zsel, _, _ = search.run(fz, Hz, window_hz, min(default_max_order(n_in, fz.size), cap),
+                                cap, False)
+    except DataError:
+        return None
+    return zsel
+
+
+def add_uncovered(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPoles:
+    """``sel`` plus the candidates of ``new`` (from another diagram) that no
+    candidate of ``sel`` covers (within the sum of their half-power
+    half-widths); they carry trajectory label -1 (their diagram is not the one
+    stored). Sorted by frequency.
+
+    Examples
+    --------
+    >>> one = SelectedPoles(np.array([-1 + 100j]), np.zeros(1, int), np.ones(1, int),
+    ...                     np.zeros(1), np.zeros(1), np.zeros(1, int))
+    >>> two = SelectedPoles(np.array([-1 + 100.5j, -1 + 150j]), np.zeros(2, int),
+    ...                     np.ones(2, int), np.zeros(2), np.zeros(2), np.zeros(2, int))
+    >>> add_uncovered(one, two).pole.imag.tolist(), add_uncovered(one, two).cluster.tolist()
+    ([100.0, 150.0], [0, -1])
+    """
+    if new is None or new.pole.size == 0:
+        return sel
+    gap = np.abs(new.pole[:, None].imag - sel.pole[None, :].imag)
+    width = np.abs(new.pole[:, None].real) + np.abs(sel.pole[None, :].real)
+    fresh = ~np.any(gap < width, axis=1) if sel.pole.size else np.ones(new.pole.size, bool)
+    if not fresh.any():
+        return sel
+    add = new.subset(fresh)
+    merged = sel.concatenate(replace(add, cluster=np.full(add.pole.size, -1)))
+    return merged.subset(np.argsort(merged.pole.imag))
+
+
+def add_zoom_modes(
+    sel: SelectedPoles,
+    search: OrderSearch,
+    freq: np.ndarray,
+    Hn: np.ndarray,
+    band: tuple[float, float],
+) -> SelectedPoles:
+    """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of a
+    second search of the band's lowest 1/:data:`ZOOM_RATIO`. Unchanged for a
+    narrower band or one with fewer than 64 lines in that part.
+
+    Examples
+    --------
+    >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> add_zoom_modes(none, search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)).pole.size
+    0
+    """
+    lo, hi = band
+    if hi < ZOOM_RATIO * lo:
+        return sel
+    return add_uncovered(sel, search_window(search, freq, Hn, (lo, lo + (hi - lo) / ZOOM_RATIO)))
+
+
+def mode_windows(fn_hz: np.ndarray, band: tuple[float, float]) -> list[tuple[float, float]]:
+    """Windows of :data:`WINDOW_MODES` consecutive candidate frequencies
+    ``fn_hz`` inside ``band``, shifted by :data:`WINDOW_STEP`, each reaching to
+    halfway between its outermost candidates and their outer neighbours (the
+    band's edges at the ends); none with fewer than :data:`WINDOW_MIN_MODES`
+    candidates.
+
+    Examples
+    --------
+    >>> mode_windows(np.arange(1.0, 15.0) * 10, (5.0, 145.0))
+    [(5.0, 105.0), (45.0, 145.0)]
+    """
+    lo, hi = band
+    f = np.sort(fn_hz[(fn_hz > lo) & (fn_hz < hi)])
+    n = f.size
+    if n < WINDOW_MIN_MODES:
+        return []
+    edge = np.concatenate([[lo], (f[1:] + f[:-1]) / 2, [hi]])  # edge[k]: below candidate k
+    out = []
+    for s in range(0, n, WINDOW_STEP):
+        e = min(s + WINDOW_MODES, n)
+        out.append((float(edge[s]), float(edge[e])))
+        if e == n:
+            break
+    return out
+
+
+def add_window_modes(
+    sel: SelectedPoles,
+    search: OrderSearch,
+    freq: np.ndarray,
+    Hn: np.ndarray,
+    band: tuple[float, float],
+) -> SelectedPoles:
+    """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of searches
+    in the windows of :func:`mode_windows` (a dense band; unchanged with fewer
+    than :data:`WINDOW_MIN_MODES` candidates).
+
+    Examples
+    --------
+    >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> f = np.arange(10.0, 60.0)
+    >>> add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60)).pole.size
+    0
+    """
+    for window in mode_windows(sel.pole.imag / (2 * np.pi), band):
+        sel = add_uncovered(sel, search_window(search, freq, Hn, window))
+    return sel
