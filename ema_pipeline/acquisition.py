@@ -428,7 +428,7 @@ def simulate_time_records(
     ``shapes`` = (phi_out (n_out, n_modes), phi_in (1, n_modes)) are the
     mass-normalised mode shapes at the response and hammer nodes (e.g. of an FE
     beam with added mass,
-    :func:`ema_pipeline.added_mass.exact.beam_modes_with_added_mass`); ``None``
+    :func:`ema_pipeline.added_mass.modified_beam.beam_modes_with_added_mass`); ``None``
     uses the analytic cantilever's (:meth:`TestSetup.shapes`).
 
     For every impact the analogue signals are exact: the response is the

@@ -17,10 +17,9 @@ from independent_beam import truth
 
 from ema_pipeline import added_mass as am
 from ema_pipeline import paper
-from ema_pipeline.added_mass.exact import (
-    MAX_CONDITION,
+from ema_pipeline.added_mass.exact import MAX_CONDITION, exact_added_mass
+from ema_pipeline.added_mass.modified_beam import (
     beam_modes_with_added_mass,
-    exact_added_mass,
     modified_beam_matrices,
     parse_element_fractions,
 )

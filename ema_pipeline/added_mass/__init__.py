@@ -7,11 +7,13 @@ Modules:
 * :mod:`.local` - the local added mass of the immersed element(s) by least
   squares on the SEREP-reduced FE model (:func:`local_added_mass`, methods
   ``"block"`` and ``"projected"``).
+* :mod:`.modified_beam` - the FE beam with extra mass (and stiffness) on some
+  measurement elements, the forward model (:func:`beam_modes_with_added_mass`,
+  :func:`modified_beam_matrices`), used by the simulator and by ``exact``.
 * :mod:`.exact` - the local added mass by an exact (nonlinear) fit of the FE
   eigenvalues to the measured frequency ratios (method ``"exact"``,
   :func:`exact_added_mass`, :func:`exact_added_mass_all`), with its linearised
-  std and identifiability check; the FE beam with added mass for simulation
-  (:func:`beam_modes_with_added_mass`).
+  std and identifiability check.
 * :mod:`.tables` - Tables 1-6 as DataFrames (:func:`modal_parameters_from_table`
   reads the Table 1 form; :data:`TABLE_COLUMNS`).
 
@@ -22,14 +24,11 @@ The whole FE stage (model update, SEREP, Tables 2-6) is orchestrated by
 from ema_pipeline.added_mass.exact import (
     EXACT_METHOD,
     MAX_CONDITION,
-    AddedMassModes,
     ExactAddedMassResult,
     ExactOutcome,
     UnidentifiableError,
-    beam_modes_with_added_mass,
     exact_added_mass,
     exact_added_mass_all,
-    parse_element_fractions,
 )
 from ema_pipeline.added_mass.local import (
     METHODS,
@@ -45,6 +44,12 @@ from ema_pipeline.added_mass.modal import (
     pair_modes,
     replace_configuration,
     require_genuine,
+)
+from ema_pipeline.added_mass.modified_beam import (
+    AddedMassModes,
+    beam_modes_with_added_mass,
+    modified_beam_matrices,
+    parse_element_fractions,
 )
 from ema_pipeline.added_mass.tables import (
     TABLE4_PARAMETER_NAMES,
@@ -84,6 +89,7 @@ __all__ = [
     "modal_added_mass_all",
     "modal_added_mass_table",
     "modal_parameters_from_table",
+    "modified_beam_matrices",
     "pair_modes",
     "parse_element_fractions",
     "replace_configuration",

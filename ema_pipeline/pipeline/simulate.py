@@ -9,7 +9,7 @@ given; this module supplies them:
 * :func:`added_mass_modes` / :func:`simulate_added_mass_test` take the
   frequencies *and* the shapes at the response and hammer nodes from the FE beam
   whose measurement elements carry extra mass
-  (:func:`ema_pipeline.added_mass.exact.beam_modes_with_added_mass`; ``{}`` is
+  (:func:`ema_pipeline.added_mass.modified_beam.beam_modes_with_added_mass`; ``{}`` is
   the genuine beam), with given damping (default: Table 1's genuine damping):
   a simulated immersed beam with a known answer, for ``simulate --added-mass``
   and for configurations declared with ``added_mass`` in an experiment file
@@ -25,7 +25,7 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from ema_pipeline import acquisition, paper
-from ema_pipeline.added_mass.exact import beam_modes_with_added_mass
+from ema_pipeline.added_mass.modified_beam import beam_modes_with_added_mass
 from ema_pipeline.data import (
     ConfigurationSpec,
     DataError,
