@@ -98,10 +98,11 @@ def score_case(case: hardcases.HardCase, out: dict[str, np.ndarray]) -> dict:
     }
 
 
-def run_family(family: str, seeds: list[int], impl: str, verbose: bool = False) -> dict:
+def run_family(family: str, seeds: list[int], impl: str, verbose: bool = False,
+               complex_phase_deg: float = 0.0) -> dict:
     rows, times, errors = [], [], []
     for s in seeds:
-        case = hardcases.make_case(family, s)
+        case = hardcases.make_case(family, s, complex_phase_deg)
         t0 = time.perf_counter()
         try:
             with warnings.catch_warnings():
@@ -217,6 +218,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--real", action="store_true", help="also the measured beam")
     ap.add_argument("--paper", action="store_true", help="also timing/memory on raw_frf")
     ap.add_argument("--no-families", action="store_true")
+    ap.add_argument("--complex-phase", type=float, default=0.0, metavar="DEG",
+                    help="complex modes: each shape entry turned by a random phase within "
+                         "+-DEG degrees (hardcases.complex_shapes); default 0, real modes")
     ap.add_argument("--json", help="write all numbers to this JSON file")
     ap.add_argument("-v", "--verbose", action="store_true", help="list missed/spurious modes")
     args = ap.parse_args(argv)
@@ -226,7 +230,8 @@ def main(argv: list[str] | None = None) -> int:
         for fam in args.families.split(","):
             if args.verbose:
                 print(f"[{fam}]", flush=True)
-            results.append(run_family(fam, _seeds(args.seeds), args.impl, args.verbose))
+            results.append(run_family(fam, _seeds(args.seeds), args.impl, args.verbose,
+                                      args.complex_phase))
         print_table(results)
         report["families"] = results
     if args.real:
