@@ -20,12 +20,13 @@ A peak is a local maximum of |H| of one FRF (:func:`scipy.signal.find_peaks`,
 the library's prominence: the height over the higher of the two valleys that
 separate it from higher ground). Peaks within a kept mode's half-power band
 (plus :data:`PEAK_LINES` lines) are that mode's and never count for a candidate.
+``scipy.signal`` is imported where it is used, as in
+:mod:`~ema_pipeline.identification.uncertainty` (start-up time).
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy.signal import find_peaks
 
 #: A peak of |H| stands out when its prominence in log|H| exceeds this: a
 #: factor e^0.5 = 1.65 over the valleys beside it. On the measured beam the
@@ -88,6 +89,8 @@ def visible_peaks(
         return count
     with np.errstate(divide="ignore"):
         log_mag = np.log(np.abs(np.asarray(H)))
+    from scipy.signal import find_peaks  # here, not at the top: see the module docstring
+
     for row in log_mag:
         finite = np.isfinite(row)
         peaks, _ = find_peaks(np.where(finite, row, row[finite].min(initial=0.0)),

@@ -78,12 +78,15 @@ the weighted noise, so
 
 :data:`MAX_REL_SIGMA_STD` is the threshold below which a pole counts as
 determined by the data.
+
+``scipy.optimize`` and ``scipy.signal`` are imported inside the functions that
+use them: together they are about 0.8 s of every command's start-up (they pull
+in ``scipy.stats``), and a command that stops at bad input never needs them.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize, signal
 
 #: Automatic selection drops a pole whose decay rate has a
 #: relative standard deviation above this: it models noise, not a mode.
@@ -124,11 +127,13 @@ def noise_model(
         h = 0.5 * (lev[:n] + lev[n:])
         e2 = e2 / np.clip(1.0 - h, 0.05, 1.0)
         dof = 1.0
+    from scipy.optimize import nnls  # here, not at the top: see the module docstring
+
     std = np.empty_like(e2)
     frac_b = np.zeros_like(e2)
     for c in range(e2.shape[1]):
         scale = max(np.max(h2[:, c]), np.finfo(float).tiny)
-        coef, _ = optimize.nnls(np.stack([np.ones(n), h2[:, c] / scale], axis=1), e2[:, c])
+        coef, _ = nnls(np.stack([np.ones(n), h2[:, c] / scale], axis=1), e2[:, c])
         var = (coef[0] + coef[1] * h2[:, c] / scale) * dof
         floor = max(np.mean(e2[:, c]) * dof * 1e-3, np.finfo(float).tiny)
         std[:, c] = np.sqrt(np.maximum(var, floor))
@@ -235,8 +240,10 @@ def toeplitz_apply(X: np.ndarray, rho: np.ndarray) -> np.ndarray:
     L = min(rho.size, n)
     # (P X)_k = sum_d h_d X_(k+d), h_d = rho_d (d >= 0), conj(rho_-d) (d < 0):
     # a convolution with the reversed kernel (O(n log n) for any L)
+    from scipy.signal import fftconvolve  # here, not at the top: see the module docstring
+
     g = np.concatenate([rho[L - 1 : 0 : -1], np.conj(rho[:L])])
-    return np.asarray(signal.fftconvolve(X, g[:, None], mode="full", axes=0)[L - 1 : L - 1 + n])
+    return np.asarray(fftconvolve(X, g[:, None], mode="full", axes=0)[L - 1 : L - 1 + n])
 
 
 def correlated_leverage(Q: np.ndarray, J: np.ndarray, Finv: np.ndarray,
