@@ -95,10 +95,14 @@ def _residues(pole: np.ndarray, phi: np.ndarray, mass: np.ndarray, out: np.ndarr
 
 def complex_shapes(phi: np.ndarray, phase_deg: float, family: str, seed: int) -> np.ndarray:
     """``phi`` (n_pts, n_modes) with each entry turned by a random phase, uniform
-    in +-``phase_deg`` degrees: complex (non-proportionally damped) modes, MPC
-    about 0.91 at 15 degrees. ``phase_deg`` 0 returns ``phi`` itself. The
-    phases come from their own generator (family, seed), so the rest of the
-    case is the same as without them."""
+    in +-``phase_deg`` degrees: complex modes, MPC about 0.91 at 15 degrees,
+    the pattern of non-proportional damping or of phase errors between
+    channels. Not a damped mass-spring system: its residues no longer sum to
+    zero real part (sum_r Re A_r = 0 keeps a receptance at 1/w^2 far above the
+    modes), so accelerance grows like w far above the band; the families are
+    identified in bands around their modes. ``phase_deg`` 0 returns ``phi``
+    itself. The phases come from their own generator (family, seed), so the
+    rest of the case is the same as without them."""
     if phase_deg == 0:
         return phi
     rng = np.random.default_rng([12, _FAMILY_ID[family], int(seed)])
