@@ -149,8 +149,7 @@ def test_generator_frf_matches_pole_residue_model() -> None:
     case at 35-55 dB): residual below 3 % of the FRF norm."""
     case = hardcases.make_case("baseline", 1)
     frf = case.frf.band(*case.band_hz)
-    wn = 2 * np.pi * case.fn_hz
-    lam = -case.zeta * wn + 1j * wn * np.sqrt(1 - case.zeta**2)
+    lam = hardcases.modal_poles(case.fn_hz, case.zeta)
     jw = 2j * np.pi * frf.freq_hz[:, None]
     B = np.concatenate([jw**2 / (jw - lam), jw**2 / (jw - lam.conj()),
                         np.ones_like(jw), jw**2, jw**4], axis=1)
@@ -171,8 +170,7 @@ def test_true_modes_have_real_local_shapes(family: str, seed: int) -> None:
     frf = case.frf.reciprocal() if case.roving else case.frf
     sub = frf.band(*case.band_hz)
     H = sub.H.reshape(-1, sub.H.shape[-1])
-    wn = 2 * np.pi * case.fn_hz
-    lam = -case.zeta * wn + 1j * wn * np.sqrt(1 - case.zeta**2)
+    lam = hardcases.modal_poles(case.fn_hz, case.zeta)
     local = mpc(local_shapes(sub.freq_hz, H, lam, quantity=sub.quantity).T)
     assert np.all(local > 0.98), local
 
@@ -193,8 +191,7 @@ def test_complex_modes_generator_and_their_strong_modes_are_found() -> None:
     np.testing.assert_array_equal(case.fn_hz, real.fn_hz)
     sub = case.frf.band(*case.band_hz)
     H = sub.H.reshape(-1, sub.H.shape[-1])
-    wn = 2 * np.pi * case.fn_hz
-    lam = -case.zeta * wn + 1j * wn * np.sqrt(1 - case.zeta**2)
+    lam = hardcases.modal_poles(case.fn_hz, case.zeta)
     assert np.median(mpc(local_shapes(sub.freq_hz, H, lam, quantity=sub.quantity).T)) < 0.97
     _, peak, _ = quick_significance(sub.freq_hz, H, lam)
     strong = case.fn_hz[peak >= WEAK_PEAK_RATIO]
@@ -253,8 +250,7 @@ def test_impact_case_window_shift_is_exact() -> None:
     case = hardcases.make_case("impact", 1)
     frf = case.frf
     tau = frf.acquisition.exp_window_tau_s
-    wn = 2 * np.pi * case.fn_hz
-    lam = -case.zeta * wn + 1j * wn * np.sqrt(1 - case.zeta**2) - 1.0 / tau
+    lam = hardcases.modal_poles(case.fn_hz, case.zeta) - 1.0 / tau
     sel = (frf.freq_hz > 5) & (frf.freq_hz < 900)
     jw = 2j * np.pi * frf.freq_hz[sel, None]
     B = np.concatenate([1 / (jw - lam), 1 / (jw - lam.conj()), np.ones_like(jw)], axis=1)

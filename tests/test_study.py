@@ -12,6 +12,7 @@ import h5py
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import REPO
 
 from ema_pipeline import acquisition, io, paper
 from ema_pipeline.cli import main
@@ -68,7 +69,7 @@ def test_shipped_results_are_what_the_code_gives(study):
     1e-6 relative, damping and ratios 1e-5, standard deviations 1e-3 (they
     move with the last bits of another BLAS, not by tens of percent as a stale
     folder does)."""
-    shipped = Path(__file__).resolve().parents[1] / "results"
+    shipped = REPO / "results"
     tolerance = {"fd_hz": 1e-6, "fn_hz": 1e-6, "zeta_pct": 1e-5, "fn_std_hz": 1e-3,
                  "zeta_std_pct": 1e-3, "added_mass_ratio": 1e-5, "added_mass_ratio_std": 1e-3}
     for name in ("table1_modal_parameters", "table2_modal_added_mass"):
