@@ -194,13 +194,13 @@ def test_complex_modes_generator_and_their_strong_modes_are_found() -> None:
     lam = hardcases.modal_poles(case.fn_hz, case.zeta)
     assert np.median(mpc(local_shapes(sub.freq_hz, H, lam, quantity=sub.quantity).T)) < 0.97
     _, peak, _ = quick_significance(sub.freq_hz, H, lam)
-    strong = case.fn_hz[peak >= WEAK_PEAK_RATIO]
-    assert strong.size >= 4
+    strong = set(np.flatnonzero(peak >= WEAK_PEAK_RATIO).tolist())
+    assert len(strong) >= 4
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        found = np.asarray(identify(case.frf, band_hz=case.band_hz).modes.fn_hz)
-    for f, z in zip(strong, case.zeta[peak >= WEAK_PEAK_RATIO], strict=True):
-        assert np.min(np.abs(found - f)) <= (z + 0.005) * f, (f, found)
+        found = identify_case(case)["fn_hz"]
+    matched = {i for i, _ in _match(case.fn_hz, case.zeta, found)}
+    assert strong <= matched, (case.fn_hz[sorted(strong - matched)], found)
 
 
 def test_mode_resolved_in_another_diagram_is_kept() -> None:
