@@ -25,6 +25,12 @@ import numpy as np
 
 from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack
 
+#: Default local band of one mode: +-HALF_WIDTH half-power bandwidths around
+#: it, widened to at least MIN_LINES lines (the pole refinement and the local
+#: screens of :mod:`~ema_pipeline.identification.local_fits` use the same one).
+HALF_WIDTH = 12.0
+MIN_LINES = 40
+
 
 def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.ndarray:
     """Real-stacked design (2n, 2m + K_bg) of sum_r a_r/(jw - l_r) + conj + background:

@@ -25,6 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ema_pipeline.identification.local_band import (
+    HALF_WIDTH,
+    MIN_LINES,
     background_columns,
     global_residues,
     local_problem,
@@ -40,8 +42,8 @@ def quick_significance(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = 12.0,
-    min_lines: int = 40,
+    half_width: float = HALF_WIDTH,
+    min_lines: int = MIN_LINES,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cheap screen of candidate poles: std(sigma_r)/sigma_r, peak ratio and peak SNR.
 
@@ -112,8 +114,8 @@ def local_shapes(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = 12.0,
-    min_lines: int = 40,
+    half_width: float = HALF_WIDTH,
+    min_lines: int = MIN_LINES,
     quantity: str | None = "accelerance",
 ) -> np.ndarray:
     """(n_modes, n_ch) complex residues of each pole from its own local
@@ -174,7 +176,7 @@ def split_fit(
     r: int,
     *,
     half_width: float = 6.0,
-    min_lines: int = 40,
+    min_lines: int = MIN_LINES,
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,

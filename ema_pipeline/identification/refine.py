@@ -28,6 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ema_pipeline.identification.local_band import (
+    HALF_WIDTH,
+    MIN_LINES,
     background_columns,
     global_residues,
     local_problem,
@@ -216,8 +218,8 @@ def refine_poles(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = 12.0,
-    min_lines: int = 40,
+    half_width: float = HALF_WIDTH,
+    min_lines: int = MIN_LINES,
     max_iter: int = 10,
     max_shift: float = 0.5,
     quantity: str | None = "accelerance",
@@ -289,14 +291,14 @@ def band_sensitivity(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = 6.0,
+    half_width: float = HALF_WIDTH / 2,
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
 ) -> np.ndarray:
     """Model-choice covariance of refined poles, (n_modes, 2, 2) in (sigma, omega_d).
 
-    The local fit of :func:`refine_poles` (at +-12 half-power bandwidths)
+    The local fit of :func:`refine_poles` (at +-``HALF_WIDTH`` half-power bandwidths)
     stands for everything outside its members by a quadratic background and
     the subtracted terms of a global LSFD; where that is not exact (modes just
     outside the band, heavily damped neighbours) the pole carries an error the
