@@ -440,6 +440,86 @@ class TimeRecords:
         return self.force.shape[1]
 
 
+#: Physical quantities a recorded channel may carry, and their SI units.
+CHANNEL_SI_UNITS: dict[str, str] = {
+    "force": "N",
+    "acceleration": "m/s^2",
+    "velocity": "m/s",
+    "displacement": "m",
+}
+
+
+@dataclass(frozen=True)
+class Channel:
+    """One recorded channel: its name, physical quantity, measurement DOF and full scale.
+
+    ``quantity`` is a key of :data:`CHANNEL_SI_UNITS`; the samples of a
+    :class:`Recording` are always in that quantity's SI unit. ``full_scale`` is the
+    input range of the channel in the same SI unit (``None`` when the file does not
+    say; overload detection then looks for flat tops only).
+    """
+
+    name: str
+    quantity: str
+    dof: DOF | None = None
+    full_scale: float | None = None
+
+    @property
+    def unit(self) -> str:
+        return CHANNEL_SI_UNITS[self.quantity]
+
+
+@dataclass
+class Recording:
+    """A raw time recording of an impact test: force and responses, in SI units.
+
+    ``signals`` (n_channels, n_samples) holds one row per channel, sampled at
+    ``sample_rate_hz`` from time 0 (the start of the recording). A continuous
+    recording has ``segment_starts == (0,)``; pre-cut records (one hit each) are
+    concatenated, and ``segment_starts`` gives the first sample of each, so that
+    no record found later spans two of them.
+    """
+
+    signals: np.ndarray
+    sample_rate_hz: float
+    channels: tuple[Channel, ...]
+    segment_starts: tuple[int, ...] = (0,)
+    source: Provenance = field(default_factory=Provenance)
+
+    def __post_init__(self) -> None:
+        where = f"{self.source.path}: " if self.source.path else ""
+        signals = np.asarray(self.signals, dtype=float)
+        if signals.ndim != 2 or signals.shape[0] != len(self.channels):
+            raise DataError(f"{where}signals must be (n_channels={len(self.channels)}, "
+                            f"n_samples); got {signals.shape}")
+        if not np.all(np.isfinite(signals)):
+            raise DataError(f"{where}recording contains NaN/inf samples")
+        if not (np.isfinite(self.sample_rate_hz) and self.sample_rate_hz > 0):
+            raise DataError(f"{where}sample rate must be positive, got {self.sample_rate_hz}")
+        for ch in self.channels:
+            if ch.quantity not in CHANNEL_SI_UNITS:
+                raise DataError(f"{where}channel {ch.name!r}: unknown quantity {ch.quantity!r}; "
+                                f"known: {', '.join(CHANNEL_SI_UNITS)}")
+        starts = tuple(int(s) for s in self.segment_starts)
+        n = signals.shape[1]
+        if not starts or starts[0] != 0 or any(np.diff(starts) <= 0) or starts[-1] >= n:
+            raise DataError(f"{where}segment starts {starts} must rise from 0 within "
+                            f"{n} samples")
+        self.signals, self.segment_starts = signals, starts
+
+    @property
+    def n_samples(self) -> int:
+        return self.signals.shape[1]
+
+    @property
+    def duration_s(self) -> float:
+        return self.n_samples / self.sample_rate_hz
+
+    def channel_index(self, quantity: str) -> list[int]:
+        """Indices of the channels carrying ``quantity`` (e.g. ``"force"``)."""
+        return [k for k, ch in enumerate(self.channels) if ch.quantity == quantity]
+
+
 @dataclass(frozen=True)
 class ModalParameters:
     """Modal parameters of one configuration, one entry per mode (ascending f).
