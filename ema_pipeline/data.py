@@ -9,14 +9,15 @@ inside numpy.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING, Literal
+from html import escape
+from typing import Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
-if TYPE_CHECKING:  # pragma: no cover
-    from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline import paper
 
 Quantity = Literal["accelerance", "mobility", "receptance"]
 
@@ -118,6 +119,66 @@ def axis_is_uniform(freq_hz: np.ndarray, rtol: float = 1e-6) -> bool:
     return bool(np.all(np.abs(step - step.mean()) <= rtol * abs(step.mean())))
 
 
+def std_column(column: str, columns: Iterable[str]) -> str | None:
+    """Name of the standard-deviation column of ``column`` among ``columns``, if
+    any: ``x_std``, or ``fn_std_hz`` for ``fn_hz`` (units ``_hz _pct _m _kg``),
+    the naming of every table and of :class:`ModalParameters`.
+
+    Examples
+    --------
+    >>> names = ["fn_hz", "fn_std_hz", "zeta_pct", "zeta_std_pct", "r", "r_std"]
+    >>> [std_column(c, names) for c in ("fn_hz", "zeta_pct", "r", "fn_std_hz")]
+    ['fn_std_hz', 'zeta_std_pct', 'r_std', None]
+    """
+    if "_std" in column:
+        return None
+    candidates = [f"{column}_std"]
+    for unit in ("_hz", "_pct", "_m", "_kg"):
+        if column.endswith(unit):
+            candidates.append(column[: -len(unit)] + "_std" + unit)
+    present = set(columns)
+    return next((c for c in candidates if c in present), None)
+
+
+def notebook_table_html(columns: Mapping[str, Sequence[Any] | np.ndarray],
+                        caption: str = "") -> str:
+    """A plain HTML table of equal-length ``columns`` for notebook display
+    (``_repr_html_`` of the data objects): a value with a standard deviation
+    column (:func:`std_column`) as ``value ± std`` in one cell, floats to 6
+    significant digits (std to 2), NaN as an empty cell, every text escaped.
+    The report's tables (decimals per column) are :func:`ema_pipeline.report.html_table`.
+
+    Examples
+    --------
+    >>> html = notebook_table_html({"fn_hz": [18.1423456], "fn_std_hz": [0.00123], "x": ["<b>"]})
+    >>> html[html.index("<tr><td>"):]
+    '<tr><td>18.1423 ± 0.0012</td><td>&lt;b&gt;</td></tr></table>'
+    """
+
+    def cell(value: Any, digits: int = 6) -> str:
+        if isinstance(value, float | np.floating):
+            return "" if np.isnan(value) else f"{value:.{digits}g}"
+        return escape(str(value))
+
+    def merged(value: Any, std: Any) -> str:
+        text = cell(value)
+        return f"{text} ± {cell(std, 2)}" if text and cell(std) else text
+
+    names = [str(name) for name in columns]
+    stds = {name: std_column(name, names) for name in names}
+    shown = [name for name in names if name not in set(stds.values())]
+    values = {name: list(columns[name]) for name in names}
+    rows = "".join(
+        "<tr>" + "".join(
+            f"<td>{merged(values[c][r], values[s][r]) if (s := stds[c]) else cell(values[c][r])}"
+            "</td>" for c in shown) + "</tr>"
+        for r in range(len(values[names[0]]) if names else 0)
+    )
+    head = "".join(f"<th>{escape(name)}</th>" for name in shown)
+    title = f"<caption>{escape(caption)}</caption>" if caption else ""
+    return f"<table>{title}<tr>{head}</tr>{rows}</table>"
+
+
 @dataclass(frozen=True)
 class DOF:
     """A measurement degree of freedom: node number and direction.
@@ -158,6 +219,19 @@ class AcquisitionInfo:
     response_window: str = "none"
     exp_window_tau_s: float | None = None
     estimator: str = "H1"
+    #: Usable band from the force spectrum (Hz): where it falls 10 dB and 20 dB
+    #: below its low-frequency level (the Nyquist frequency when it never does);
+    #: ``None`` when unknown (FRFs not estimated from hits).
+    force_band_hz: tuple[float, float] | None = None
+    #: ``""``: the FRF matrix is laid out as measured; ``"reciprocal"``:
+    #: :meth:`FRFSet.reciprocal` swapped responses and references (a roving-hammer
+    #: set), so the response DOFs are the hammer points and the references the sensors.
+    layout: str = ""
+    #: Labels (space-separated, e.g. ``"3-Z"``) of the response / reference DOFs the
+    #: file stores with a negative direction: the values are read flipped to +X, +Y,
+    #: +Z, these keep the direction as tested (for the report's test setup).
+    response_negative: str = ""
+    reference_negative: str = ""
 
     @property
     def duration_s(self) -> float | None:
@@ -342,12 +416,17 @@ class FRFSet:
         ((3, 1, 5), ['2+Z', '3+Z', '4+Z'])
         """
         coh = None if self.coherence is None else self.coherence.transpose(1, 0, 2)
+        a = self.acquisition
+        info = replace(a, layout="" if a.layout == "reciprocal" else "reciprocal",
+                       response_negative=a.reference_negative,
+                       reference_negative=a.response_negative)
         return replace(
             self,
             H=self.H.transpose(1, 0, 2),
             coherence=coh,
             response_dofs=self.reference_dofs,
             reference_dofs=self.response_dofs,
+            acquisition=info,
         )
 
     def band(self, lo_hz: float, hi_hz: float) -> FRFSet:
@@ -520,6 +599,18 @@ class Recording:
         return [k for k, ch in enumerate(self.channels) if ch.quantity == quantity]
 
 
+def damped(natural: npt.ArrayLike, zeta: npt.ArrayLike) -> np.ndarray:
+    """Damped natural frequency natural * sqrt(1 - zeta^2) (eq. 4), in the unit
+    of ``natural`` (Hz or rad/s): the one home of the formula.
+
+    Examples
+    --------
+    >>> float(damped(10.0, 0.6))
+    8.0
+    """
+    return np.asarray(natural) * np.sqrt(1.0 - np.asarray(zeta) ** 2)
+
+
 @dataclass(frozen=True)
 class ModalParameters:
     """Modal parameters of one configuration, one entry per mode (ascending f).
@@ -563,12 +654,12 @@ class ModalParameters:
         )
 
     def _repr_html_(self) -> str:
-        """The modal table (notebooks): fn, fd, zeta with standard deviations."""
-        import pandas as pd
+        """The modal table (notebooks): fn, fd, zeta with standard deviations.
 
-        from ema_pipeline.report.tables import html_table
-
-        table = pd.DataFrame(
+        Plain HTML from :func:`notebook_table_html`; the report's formatted
+        tables are :mod:`ema_pipeline.report` (a data object imports no layer
+        above it)."""
+        return notebook_table_html(
             {
                 "mode": np.arange(1, self.n_modes + 1),
                 "fn_hz": self.fn_hz,
@@ -576,9 +667,10 @@ class ModalParameters:
                 "fd_hz": self.fd_hz,
                 "zeta_pct": 100 * self.zeta,
                 "zeta_std_pct": 100 * np.asarray(self.zeta_std),
-            }
+            },
+            caption=f"{self.configuration or 'modes'}: {self.n_modes} "
+            f"mode{'' if self.n_modes == 1 else 's'}",
         )
-        return html_table(table, caption=f"{self.configuration or 'modes'}: {self.n_modes} modes")
 
     @classmethod
     def from_damped(
@@ -593,12 +685,12 @@ class ModalParameters:
         """
         fd = np.asarray(fd_hz, dtype=float)
         z = np.asarray(zeta, dtype=float)
-        return cls(fn_hz=fd / np.sqrt(1.0 - z**2), zeta=z, **kwargs)  # type: ignore[arg-type]
+        return cls(fn_hz=fd / damped(1.0, z), zeta=z, **kwargs)  # type: ignore[arg-type]
 
     @property
     def fd_hz(self) -> np.ndarray:
         """Damped natural frequencies, eq. (4)."""
-        return self.fn_hz * np.sqrt(1.0 - self.zeta**2)
+        return damped(self.fn_hz, self.zeta)
 
     @property
     def n_modes(self) -> int:
@@ -616,11 +708,12 @@ class Beam:
     (node 1 at the clamp, node n+1 at the tip).
     """
 
-    length_m: float = 0.65
-    width_m: float = 0.05
-    thickness_m: float = 0.01
-    youngs_modulus_pa: float = 210e9
-    density_kg_m3: float = 7800.0
+    # the defaults are the paper's beam (Table 4, initial): one home, ema_pipeline.paper
+    length_m: float = paper.TABLE4_INITIAL["length_m"]
+    width_m: float = paper.TABLE4_INITIAL["width_m"]
+    thickness_m: float = paper.TABLE4_INITIAL["thickness_m"]
+    youngs_modulus_pa: float = paper.TABLE4_INITIAL["youngs_modulus_pa"]
+    density_kg_m3: float = paper.TABLE4_INITIAL["density_kg_m3"]
     n_elements: int = 100
     n_measurement_elements: int = 10
     point_masses: tuple[tuple[float, float], ...] = ()
@@ -655,63 +748,100 @@ class Beam:
 
 
 @dataclass(frozen=True)
-class ConfigurationSpec:
-    """One test configuration of an experiment and the file holding its FRFs.
+class DofMap:
+    """Where measurement DOFs lie on a :class:`Geometry`: per DOF the index of its
+    node (-1: no such node), the axis (0, 1, 2 for X, Y, Z; -1: not a
+    translation) and the sign of its direction; ``missing`` the DOFs that could
+    not be placed (no node, or a rotation / scalar direction)."""
 
-    ``exp_window_tau_s`` overrides the exponential-window time constant stored
-    in the file (foreign UFF files do not carry it); ``None`` keeps the file's.
-
-    A *simulated* configuration has ``added_mass`` ((element, delta_m) pairs,
-    ``()`` for the genuine beam) instead of a file: ``ema-pipeline run``
-    simulates its impact test on the experiment's FE beam with damping
-    ``zeta_pct`` (None: Table 1's genuine), noise ``snr_db`` (None: noise-free)
-    and ``seed`` (:func:`ema_pipeline.pipeline.simulate.simulate_configuration`).
-    """
-
-    name: str
-    file: str
-    description: str = ""
-    exp_window_tau_s: float | None = None
-    added_mass: tuple[tuple[int, float], ...] | None = None
-    zeta_pct: tuple[float, ...] | None = None
-    snr_db: float | None = 40.0
-    seed: int = 0
+    node_index: np.ndarray
+    axis: np.ndarray
+    sign: np.ndarray
+    missing: tuple[DOF, ...] = ()
 
 
 @dataclass(frozen=True)
-class Experiment:
-    """Everything ``ema-pipeline run`` needs, as described by ``experiment.toml``.
+class Geometry:
+    """The test object's wireframe: nodes, trace lines and optional surfaces.
 
-    ``configurations[0]`` is the genuine (reference) state unless ``genuine``
-    names another one. ``immersed_elements`` are 1-based elements of the
-    measurement mesh (element k joins nodes k and k+1; element 10 is the tip).
-    ``n_modes`` is the number of modes the FE stage uses. ``identification``
-    holds the options of the ``[identification]`` table
-    (:class:`ema_pipeline.identification.options.IdentificationOptions`, built
-    by :func:`ema_pipeline.io.read_experiment`).
+    Attributes
+    ----------
+    node_ids : (n,) int
+        Node numbers (as in the DOF labels of the FRFs).
+    xyz_m : (n, 3) float
+        Node coordinates in metres (global Cartesian system).
+    lines : tuple of node-id tuples
+        Trace lines: polylines through the given nodes (a pair is one segment).
+    surfaces : tuple of node-id tuples
+        Optional triangles or quads drawn filled.
+    source : str
+        Where the geometry came from (file path or a description).
+
+    Examples
+    --------
+    >>> g = Geometry(node_ids=[1, 2, 3], xyz_m=[[0, 0, 0], [0.5, 0, 0], [1, 0, 0]],
+    ...              lines=((1, 2, 3),))
+    >>> m = g.map_dofs([DOF(2, 3), DOF(3, -1), DOF(9, 3)])
+    >>> m.node_index.tolist(), m.axis.tolist(), m.sign.tolist(), [d.label() for d in m.missing]
+    ([1, 2, -1], [2, 0, -1], [1, -1, 1], ['9+Z'])
     """
 
-    name: str
-    beam: Beam
-    configurations: tuple[ConfigurationSpec, ...]
-    identification: IdentificationOptions
-    base_dir: str = "."
-    genuine: str = ""
-    response_nodes: tuple[int, ...] = (3, 6)
-    hammer_node: int = 8
-    direction: int = 3
-    immersed_elements: tuple[int, ...] = (10,)
-    n_modes: int = 4
-    update_repeats: int = 5
-    seed: int = 0
+    node_ids: np.ndarray
+    xyz_m: np.ndarray
+    lines: tuple[tuple[int, ...], ...] = ()
+    surfaces: tuple[tuple[int, ...], ...] = ()
+    source: str = ""
+
+    def __post_init__(self) -> None:
+        where = f"{self.source}: " if self.source else ""
+        ids = np.asarray(self.node_ids)
+        xyz = np.asarray(self.xyz_m, dtype=float)
+        if ids.ndim != 1 or ids.size == 0 or not np.issubdtype(ids.dtype, np.integer):
+            raise DataError(f"{where}geometry node ids must be a non-empty list of integers")
+        if xyz.shape != (ids.size, 3) or not np.all(np.isfinite(xyz)):
+            raise DataError(f"{where}geometry needs finite (x, y, z) in m for each of its "
+                            f"{ids.size} nodes, got an array of shape {xyz.shape}")
+        if np.unique(ids).size != ids.size:
+            dup = sorted({int(n) for n in ids if np.count_nonzero(ids == n) > 1})
+            raise DataError(f"{where}geometry node(s) {dup} defined twice")
+        object.__setattr__(self, "node_ids", ids.astype(int))
+        object.__setattr__(self, "xyz_m", xyz)
+        lines = tuple(tuple(int(n) for n in line) for line in self.lines)
+        surfaces = tuple(tuple(int(n) for n in s) for s in self.surfaces)
+        known = set(ids.tolist())
+        for kind, items in (("trace line", lines), ("surface", surfaces)):
+            for k, item in enumerate(items, start=1):
+                unknown = sorted(set(item) - known)
+                if unknown:
+                    raise DataError(f"{where}{kind} {k} uses node(s) {unknown} that the "
+                                    "geometry does not define")
+                if kind == "trace line" and len(item) < 2:
+                    raise DataError(f"{where}trace line {k} needs at least 2 nodes")
+                if kind == "surface" and len(item) not in (3, 4):
+                    raise DataError(f"{where}surface {k} needs 3 or 4 nodes, got {len(item)}")
+        object.__setattr__(self, "lines", lines)
+        object.__setattr__(self, "surfaces", surfaces)
 
     @property
-    def genuine_name(self) -> str:
-        return self.genuine or self.configurations[0].name
+    def n_nodes(self) -> int:
+        return int(self.node_ids.size)
 
-    def configuration(self, name: str) -> ConfigurationSpec:
-        for spec in self.configurations:
-            if spec.name == name:
-                return spec
-        known = ", ".join(c.name for c in self.configurations)
-        raise DataError(f"unknown configuration {name!r}; the experiment has: {known}")
+    def __repr__(self) -> str:
+        return (f"Geometry({self.n_nodes} nodes, {len(self.lines)} trace lines, "
+                f"{len(self.surfaces)} surfaces, source {self.source or 'memory'})")
+
+    def map_dofs(self, dofs: Iterable[DOF]) -> DofMap:
+        """Place measurement DOFs on the nodes by node number and direction
+        (1..3 = X, Y, Z; a negative direction has sign -1). A DOF whose node is
+        not in the geometry, or whose direction is not a translation, is listed
+        in ``missing`` (index and axis -1), never dropped silently."""
+        dofs = tuple(dofs)
+        where = {int(n): k for k, n in enumerate(self.node_ids)}
+        index = np.array([where.get(d.node, -1) for d in dofs], dtype=int)
+        axis = np.array([abs(d.direction) - 1 if 1 <= abs(d.direction) <= 3 else -1
+                         for d in dofs], dtype=int)
+        bad = (index < 0) | (axis < 0)
+        index[bad], axis[bad] = -1, -1
+        sign = np.array([-1 if d.direction < 0 else 1 for d in dofs], dtype=int)
+        missing = tuple(d for d, b in zip(dofs, bad, strict=True) if b)
+        return DofMap(node_index=index, axis=axis, sign=sign, missing=missing)

@@ -1,8 +1,15 @@
-"""Small modal numerics shared by the stages: the one home of the MAC.
+"""Small modal numerics shared by the stages: the one home of the MAC and of
+a pole's frequencies in Hz.
 
 Identification (auto-MAC of the identified shapes, stability of participation
-vectors between model orders) and the added-mass stage (pairing of modes
-between configurations) call these instead of writing the formula again.
+vectors between model orders, FRAC of the synthesised FRFs) and the
+added-mass stage (pairing of modes between configurations) call these instead
+of writing the formula again. A pole lambda = -sigma + j omega_d (rad/s) has
+the natural frequency |lambda| / 2 pi (:func:`pole_fn_hz`), the damped
+frequency omega_d / 2 pi (:func:`pole_fd_hz`) and the half-power half-width
+sigma / 2 pi (:func:`pole_half_width_hz`), all in Hz. The damped frequency of
+a natural frequency and a damping ratio is :func:`ema_pipeline.data.damped`
+(the data containers need it, and they are below this module).
 
 Why written here: the MAC is one line of numpy; no library we depend on
 exposes it for complex shapes.
@@ -14,7 +21,7 @@ import numpy as np
 
 from ema_pipeline.data import DataError
 
-__all__ = ["mac", "mac_pairs"]
+__all__ = ["mac", "mac_pairs", "pole_fd_hz", "pole_fn_hz", "pole_half_width_hz"]
 
 
 def mac(phi_a: np.ndarray, phi_b: np.ndarray | None = None) -> np.ndarray:
@@ -50,9 +57,8 @@ def mac(phi_a: np.ndarray, phi_b: np.ndarray | None = None) -> np.ndarray:
     if a.ndim != 2 or b.ndim != 2 or a.shape[0] != b.shape[0]:
         raise DataError(f"mode shapes {a.shape} and {b.shape} are not at the same DOFs")
     num = np.abs(a.conj().T @ b) ** 2
-    den = np.real(np.sum(a.conj() * a, axis=0))[:, None] * np.real(
-        np.sum(b.conj() * b, axis=0)
-    )[None, :]
+    # the norms as in mac_pairs (and in the selection's pole linking)
+    den = np.sum(np.abs(a) ** 2, axis=0)[:, None] * np.sum(np.abs(b) ** 2, axis=0)[None, :]
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(den > 0, num / den, 0.0)
 
@@ -85,3 +91,37 @@ def mac_pairs(phi_a: np.ndarray, phi_b: np.ndarray) -> np.ndarray:
     den = np.sum(np.abs(a) ** 2, axis=0) * np.sum(np.abs(b) ** 2, axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
         return np.where(den > 0, num / den, 0.0)
+
+
+def pole_fn_hz(pole: np.ndarray | complex) -> np.ndarray:
+    """Natural frequency |lambda| / 2 pi in Hz of poles ``pole`` (rad/s).
+
+    Examples
+    --------
+    >>> float(pole_fn_hz(-3.0 + 4.0j) * 2 * np.pi)
+    5.0
+    """
+    return np.abs(pole) / (2 * np.pi)
+
+
+def pole_fd_hz(pole: np.ndarray | complex) -> np.ndarray:
+    """Damped natural frequency Im(lambda) / 2 pi in Hz of poles ``pole`` (rad/s).
+
+    Examples
+    --------
+    >>> float(pole_fd_hz(-3.0 + 2j * np.pi * 50.0))
+    50.0
+    """
+    return np.asarray(np.imag(pole)) / (2 * np.pi)
+
+
+def pole_half_width_hz(pole: np.ndarray | complex) -> np.ndarray:
+    """Half-power half-width |Re(lambda)| / 2 pi = zeta f_n in Hz of poles
+    ``pole`` (rad/s); the half-power bandwidth is twice it.
+
+    Examples
+    --------
+    >>> float(pole_half_width_hz(-2 * np.pi * 0.5 + 2j * np.pi * 50.0))
+    0.5
+    """
+    return np.abs(np.real(pole)) / (2 * np.pi)

@@ -69,11 +69,19 @@ def example_study(tmp_path_factory: pytest.TempPathFactory, example_dir: Path) -
 def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
                                  example_dir: Path) -> Path:
     """The results folder of ``ema-pipeline run --no-figures --uff`` on the shipped
-    example, run once per session for the two tests that read it (no figures in
-    test_report.py, the modes' UFF files in test_uff_export_cli.py)."""
+    example, run once per session for the tests that read it (no figures in
+    test_report.py, the modes' UFF files in test_uff_export_cli.py, and its console
+    output, stdout then stderr, kept in ``../console.txt`` for test_cli_first_hour.py)."""
+    import contextlib
+    import io as text_io
+
     results = tmp_path_factory.mktemp("study_uff") / "results"
-    assert main(["run", "--raw", str(example_dir), "--results", str(results), "--no-figures",
-                 "--uff", "--quiet"]) == 0
+    out, err = text_io.StringIO(), text_io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(["run", "--raw", str(example_dir), "--results", str(results),
+                     "--no-figures", "--uff"])
+    (results.parent / "console.txt").write_text(out.getvalue() + err.getvalue())
+    assert code == 0, err.getvalue()
     return results
 
 

@@ -761,6 +761,89 @@ def disk_full_cases(root: Path) -> list[Case]:
     return cases
 
 
+def _nothing_written(folder: Path, out: Outcome) -> list[str]:
+    """Bad input: the output folder stays empty (no FRF, no hit table, no temporary)."""
+    return ["litter"] if folder.exists() and any(folder.iterdir()) else []
+
+
+def recording_cases(root: Path) -> list[Case]:
+    """Issue 26: bad raw recordings for ``frf`` (NaN, truncated UFF / TDMS / WAV,
+    different sample rates, no force channel, unknown unit, no hit, every hit rejected),
+    made from generated recordings; ``--report`` too, so that no page is written either."""
+    from impact_recordings import make_recording, write_tdms, write_uff
+    from nptdms import ChannelObject, TdmsWriter
+
+    root.mkdir(parents=True)
+    rec = make_recording(5, n_hits=5, n_resp=1, last_hit_short=False)
+    n = 4 * int(rec.sample_rate_hz)  # the first hits, to keep the files small
+    t = rec.time_s[:n]
+    files: dict[str, Path] = {}
+
+    def csv(name: str, header: str, force: np.ndarray, acc: np.ndarray) -> None:
+        rows = "\n".join(f"{a:.7f},{b:.6e},{c:.6e}" for a, b, c in zip(t, force, acc,
+                                                                      strict=True))
+        (root / name).write_text(f"{header}\n{rows}\n")
+        files[name] = root / name
+
+    acc_nan = rec.response[0, :n].copy()
+    acc_nan[n // 3] = np.nan
+    csv("rec_nan.csv", "time_s,force [N],acc [m/s^2]", rec.force_n[:n], acc_nan)
+    csv("rec_noforce.csv", "time_s,acc0 [m/s^2],acc [m/s^2]", rec.force_n[:n],
+        rec.response[0, :n])
+    csv("rec_unit.csv", "time_s,force [N],acc [furlong/s^2]", rec.force_n[:n],
+        rec.response[0, :n])
+    raw = write_uff(rec, root / "full.uff").read_bytes()
+    (root / "rec_truncated.uff").write_bytes(raw[: len(raw) * 3 // 4])
+    files["rec_truncated.uff"] = root / "rec_truncated.uff"
+    raw = write_tdms(rec, root / "full.tdms").read_bytes()
+    (root / "rec_truncated.tdms").write_bytes(raw[: len(raw) // 2])
+    files["rec_truncated.tdms"] = root / "rec_truncated.tdms"
+    with TdmsWriter(str(root / "rec_rates.tdms")) as writer:
+        writer.write_segment([
+            ChannelObject("g", "Hammer force", rec.force_n[:n],
+                          properties={"unit_string": "N", "wf_increment": 1 / 2048}),
+            ChannelObject("g", "Acc", rec.response[0, :n],
+                          properties={"unit_string": "m/s^2", "wf_increment": 1 / 1024}),
+        ])
+    files["rec_rates.tdms"] = root / "rec_rates.tdms"
+    # no hit: the force channel holds only its noise
+    quiet = rec.noise_std[0] * np.random.default_rng(1).standard_normal(n)
+    with TdmsWriter(str(root / "rec_nohit.tdms")) as writer:
+        writer.write_segment([
+            ChannelObject("g", "Hammer force", quiet,
+                          properties={"unit_string": "N", "wf_increment": 1 / 2048}),
+            ChannelObject("g", "Acc", rec.response[0, :n],
+                          properties={"unit_string": "m/s^2", "wf_increment": 1 / 2048}),
+        ])
+    files["rec_nohit.tdms"] = root / "rec_nohit.tdms"
+    # every hit rejected: all of them double hits
+    doubles = make_recording(7, n_hits=5, n_double=5, n_resp=1, last_hit_short=False)
+    files["rec_alldouble.tdms"] = write_tdms(doubles, root / "rec_alldouble.tdms")
+    # a truncated WAV (int16, 2 channels): the data chunk says more than the file holds
+    from scipy.io import wavfile
+
+    pcm = np.vstack([rec.force_n[:n] / rec.full_scale[0], rec.response[0, :n]
+                     / rec.full_scale[1]]).T
+    wavfile.write(root / "full.wav", 2048, np.round(pcm * 32000).astype(np.int16))
+    raw = (root / "full.wav").read_bytes()
+    (root / "rec_truncated.wav").write_bytes(raw[: len(raw) * 3 // 5 + 1])
+    files["rec_truncated.wav"] = root / "rec_truncated.wav"
+    (root / "full.wav").unlink()
+    (root / "full.uff").unlink()
+    (root / "full.tdms").unlink()
+    cases = []
+    for path in files.values():
+        stem = f"{path.stem}_{path.suffix[1:]}"
+        out = root / f"out_{stem}"
+        extra = (["--unit", "0=N", "--unit", "1=m/s^2", "--scale", f"0={rec.full_scale[0]}",
+                  "--scale", f"1={rec.full_scale[1]}"] if path.suffix == ".wav" else [])
+        cases.append(Case(stem, "recording", "recording_bad", "solo",
+                          argv=["frf", str(path), "--out", str(out / "frf.h5"), "--quiet",
+                                "--report", *extra],
+                          names=(path.name,), path=out, check=_nothing_written))
+    return cases
+
+
 def build_cases(root: Path) -> list[Case]:
     """The whole corpus, generated in ``root`` (deterministic)."""
     files = root / "files"
@@ -774,6 +857,7 @@ def build_cases(root: Path) -> list[Case]:
                                                    "h5bad_tau_negative")]
     cases = h5 + uff + special + experiment_cases(root / "exp") + option_cases(root / "opt")
     cases += batch_cases(root, bad_for_batch) + disk_full_cases(root)
+    cases += recording_cases(root / "rec")
     names = [c.name for c in cases]
     assert len(names) == len(set(names)), "case names repeat"
     return cases if FULL else [c for c in cases if c.quick]
@@ -832,7 +916,8 @@ def _troubled(out: Outcome) -> bool:
 
 def _file_status(case: Case, out: Outcome) -> str:
     p = str(case.path)
-    if any(line.startswith(f"{p}: ") and " modes [" in line for line in out.stdout.splitlines()):
+    if any(line.startswith(f"{p}: ") and (" modes [" in line or " mode [" in line)
+           for line in out.stdout.splitlines()):
         return "ok"
     if any(case.path.name in line for line in out.stderr.splitlines()):
         return "error"

@@ -7,7 +7,6 @@ second; the batch identifies in 5-395 Hz.
 
 from __future__ import annotations
 
-import csv
 import os
 import shutil
 import signal
@@ -145,7 +144,8 @@ def test_cli_batch_good_and_bad_files(
         np.testing.assert_allclose(modes["fd_hz"], truth, rtol=1e-3)
         freqs = [float(f) for f in row["frequencies_hz"].split(";")]
         np.testing.assert_allclose(freqs, modes["fn_hz"], rtol=1e-9)
-        assert 0 < float(row["fit_error"]) < 0.1 and 0.9 < float(row["fit_frac"]) <= 1.0
+        # fit_error_pct in per cent (40 dB: 5-7 %), fit_frac a ratio
+        assert 0 < float(row["fit_error_pct"]) < 10 and 0.9 < float(row["fit_frac"]) <= 1.0
 
     failures = pd.read_csv(out / "failures.csv", keep_default_na=False, dtype=str)
     assert sorted(failures["file"]) == sorted(BAD_FILES)
@@ -386,12 +386,14 @@ def test_bad_arguments_and_lock(good_folder: Path, tmp_path: Path) -> None:
 
 
 def test_empty_folder(tmp_path: Path) -> None:
+    """Nothing to do is a usage error, found before OUT (and its lock) exist."""
     (tmp_path / "raw").mkdir()
     (tmp_path / "raw" / "notes.txt").write_text("no FRFs here")
-    report = run_batch(tmp_path / "raw", tmp_path / "out", progress=False)
-    assert (report.n_files, report.n_failed) == (0, 0)
-    with open(tmp_path / "out" / "summary.csv", newline="") as fh:
-        assert list(csv.reader(fh)) == [list(batch.SUMMARY_COLUMNS)]
+    with pytest.raises(ConfigError, match="no FRF files"):
+        run_batch(tmp_path / "raw", tmp_path / "out", progress=False)
+    assert not (tmp_path / "out").exists()
+    with pytest.raises(ConfigError, match="a file, not a folder"):
+        run_batch(tmp_path / "raw" / "notes.txt", tmp_path / "out", progress=False)
 
 
 def test_inputs_layout_and_stale_temporaries(good_folder: Path, tmp_path: Path) -> None:

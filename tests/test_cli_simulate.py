@@ -61,6 +61,7 @@ def test_unwritable_output_is_a_clear_error_not_a_traceback(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
     code = main(["simulate", "--out", str(blocker / "sub" / "g.uff"), "--quiet"])
-    assert code == 1
+    assert code == 2  # found before the simulation: a usage error (issue 30)
     err = capsys.readouterr().err
-    assert "error:" in err and "file" in err and "Traceback" not in err
+    assert "error:" in err and f"{blocker} is a file, not a folder" in err
+    assert "Traceback" not in err and err.count("\n") == 1

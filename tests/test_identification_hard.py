@@ -179,11 +179,11 @@ def test_complex_modes_generator_and_their_strong_modes_are_found() -> None:
     """hardcases.complex_shapes turns the shapes complex without changing the
     rest of the case (same truth, same FRFs at 0 degrees); at +-15 degrees the
     true modes' local MPCs drop below 0.97, and every mode whose own peak is
-    clear (quick_significance ratio >= acceptance.WEAK_PEAK_RATIO) is still
+    clear (quick_significance ratio >= SelectionThresholds.weak_peak_ratio) is still
     found (weak complex modes may not be: README, "Known limitation")."""
-    from ema_pipeline.identification.acceptance import WEAK_PEAK_RATIO
     from ema_pipeline.identification.local_fits import local_shapes, quick_significance
     from ema_pipeline.identification.lsfd import mpc
+    from ema_pipeline.identification.thresholds import SelectionThresholds
 
     real, same = hardcases.make_case("mimo", 6), hardcases.make_case("mimo", 6, 0.0)
     np.testing.assert_array_equal(real.frf.H, same.frf.H)
@@ -194,7 +194,7 @@ def test_complex_modes_generator_and_their_strong_modes_are_found() -> None:
     lam = hardcases.modal_poles(case.fn_hz, case.zeta)
     assert np.median(mpc(local_shapes(sub.freq_hz, H, lam, quantity=sub.quantity).T)) < 0.97
     _, peak, _ = quick_significance(sub.freq_hz, H, lam)
-    strong = set(np.flatnonzero(peak >= WEAK_PEAK_RATIO).tolist())
+    strong = set(np.flatnonzero(peak >= SelectionThresholds().weak_peak_ratio).tolist())
     assert len(strong) >= 4
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

@@ -7,11 +7,13 @@ import numpy as np
 import pytest
 
 from ema_pipeline.identification.not_kept import (
-    MIN_FRF_SHARE,
     not_kept_message,
     resonances_not_kept,
     visible_peaks,
 )
+from ema_pipeline.identification.thresholds import SelectionThresholds
+
+MIN_FRF_SHARE = SelectionThresholds().min_frf_share
 
 FREQ = np.linspace(0.0, 200.0, 801)  # 0.25 Hz lines
 

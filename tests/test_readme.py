@@ -1,11 +1,11 @@
 """Every ```python, ```bash and ```toml block of README.md runs (issue 14).
 
 Each block runs on its own, as a reader would paste it, in a scratch copy of
-the repository (``raw_frf/`` and ``results/`` copied, ``../shared`` linked when
-present): Python blocks with ``exec``, bash blocks with ``bash -e`` (``ema-pipeline``
-and ``python`` are this interpreter, ``/tmp/`` is the scratch folder), TOML
-blocks are parsed (a complete experiment file is also read with
-:func:`ema_pipeline.io.read_experiment`).
+the repository (``raw_frf/`` copied, ``results/tables`` from the suite's run of
+the example, ``../shared`` linked when present): Python blocks with ``exec``,
+bash blocks with ``bash -e`` (``ema-pipeline`` and ``python`` are this
+interpreter, ``/tmp/`` is the scratch folder), TOML blocks are parsed (a
+complete experiment file is also read with :func:`ema_pipeline.io.read_experiment`).
 
 Convention, in README.md: an HTML comment on the line before the opening fence,
 
@@ -56,13 +56,18 @@ BLOCKS = _blocks()
 
 
 @pytest.fixture
-def sandbox(tmp_path) -> Path:
-    """A scratch repository: raw_frf/ and results/ copied, ../shared linked."""
+def sandbox(tmp_path, request) -> Path:
+    """A scratch repository: raw_frf/ copied, ../shared linked, and for a block
+    that reads results/ the tables of the suite's ``ema-pipeline run`` (results/
+    is not in the repository: the README's first command writes it)."""
     repo = tmp_path / "repo"
     repo.mkdir()
     shutil.copytree(REPO / "raw_frf", repo / "raw_frf")
-    if (REPO / "results" / "tables").is_dir():
-        shutil.copytree(REPO / "results" / "tables", repo / "results" / "tables")
+    shutil.copytree(REPO / "examples", repo / "examples")
+    callspec = getattr(request.node, "callspec", None)
+    if callspec is not None and "results/" in callspec.params.get("body", ""):
+        tables = request.getfixturevalue("example_study") / "tables"
+        shutil.copytree(tables, repo / "results" / "tables")
     shutil.copytree(REPO / "benchmarks", repo / "benchmarks")
     if SHARED.is_dir():
         (tmp_path / "shared").symlink_to(SHARED)

@@ -16,11 +16,13 @@ import hardcases  # noqa: E402
 from ema_pipeline.data import DOF, FRFSet  # noqa: E402
 from ema_pipeline.identification import identify  # noqa: E402
 from ema_pipeline.identification.residual_search import (  # noqa: E402
-    RESIDUAL_PEAK_RATIO,
     peak_pole,
     residual_peaks,
     residual_ratio,
 )
+from ema_pipeline.identification.thresholds import SelectionThresholds  # noqa: E402
+
+RESIDUAL_PEAK_RATIO = SelectionThresholds().residual_peak_ratio
 
 
 def _modes(rng: np.random.Generator, f: np.ndarray, fn: np.ndarray, zeta: np.ndarray,

@@ -152,6 +152,94 @@ def test_no_import_cycle_among_package_modules():
     assert find_cycle(graph) is None, " -> ".join(find_cycle(graph) or [])
 
 
+# ------------------------------------------------------------------ layers
+def readme_layers(text: str) -> dict[str, int]:
+    """Package or module (second name of ``ema_pipeline.X``, ``ema_pipeline`` for
+    the package itself) -> its layer, 0 the lowest, from README.md's block after
+    ``<!-- import layers ... -->`` (one line per layer, top to bottom)."""
+    match = re.search(r"<!-- import layers[^>]*-->\s*```text\n(.*?)```", text, re.S)
+    assert match, "README.md: no '<!-- import layers -->' block"
+    lines = [line for line in match.group(1).splitlines() if line.strip()]
+    return {name.strip(): len(lines) - 1 - k
+            for k, line in enumerate(lines) for name in line.split(",")}
+
+
+def group(module: str) -> str:
+    """``ema_pipeline.io.uff`` -> ``io``; the package itself -> ``ema_pipeline``."""
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else parts[0]
+
+
+def all_imports(importer: str, path: Path, known: set[str]) -> list[tuple[int, str]]:
+    """(line, module) of every package module ``importer`` names in an import:
+    module level, function bodies and ``if TYPE_CHECKING:`` blocks alike. ``from
+    ema_pipeline import io`` names ``ema_pipeline.io``; the package itself only
+    when a name is not a module (``from ema_pipeline import __version__``)."""
+    tree = ast.parse(path.read_text(), str(path))
+    is_package = path.name == "__init__.py"
+    found = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = absolute(node, importer, is_package)
+            subs = [f"{base}.{alias.name}" for alias in node.names]
+            names = [sub for sub in subs if sub in known]
+            if len(names) < len(subs):
+                names.append(base)
+        else:
+            continue
+        for name in names:
+            parts = name.split(".")
+            target = next((".".join(parts[:k]) for k in range(len(parts), 0, -1)
+                           if ".".join(parts[:k]) in known), None)
+            if target is not None and target != importer:
+                found.append((node.lineno, target))
+    return found
+
+
+def layer_violations(modules: dict[str, Path], layers: dict[str, int]) -> list[str]:
+    """Imports of a module of a higher layer or of another package of the same
+    layer (``file:line: importer -> imported``)."""
+    known = set(modules)
+    bad = []
+    for importer, path in modules.items():
+        mine = group(importer)
+        for line, target in all_imports(importer, path, known):
+            theirs = group(target)
+            if theirs != mine and layers[theirs] >= layers[mine]:
+                bad.append(f"{importer}:{line} -> {target}")
+    return bad
+
+
+def test_layer_check_sees_an_upward_import_in_a_function(tmp_path):
+    pkg = tmp_path / "ema_pipeline"
+    (pkg / "report").mkdir(parents=True)
+    (pkg / "__init__.py").write_text("from ema_pipeline.data import X\n")
+    (pkg / "data.py").write_text("def f():\n    from ema_pipeline.report import tables\n")
+    (pkg / "modal.py").write_text("from ema_pipeline import data, __version__\n")
+    (pkg / "report" / "__init__.py").write_text("from . import tables\n")
+    (pkg / "report" / "tables.py").write_text("from ..data import X\n")
+    modules = {"ema_pipeline": pkg / "__init__.py", "ema_pipeline.data": pkg / "data.py",
+               "ema_pipeline.modal": pkg / "modal.py",
+               "ema_pipeline.report": pkg / "report" / "__init__.py",
+               "ema_pipeline.report.tables": pkg / "report" / "tables.py"}
+    layers = {"report": 3, "modal": 2, "ema_pipeline": 1, "data": 0}
+    assert layer_violations(modules, layers) == [
+        "ema_pipeline.data:2 -> ema_pipeline.report.tables"]
+    layers["modal"] = 1  # beside the package itself: an import of a neighbour
+    assert layer_violations(modules, layers)[-1] == "ema_pipeline.modal:1 -> ema_pipeline"
+
+
+def test_every_import_goes_down_the_readme_layers():
+    """README.md's layer order holds for every import of the package, function-level
+    and type-only imports included; every package and module has a layer."""
+    layers = readme_layers((REPO / "README.md").read_text(encoding="utf-8"))
+    modules = package_modules()
+    assert {group(name) for name in modules} <= set(layers), "a package missing in README layers"
+    assert layer_violations(modules, layers) == []
+
+
 def private_imports(path: Path) -> list[str]:
     """``from X import _name`` and imports of ``_module`` paths, anywhere in the file
     (function bodies too); dunder names (``__future__``, ``__version__``) are public."""

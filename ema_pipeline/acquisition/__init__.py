@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from ema_pipeline.acquisition.sep005 import from_sep005  # noqa: F401  (re-export)
 from ema_pipeline.data import (
     DOF,
     AcquisitionInfo,
@@ -43,6 +44,7 @@ from ema_pipeline.data import (
     ModalParameters,
     Quantity,
     TimeRecords,
+    damped,
     quantity_power,
 )
 
@@ -135,7 +137,7 @@ def modal_frf(
     power = quantity_power(quantity)
     wn = 2 * np.pi * modes.fn_hz
     sigma = modes.zeta * wn
-    wd = wn * np.sqrt(1 - modes.zeta**2)
+    wd = damped(wn, modes.zeta)
     lam = -sigma + 1j * wd
     residue = (
         np.asarray(phi_out)[:, None, :] * np.asarray(phi_in)[None, :, :] / (2j * wd)
@@ -227,6 +229,11 @@ def estimate_frf(
 
     H1 = sum X F* / sum |F|^2 (noise on the response), H2 = sum |X|^2 / sum F X*
     (noise on the force); coherence = |sum X F*|^2 / (sum |F|^2 sum |X|^2).
+    Hv (total least squares, noise on both) is, per response and line, the
+    eigenvector of the 2 x 2 spectral matrix [[Sff, Sfx], [Sxf, Sxx]] of the
+    smallest eigenvalue: Hv = (Sxx - Sff + sqrt((Sxx - Sff)^2 + 4 |Sxf|^2)) / (2 Sfx),
+    with Sxf = sum X F*, Sfx = conj(Sxf); it weighs force (N) and response noise
+    equally in the units given, and |H1| <= |Hv| <= |H2|.
 
     The exponential window exp(-(t - trigger)/tau) is applied to force and
     response alike, so that for a noise-free test the windowed FRF equals the
@@ -242,10 +249,18 @@ def estimate_frf(
     exp_window_tau_s : time constant tau (s) of the exponential window, ``None``
         for none. It adds 1/tau to every mode's decay rate; the value goes into
         ``FRFSet.acquisition`` so that identification can undo it.
-    estimator : "H1" or "H2".
+    estimator : "H1", "H2" or "Hv".
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> force = rng.standard_normal((4, 64))
+    >>> records = TimeRecords(force=force, response=2.0 * force, sample_rate_hz=64.0)
+    >>> [float(abs(estimate_frf(records, estimator=e).H[0, 0, 5])) for e in ("H1", "H2", "Hv")]
+    [2.0, 2.0, 2.0]
     """
-    if estimator not in ("H1", "H2"):
-        raise DataError(f"unknown FRF estimator {estimator!r}; use 'H1' or 'H2'")
+    if estimator not in ("H1", "H2", "Hv"):
+        raise DataError(f"unknown FRF estimator {estimator!r}; use 'H1', 'H2' or 'Hv'")
     fs, n_samples = records.sample_rate_hz, records.n_samples
     w_exp = np.ones(n_samples)
     if exp_window_tau_s is not None:
@@ -263,8 +278,12 @@ def estimate_frf(
     tiny = np.finfo(float).tiny
     if estimator == "H1":
         H = Sxf / np.maximum(Sff, tiny)
-    else:
+    elif estimator == "H2":
         H = Sxx / np.where(np.abs(Sxf) > tiny, Sxf.conj(), tiny)
+    else:  # Hv: smallest-eigenvalue eigenvector of [[Sff, Sfx], [Sxf, Sxx]]
+        diff = Sxx - Sff[None, :]
+        H = (diff + np.sqrt(diff**2 + 4 * np.abs(Sxf) ** 2)) / (
+            2 * np.where(np.abs(Sxf) > tiny, Sxf.conj(), tiny))
     coherence = np.abs(Sxf) ** 2 / np.maximum(Sff * Sxx, tiny)
     info = AcquisitionInfo(
         sample_rate_hz=float(fs),

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ema_pipeline.data import DataError, ModalParameters
+from ema_pipeline.data import DataError, ModalParameters, damped
 from ema_pipeline.modal import mac as mac_of
 
 __all__ = [
@@ -177,7 +177,7 @@ def modal_added_mass(
     zeta_w = np.full(genuine.n_modes, np.nan)
     zeta_w[have] = modified.zeta[partner[have]]
     fd_g = genuine.fd_hz
-    fd_w = fn_w * np.sqrt(1 - zeta_w**2)
+    fd_w = damped(fn_w, zeta_w)
     ratio = (1 - zeta_w**2) / (1 - genuine.zeta**2) * fd_g**2 / fd_w**2 - 1  # eq. (10)
     f, fw, sf = genuine.fn_hz, fn_w, genuine.fn_std_hz
     ratio_std = np.sqrt((2 * f / fw**2 * sf) ** 2 + (2 * f**2 / fw**3 * std_w) ** 2)

@@ -22,10 +22,19 @@ if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
     from ema_pipeline.acquisition import TestSetup
-    from ema_pipeline.data import Experiment, ModalParameters
+    from ema_pipeline.data import ModalParameters
+    from ema_pipeline.experiment import Experiment
     from ema_pipeline.identification.options import IdentificationOptions
 
-__all__ = ["cmd_batch", "cmd_fe", "cmd_identify", "cmd_run", "cmd_simulate"]
+__all__ = [
+    "check_output_dir",
+    "check_output_file",
+    "cmd_batch",
+    "cmd_fe",
+    "cmd_identify",
+    "cmd_run",
+    "cmd_simulate",
+]
 
 
 def cmd_simulate(args: argparse.Namespace) -> int:
@@ -35,6 +44,7 @@ def cmd_simulate(args: argparse.Namespace) -> int:
 
     if args.added_mass is not None:
         return _simulate_added_mass(args)
+    _simulate_outputs(args)
     setup = acquisition.TestSetup()
     if args.experiment is not None:
         raise ConfigError("--experiment goes with --added-mass (the experiment's FE beam)")
@@ -60,6 +70,14 @@ def cmd_simulate(args: argparse.Namespace) -> int:
         )
     _simulate_and_write(args, modes, setup)
     return EXIT_OK
+
+
+def _simulate_outputs(args: argparse.Namespace) -> None:
+    """``simulate``'s output files, checked before the simulation."""
+    check_output_file(args.out, "--out")
+    _simulate_format(args.out, args.format, args.binary)
+    if args.time_records is not None:
+        check_output_file(args.time_records, "--time-records")
 
 
 def _simulate_format(out: Path, fmt: str | None, binary: bool) -> str:
@@ -118,6 +136,7 @@ def _simulate_added_mass(args: argparse.Namespace) -> int:
     from ema_pipeline.added_mass import parse_element_fractions
     from ema_pipeline.pipeline.simulate import added_mass_modes, experiment_setup
 
+    _simulate_outputs(args)
     if args.fd_hz is not None:
         raise ConfigError("--added-mass takes its frequencies from the FE beam; drop --fd-hz")
     text = args.added_mass.strip()
@@ -131,6 +150,47 @@ def _simulate_added_mass(args: argparse.Namespace) -> int:
         freqs = ", ".join(f"{f:.3f}" for f in modes.fn_hz[:4])
         print(f"FE beam with added mass {added or 'none'}: fn = {freqs}, ... Hz")
     return EXIT_OK
+
+
+def check_output_dir(path: Path, option: str) -> None:
+    """Refuse, before any work, an output folder that cannot be one: an existing
+    file, below a file, or in a folder we may not write (:class:`ConfigError`,
+    exit 2, naming the path and the problem).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> f = Path(tempfile.mkdtemp()) / "taken.txt"; _ = f.write_text("x")
+    >>> try:
+    ...     check_output_dir(f, "--out")
+    ... except ConfigError as exc:
+    ...     print(str(exc).split(": ", 1)[1])
+    --out names an existing file, not a folder
+    """
+    if path.exists() and not path.is_dir():
+        raise ConfigError(f"{path}: {option} names an existing file, not a folder")
+    _check_creatable(path, option)
+
+
+def check_output_file(path: Path, option: str) -> None:
+    """Refuse, before any work, an output file that cannot be written: an existing
+    folder, or a path whose folder cannot be made or written (:class:`ConfigError`)."""
+    if path.is_dir():
+        raise ConfigError(f"{path}: {option} names an existing folder, not a file")
+    _check_creatable(path.parent if str(path.parent) else Path("."), option, of=path)
+
+
+def _check_creatable(path: Path, option: str, of: Path | None = None) -> None:
+    """``path`` is a folder or can be made as one, writable."""
+    ancestor = path.absolute()
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        ancestor = ancestor.parent
+    what = of if of is not None else path
+    if not ancestor.is_dir():
+        raise ConfigError(f"{what}: {option} cannot be created: {ancestor} is a file, "
+                          "not a folder")
+    if not os.access(ancestor, os.W_OK | os.X_OK):
+        raise ConfigError(f"{what}: {option} is not writable ({ancestor}: permission denied)")
 
 
 def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
@@ -165,8 +225,10 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
 def cmd_identify(args: argparse.Namespace) -> int:
     """``identify``: modal parameters of each FRF file, one after the other."""
     from ema_pipeline.pipeline.single import identify_file
+    from ema_pipeline.report.wording import plural
 
     options = _identify_options(args)
+    check_output_dir(args.out, "--out")
     failed = runtime = 0
     for path in args.files:
         outcome = identify_file(path, args.out, options, keep=args.report, uff=args.uff)
@@ -185,7 +247,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         if not args.quiet:
             freqs = ", ".join(f"{f:.3f}" for f in outcome.fn_hz)
             print(
-                f"{path}: {outcome.n_modes} modes [{freqs}] Hz -> {outcome.modes_csv} "
+                f"{path}: {plural(outcome.n_modes, 'mode')} [{freqs}] Hz -> {outcome.modes_csv} "
                 + (f"and {page} " if page else "")
                 + f"({outcome.seconds:.1f} s)"
             )
@@ -208,6 +270,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
     from ema_pipeline.pipeline.batch import run_batch
 
     options = _identify_options(args)
+    check_output_dir(args.out, "--out")
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {args.workers}")
     report = run_batch(
@@ -238,24 +301,30 @@ def cmd_run(args: argparse.Namespace) -> int:
     import json
 
     from ema_pipeline.pipeline import study
+    from ema_pipeline.report.wording import plural
 
     experiment_path = args.experiment or args.raw / "experiment.toml"
+    check_output_dir(args.results, "--results")
     _memory_limit(args)
     experiment = study.load_experiment(experiment_path)
-    frfs = study.prepare_study(experiment, experiment_path)  # every input checked: exit 2
+    hits: dict = {}  # hit tables of configurations measured as raw recordings
+    frfs = study.prepare_study(experiment, experiment_path, hits=hits)  # inputs checked: exit 2
 
     def say(message: str) -> None:
         if not args.quiet and not args.json:
             print(message, file=sys.stderr, flush=True)
 
     result = study.run_study(experiment, progress=say, progress_bars=not (args.quiet or args.json),
-                             frfs=frfs)
+                             frfs=frfs, hits=hits)
     if not result.ok and Path(args.results).exists():
         for problem in result.problems:
             print(f"ema-pipeline run: {problem}", file=sys.stderr)
-        print(f"ema-pipeline run: error: the study has problems; the earlier results in "
-              f"{args.results} are kept unchanged (use a new --results folder to see the "
-              "incomplete ones)", file=sys.stderr)
+        why = result.problems[0] if result.problems else "a stage failed"
+        more = f" and {plural(len(result.problems) - 1, 'more problem')} above" if len(
+            result.problems) > 1 else ""
+        print(f"ema-pipeline run: error: the earlier results in {args.results} are kept "
+              f"unchanged because {why}{more}; use a new --results folder to see the "
+              "incomplete ones", file=sys.stderr)
         return EXIT_RUNTIME
     study.write_study(
         result, args.results, say, figures=not args.no_figures, experiment_file=experiment_path,
@@ -281,6 +350,7 @@ def cmd_fe(args: argparse.Namespace) -> int:
     from ema_pipeline.data import Beam
     from ema_pipeline.pipeline import fe_stage
 
+    check_output_dir(args.out, "--out")
     experiment = _experiment_or_default(args.experiment)
     table = io.read_csv(args.table1, required=("configuration", "mode", "fd_hz", "zeta_pct"))
     genuine = experiment.genuine_name if experiment else "genuine"

@@ -9,31 +9,118 @@ error is one line on stderr and exit status 2.
 from __future__ import annotations
 
 import argparse
+import difflib
+import sys
+import textwrap
+from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any, NoReturn
 
 from ema_pipeline.cli.commands import cmd_batch, cmd_fe, cmd_identify, cmd_run, cmd_simulate
+from ema_pipeline.cli.frf_command import add_frf_parser
 from ema_pipeline.cli.support import EXIT_USAGE
 
-__all__ = ["build_parser"]
+__all__ = ["MODES_CSV_HELP", "build_parser"]
+
+#: The columns of ``<stem>_modes.csv`` as ``identify --help`` lists them (README
+#: "Identification" documents the rules; tests check this against a real table).
+MODES_CSV_HELP = """
+  mode              1, 2, ... (ascending frequency)
+  fn_hz, fd_hz      undamped and damped natural frequency, Hz
+  zeta_pct          damping ratio, per cent
+  fn_std_hz         standard deviation of fn_hz, Hz
+  zeta_std_pct      standard deviation of zeta_pct, per cent
+  mpc               modal phase collinearity (1 = real mode)
+  mpd_deg           mean phase deviation, degrees (0 = real mode)
+  stable_from_order lowest model order at which the pole is stable
+  n_stable_orders   how many orders of the diagram hold it
+  doubtful          True when a rule marks it for a second look (kept, never dropped)
+  doubtful_reason   which rule fired (empty when not doubtful)
+  expect_hz         with --expect: the guess the mode answers (a guess not found
+                    gets a row of its own with the other columns empty)
+"""
 
 
 class _Parser(argparse.ArgumentParser):
     """argparse exits with 2 on usage errors, which is our contract too; the
-    error is one line (no usage block)."""
+    error is one line (no usage block). An unknown option or subcommand gets the
+    closest known one as a suggestion (``--bnad`` -> ``did you mean --band?``)."""
 
-    def error(self, message: str) -> None:  # type: ignore[override]
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}\n")
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        self.known_options: list[str] = []  # every option string, for suggestions
+        self.commands: Mapping[str, argparse.ArgumentParser] = {}  # set by build_parser
+        super().__init__(*args, **kwargs)
+
+    def add_argument(self, *args: Any, **kwargs: Any) -> argparse.Action:
+        action = super().add_argument(*args, **kwargs)
+        self.known_options.extend(action.option_strings)
+        return action
+
+    def parse_known_args(  # type: ignore[override]
+        self, args: Sequence[str] | None = None, namespace: argparse.Namespace | None = None
+    ) -> tuple[argparse.Namespace, list[str]]:
+        self.argv = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(args, namespace)
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}{self.suggestion(message)}\n")
+
+    def suggestion(self, message: str) -> str:
+        """``"; did you mean --band?"`` for an unknown option (or subcommand) close
+        to a known one, among the options of the subcommand named on the line."""
+        argv = getattr(self, "argv", [])
+        if message.startswith("argument COMMAND: invalid choice"):
+            unknown, known = [a for a in argv if not a.startswith("-")][:1], list(self.commands)
+        elif message.startswith("unrecognized arguments"):
+            command = next((self.commands[a] for a in argv if a in self.commands), self)
+            known = getattr(command, "known_options", self.known_options)
+            unknown = [a.split("=", 1)[0] for a in message.split(":", 1)[1].split()
+                       if a.startswith("--")]
+        else:
+            return ""
+        hints = []
+        for word in unknown:
+            close = difflib.get_close_matches(word, known, n=1, cutoff=0.6)
+            if close:
+                hints.append(f"{word} -> {close[0]}" if len(unknown) > 1 else close[0])
+        return f"; did you mean {', '.join(hints)}?" if hints else ""
 
 
-def _floats(text: str) -> tuple[float, ...]:
-    """The argparse type of ``--expect``, ``--fd-hz``, ``--zeta-pct``: ``"1,2.5,3"``."""
+class _Numbers(argparse.Action):
+    """A list option (``--expect``, ``--fd-hz``, ``--zeta-pct``): ``17,69`` or
+    ``17 69`` (several arguments), stored as one flat tuple of floats."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values: Any, option_string: str | None = None) -> None:
+        setattr(namespace, self.dest, tuple(v for group in values for v in group))
+
+
+def _numbers(text: str) -> tuple[float, ...]:
+    """The argparse type of one argument of a list option: ``"17"`` or ``"17,69"``.
+    Anything else (``"17 69"`` in one argument, ``"1 7"``, ``"17,,69"``) is an
+    error, never read as 1769 or 17.
+
+    Examples
+    --------
+    >>> _numbers("18,112.5"), _numbers("20")
+    ((18.0, 112.5), (20.0,))
+    """
+    parts = text.split(",")
     try:
-        values = tuple(float(v) for v in text.replace(" ", "").split(",") if v)
-    except ValueError as exc:
-        raise argparse.ArgumentTypeError(f"expected comma-separated numbers, got {text!r}") from exc
-    if not values:
-        raise argparse.ArgumentTypeError("expected at least one number")
-    return values
+        if any(not p or p != p.strip() for p in parts):
+            raise ValueError
+        return tuple(float(p) for p in parts)
+    except ValueError:
+        hint = " (give file names before this option)" if "/" in text or (
+            "." in text and not any(c.isdigit() for c in text)) else ""
+        raise argparse.ArgumentTypeError(
+            f"expected numbers separated by commas or spaces (17,69 or 17 69), got {text!r}{hint}"
+        ) from None
+
+
+def _add_numbers(p: argparse.ArgumentParser, flag: str, help: str) -> None:
+    p.add_argument(flag, type=_numbers, nargs="+", action=_Numbers, default=None,
+                   metavar="X", help=help + "; give them as 17,69 or as 17 69")
 
 
 def _add_identify_options(p: argparse.ArgumentParser) -> None:
@@ -57,13 +144,8 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         default="plscf",
         help="plscf (ours, default) or sdypy-lscf (sdypy-EMA's LSCF)",
     )
-    p.add_argument(
-        "--expect",
-        type=_floats,
-        default=None,
-        metavar="F1,F2,...",
-        help="approximate natural frequencies in Hz: pick the nearest stable modes",
-    )
+    _add_numbers(p, "--expect", "approximate natural frequencies in Hz: pick the nearest "
+                 "stable modes")
     p.add_argument(
         "--exp-window-tau",
         type=float,
@@ -121,6 +203,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser.add_argument("--version", action="version", version=f"ema-pipeline {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    parser.commands = sub.choices
 
     p = sub.add_parser(
         "simulate",
@@ -168,18 +251,10 @@ def build_parser() -> argparse.ArgumentParser:
         default=40.0,
         help="signal-to-noise ratio in dB per channel (default 40; 0 = noise-free)",
     )
-    p.add_argument(
-        "--fd-hz",
-        type=_floats,
-        default=None,
-        help="damped natural frequencies, e.g. 18.1,112,327,629 (default: Table 1)",
-    )
-    p.add_argument(
-        "--zeta-pct",
-        type=_floats,
-        default=None,
-        help="damping ratios in percent, e.g. 0.5,0.67,0.29,0.38 (default: Table 1)",
-    )
+    _add_numbers(p, "--fd-hz", "damped natural frequencies in Hz, e.g. 18.1,112,327,629 "
+                 "(default: Table 1)")
+    _add_numbers(p, "--zeta-pct", "damping ratios in percent, e.g. 0.5,0.67,0.29,0.38 "
+                 "(default: Table 1)")
     p.add_argument(
         "--coherence",
         action="store_true",
@@ -197,10 +272,13 @@ def build_parser() -> argparse.ArgumentParser:
     p = sub.add_parser(
         "identify",
         help="identify modal parameters of FRF files (pLSCF + LSFD)",
-        description="Identify natural frequencies, damping ratios and mode shapes of each "
-        "FRF file (UFF-58 or HDF5) with poly-reference LSCF, automatic pole selection and "
-        "LSFD. Writes DIR/<stem>_modes.csv (mode,fn_hz,fd_hz,zeta_pct,fn_std_hz,"
-        "zeta_std_pct) and DIR/<stem>_result.h5 (full result with stabilization data).",
+        description=textwrap.fill(
+            "Identify natural frequencies, damping ratios and mode shapes of each FRF file "
+            "(UFF-58 or HDF5) with poly-reference LSCF, automatic pole selection and LSFD. "
+            "Writes DIR/<stem>_result.h5 (full result with stabilization data) and "
+            "DIR/<stem>_modes.csv, one row per mode with the columns:", 78,
+        ) + MODES_CSV_HELP,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument("files", nargs="+", type=Path, metavar="FILE", help="FRF files")
     p.add_argument("--out", required=True, type=Path, metavar="DIR", help="output folder")
@@ -301,5 +379,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--experiment", type=Path, default=None, help="experiment file (TOML)")
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=cmd_fe)
+    add_frf_parser(sub)  # ema-pipeline frf (cli/frf_command.py)
     return parser
 

@@ -47,6 +47,7 @@ from ema_pipeline.fe.beam import (
     assemble_beam,
     beam_frequencies,
     beam_modes,
+    frequency_scale,
     hermite_element_matrices,
     lowest_modes,
 )
@@ -87,6 +88,7 @@ __all__ = [
     "lowest_modes",
     "beam_modes",
     "beam_frequencies",
+    "frequency_scale",
     "fe_elements_of_measurement_element",
     "measurement_master_dofs",
     "serep",

@@ -480,3 +480,28 @@ def beam_frequencies(beam: Beam, n_modes: int = 4) -> np.ndarray:
     array([ 19.84, 124.33, 348.12, 682.18])
     """
     return beam_modes(beam, n_modes).fn_hz
+
+
+def frequency_scale(
+    thickness_m: np.ndarray | float,
+    youngs_modulus_pa: np.ndarray | float,
+    density_kg_m3: np.ndarray | float,
+    length_m: np.ndarray | float,
+) -> np.ndarray:
+    """h sqrt(E / rho) / L^2 in 1/s: every natural frequency of a uniform
+    clamped-free beam without point masses is proportional to it,
+    f_r = (beta_r L)^2 / (2 pi sqrt(12)) * h sqrt(E / rho) / L^2 (I/A = h^2/12;
+    the width b cancels). It is all that frequencies can identify of the five
+    update parameters (:func:`ema_pipeline.fe.identifiable_combination`).
+
+    Examples
+    --------
+    The paper's beam, and its first frequency with beta_1 L = 1.875104 (Table 3: 19.84 Hz):
+
+    >>> scale = frequency_scale(0.01, 210e9, 7800.0, 0.65)  # 0.01 * sqrt(210e9/7800) / 0.65^2
+    >>> float(scale.round(3)), float((1.875104**2 / (2 * np.pi * np.sqrt(12)) * scale).round(2))
+    (122.811, 19.84)
+    """
+    h, e, rho, length = (np.asarray(v, dtype=float)
+                         for v in (thickness_m, youngs_modulus_pa, density_kg_m3, length_m))
+    return h * np.sqrt(e / rho) / length**2

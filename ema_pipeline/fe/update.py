@@ -17,6 +17,7 @@ from ema_pipeline.fe.beam import (
     banded_cholesky,
     batch_operator,
     check_point_masses,
+    frequency_scale,
     hat_element_matrices,
     point_mass_vectors,
     scatter_elements,
@@ -99,8 +100,9 @@ def identifiable_combination(params: np.ndarray) -> np.ndarray:
     4.0
     """
     p = np.asarray(params, dtype=float)
-    h, length, e, rho = p[..., 0], p[..., 2], p[..., 3], p[..., 4]
-    return h * np.sqrt(e / rho) / length**2
+    h, e, rho, length = (p[..., PARAMETER_NAMES.index(name)] for name in
+                         ("thickness_m", "youngs_modulus_pa", "density_kg_m3", "length_m"))
+    return frequency_scale(h, e, rho, length)
 
 
 def update_objective(fn_model_hz: np.ndarray, fn_measured_hz: np.ndarray) -> np.ndarray:

@@ -48,6 +48,7 @@ from ema_pipeline.identification.refine import refine_poles
 from ema_pipeline.identification.result import (
     IdentificationResult,
     ResolvedSettings,
+    doubtful_reasons,
     modes_table,
 )
 from ema_pipeline.identification.selection import (
@@ -63,6 +64,7 @@ from ema_pipeline.identification.stabilization import (
     pole_to_modal,
     stabilization,
 )
+from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.identification.uncertainty import modal_std
 
 __all__ = [
@@ -75,8 +77,10 @@ __all__ = [
     "PoleSet",
     "ResolvedSettings",
     "SelectedPoles",
+    "SelectionThresholds",
     "StabilizationData",
     "default_max_order",
+    "doubtful_reasons",
     "frac",
     "identify",
     "modal_std",

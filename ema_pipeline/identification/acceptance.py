@@ -7,7 +7,7 @@ Every candidate of :func:`~ema_pipeline.identification.plscf_backend.identify_pl
 (:func:`final_tests`):
 
 1. its decay rate is determined (:func:`decay_determined`,
-   :data:`MAX_REL_DECAY_STD`);
+   ``max_rel_decay_std``);
 2. it is a resonance of the data (:func:`resonant`): its own peak, its peak
    over the local residual, or with 3 or more channels a nearly real shape
    in its own local fit;
@@ -21,9 +21,11 @@ Close modes hidden in a kept resonance are looked for by
 kept modes through :func:`add_found`, which refines and tests all together
 and keeps the previous fit when none of the new ones passes.
 
-The thresholds below were chosen on the measured beam (``../shared/data``)
-and the hard families of ``tests/hardcases.py``; each one's comment says on
-what.
+The thresholds (``weak_peak_ratio``, ``max_rel_decay_std``, ...) are fields
+of :class:`~ema_pipeline.identification.thresholds.SelectionThresholds`,
+passed in as ``thresholds``; they were chosen on the measured beam
+(``../shared/data``) and the hard families of ``tests/hardcases.py``, and each
+field's comment there says on what.
 """
 
 from __future__ import annotations
@@ -41,61 +43,8 @@ from ema_pipeline.identification.local_fits import (
 from ema_pipeline.identification.lsfd import lsfd, mpc
 from ema_pipeline.identification.refine import RefinedPoles
 from ema_pipeline.identification.selection import SelectedPoles
+from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac
-
-#: Final test of a refined pole (:func:`resonant`): a mode whose own peak is
-#: below WEAK_PEAK_RATIO of the local RMS of the data (it explains less of the
-#: response than the modes and background around it) is kept only when that
-#: peak exceeds the standard deviation of the local fit's residual by at least
-#: MIN_WEAK_PEAK_SNR, or (with at least 3 channels) its shape in its own local
-#: fit (:func:`~ema_pipeline.identification.local_fits.local_shapes`) is nearly
-#: real (MPC >= WEAK_MIN_MPC, a normal mode; one global LSFD bends a weak
-#: mode's shape, down to MPC 0.2 for real modes of the hard families, where
-#: the local fit gives 0.93-1.0 and the measured beam's other poles 0.89 at
-#: most). On synthetic data the residual is
-#: the noise and weak true modes stand far above it or have MPC ~ 1; on
-#: measured data the residual also holds model error, and poles that fit it
-#: have a small peak ratio, a modest SNR and a complex shape. Chosen on the
-#: measured beam (its published modes have peak ratios of 0.69 and more, the
-#: poles between them 0.63 and less) and on the hard families of
-#: tests/hardcases.py.
-WEAK_PEAK_RATIO = 0.65
-MIN_WEAK_PEAK_SNR = 150.0
-WEAK_MIN_MPC = 0.95
-#: A close mode hidden in a kept mode's resonance (:func:`close_partners`):
-#: one pole more in that mode's local fit must leave at most
-#: PARTNER_MAX_RESIDUAL_RATIO of the residual variance, both poles must be
-#: determined (:func:`decay_determined`), apart by more than half the sum of
-#: their decay rates, and both shapes nearly real (MPC >= PARTNER_MIN_MPC,
-#: two normal modes) in one global LSFD or in their own local fits
-#: (:func:`pair_is_real`). On synthetic close pairs the missed partner
-#: leaves 0.002-0.64 of the residual and reaches MPC 0.9 in one of the two
-#: fits; on the measured beam a second pole also removes much of the
-#: residual beside most modes (model error: the roving channels do not agree
-#: exactly), but one of the two shapes is then complex (MPC 0.84 at most in
-#: the global LSFD, 0.75 in the local fits).
-PARTNER_MAX_RESIDUAL_RATIO = 0.75
-PARTNER_MIN_MPC = 0.9
-#: A refined pole is kept only when its decay rate has a relative standard
-#: deviation below this (5 sigma from zero). On the hard families of
-#: tests/hardcases.py (about 540 true modes, seeds 600-607) true modes reach
-#: 0.15, the poles that are not modes start at 0.16 in frequency-domain data.
-#: In the impact tests (seeds 600-639, 300 true modes) they start at 0.25,
-#: while two weak true modes reach 0.20 and 0.24 (impact-605 105.6 Hz and
-#: impact-618 115.0 Hz, peak SNR about 4, both dropped).
-#: The decay rate itself, not the structure's share of it: a lightly damped
-#: low mode under a strong window (12.6 Hz, zeta 0.27 %, 1/tau 2.6 1/s) has
-#: its total decay determined to 2 % and the structure's only to 50 %.
-MAX_REL_DECAY_STD = 0.2
-#: Of two kept poles within each other's half-power bands, one with a markedly
-#: complex shape (MPC below SPLIT_MAX_MPC and SPLIT_MPC_GAP below its
-#: partner's) is the split of the other -- one mode whose frequency differs a
-#: little between the channels (a roving-hammer test measures them one after
-#: the other) -- and is dropped (:func:`distinct_shapes`). On the measured beam
-#: 363.9 and 415.1 Hz, beside 363.0 and 414.6 Hz, have MPC 0.67 and 0.39 against
-#: 0.83 and 0.88 (the synthetic families, with real shapes, are unaffected).
-SPLIT_MAX_MPC = 0.7
-SPLIT_MPC_GAP = 0.15
 
 
 @dataclass(frozen=True)
@@ -165,10 +114,11 @@ def unseen_candidates(pole: np.ndarray) -> SelectedPoles:
                          np.zeros(n, int))
 
 
-def decay_determined(pole: np.ndarray, cov: np.ndarray) -> np.ndarray:
+def decay_determined(pole: np.ndarray, cov: np.ndarray,
+                     thresholds: SelectionThresholds | None = None) -> np.ndarray:
     """True where the decay rate sigma = -Re(pole) is determined:
-    std(sigma) / sigma < :data:`MAX_REL_DECAY_STD`; ``cov`` (n, 2, 2) is the
-    covariance of (Re, Im) of each pole, in (rad/s)^2.
+    std(sigma) / sigma < ``thresholds.max_rel_decay_std``; ``cov`` (n, 2, 2)
+    is the covariance of (Re, Im) of each pole, in (rad/s)^2.
 
     Examples
     --------
@@ -179,7 +129,8 @@ def decay_determined(pole: np.ndarray, cov: np.ndarray) -> np.ndarray:
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         rel = np.sqrt(np.asarray(cov)[:, 0, 0]) / np.abs(np.real(pole))
-    return np.asarray(np.nan_to_num(rel, nan=np.inf) < MAX_REL_DECAY_STD)
+    limit = (thresholds or SelectionThresholds()).max_rel_decay_std
+    return np.asarray(np.nan_to_num(rel, nan=np.inf) < limit)
 
 
 def final_tests(
@@ -191,8 +142,9 @@ def final_tests(
     n_orders: np.ndarray | None = None,
     partner: np.ndarray | None = None,
     strict: np.ndarray | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
-    """Which ``refined`` poles are modes: their decay rate is
+    """Which ``refined`` poles are modes (thresholds of ``thresholds``): their decay rate is
     determined (:func:`decay_determined`), they are resonances
     (:func:`resonant`, judged among the determined poles only: an undetermined
     one takes part of a neighbour's response and bends its shape) and not one
@@ -218,12 +170,14 @@ def final_tests(
     >>> final_tests(f, H, H, ref, "receptance").tolist()
     [True]
     """
-    keep = decay_determined(refined.pole, refined.cov)
+    keep = decay_determined(refined.pole, refined.cov, thresholds)
     by_shape = None if strict is None else ~strict[keep]
-    keep[keep] = resonant(freq_hz, Hn, refined.pole[keep], quantity, by_shape=by_shape)
+    keep[keep] = resonant(freq_hz, Hn, refined.pole[keep], quantity, by_shape=by_shape,
+                          thresholds=thresholds)
     if partner is not None:
-        keep |= decay_determined(refined.pole, refined.cov) & partner
-    return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders)
+        keep |= decay_determined(refined.pole, refined.cov, thresholds) & partner
+    return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders,
+                                  thresholds=thresholds)
 
 
 def close_partners(
@@ -234,10 +188,11 @@ def close_partners(
     *,
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """Poles of close modes hidden in the resonances of the kept ``pole``: for
     each, the extra pole of :func:`~ema_pipeline.identification.local_fits.split_fit`
-    when it passes the tests of :data:`PARTNER_MAX_RESIDUAL_RATIO` (rad/s,
+    when it passes the tests of ``thresholds.partner_max_residual_ratio`` (rad/s,
     ascending frequency; empty when there is none). ``H`` (n_ch, n_freq) on
     the lines ``freq_hz``; with fewer than 3 channels no shape tells two
     modes from one, and none is added.
@@ -253,6 +208,7 @@ def close_partners(
     >>> (close_partners(f, H, lam[:1], "receptance").imag / (2 * np.pi)).round(2).tolist()
     [100.6]
     """
+    th = thresholds or SelectionThresholds()
     if H.shape[0] < 3 or pole.size == 0:
         return np.zeros(0, complex)
     try:
@@ -262,23 +218,24 @@ def close_partners(
     new = []
     for r in range(pole.size):
         fit = split_fit(freq_hz, H, pole, r, quantity=quantity, window_tau_s=window_tau_s,
-                        force_window_s=force_window_s, residues=residues)
-        if fit is None or fit.residual_ratio > PARTNER_MAX_RESIDUAL_RATIO:
+                        force_window_s=force_window_s, residues=residues, thresholds=th)
+        if fit is None or fit.residual_ratio > th.partner_max_residual_ratio:
             continue
         a, b = fit.pole
         if abs(a.imag - b.imag) < 0.5 * (abs(a.real) + abs(b.real)) or not np.all(
-                decay_determined(fit.pole, fit.cov)):
+                decay_determined(fit.pole, fit.cov, th)):
             continue
         if pair_is_real(freq_hz, H, np.concatenate([np.delete(pole, r), fit.pole]),
-                        quantity):
+                        quantity, th):
             new.append(b)
     out = np.array(new, dtype=complex)
     return out[np.argsort(out.imag)]
 
 
-def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str) -> bool:
+def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str,
+                 thresholds: SelectionThresholds | None = None) -> bool:
     """True when the last two of ``pole`` have nearly real shapes (MPC >=
-    :data:`PARTNER_MIN_MPC`) in one global LSFD of all of them or, failing
+    ``thresholds.partner_min_mpc``) in one global LSFD of all of them or, failing
     that, each in its own local fit
     (:func:`~ema_pipeline.identification.local_fits.local_shapes`). A weak mode
     beside a strong one has its shape bent by what either model misses (on
@@ -295,13 +252,14 @@ def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity:
     >>> pair_is_real(f, real, lam, "receptance"), pair_is_real(f, cplx, lam, "receptance")
     (True, False)
     """
+    th = thresholds or SelectionThresholds()
     for shapes_of in (lambda: lsfd(freq_hz, H, pole, quantity).a,
-                      lambda: local_shapes(freq_hz, H, pole, quantity=quantity)):
+                      lambda: local_shapes(freq_hz, H, pole, quantity=quantity, thresholds=th)):
         try:
             shapes = shapes_of().T
         except (np.linalg.LinAlgError, ValueError):
             continue
-        if np.min(np.nan_to_num(mpc(shapes)[-2:])) >= PARTNER_MIN_MPC:
+        if np.min(np.nan_to_num(mpc(shapes)[-2:])) >= th.partner_min_mpc:
             return True
     return False
 
@@ -312,14 +270,16 @@ def resonant(
     pole: np.ndarray,
     quantity: str = "accelerance",
     by_shape: np.ndarray | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """True for poles that are resonances of the data: own peak ratio at least
-    :data:`WEAK_PEAK_RATIO`, or peak SNR at least :data:`MIN_WEAK_PEAK_SNR`
+    ``weak_peak_ratio``, or peak SNR at least ``min_weak_peak_snr``
     (both from :func:`~ema_pipeline.identification.local_fits.quick_significance`),
     or, with at least 3 channels ``H`` (n_ch, n_freq), a local shape
     (:func:`~ema_pipeline.identification.local_fits.local_shapes`) of
-    MPC >= :data:`WEAK_MIN_MPC` (only the poles marked ``by_shape``, when
-    given); with fewer channels every pole is kept.
+    MPC >= ``weak_min_mpc`` (only the poles marked ``by_shape``, when
+    given); with fewer channels every pole is kept. Thresholds of
+    ``thresholds``.
 
     Examples
     --------
@@ -331,20 +291,21 @@ def resonant(
     >>> resonant(f, H, lam, "receptance").tolist()
     [True, False]
     """
+    th = thresholds or SelectionThresholds()
     shape_ok = np.ones(pole.size, bool) if by_shape is None else np.asarray(by_shape, bool)
     if H.shape[0] < 3 and np.all(shape_ok):
         return np.ones(pole.size, bool)
-    _, peak, snr = quick_significance(freq_hz, H, pole)
-    ok = (peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR)
+    _, peak, snr = quick_significance(freq_hz, H, pole, thresholds=th)
+    ok = (peak >= th.weak_peak_ratio) | (snr >= th.min_weak_peak_snr)
     if np.all(ok | ~shape_ok):
         return np.asarray(ok)
     if H.shape[0] < 3:
         return np.asarray(ok | shape_ok)
     try:
-        shapes = local_shapes(freq_hz, H, pole, quantity=quantity).T
+        shapes = local_shapes(freq_hz, H, pole, quantity=quantity, thresholds=th).T
     except (np.linalg.LinAlgError, ValueError):
         return np.asarray(ok | shape_ok)
-    return np.asarray(ok | (shape_ok & (np.nan_to_num(mpc(shapes)) >= WEAK_MIN_MPC)))
+    return np.asarray(ok | (shape_ok & (np.nan_to_num(mpc(shapes)) >= th.weak_min_mpc)))
 
 
 def distinct_shapes(
@@ -354,13 +315,15 @@ def distinct_shapes(
     quantity: str,
     keep: np.ndarray,
     n_orders: np.ndarray | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """``keep`` less duplicates: of two kept poles that coincide within their
-    half-power bands and have parallel LSFD shapes (MAC > 0.95) one stays (one
-    mode found twice): the one stable at more model orders ``n_orders``, else
-    (equal or not given) the one with the larger response. Close modes with
-    different shapes stay apart, unless one of them is the split of the other
-    (see :data:`SPLIT_MAX_MPC`).
+    half-power bands and have parallel LSFD shapes (MAC >
+    ``thresholds.duplicate_min_mac``) one stays (one mode found twice): the
+    one stable at more model orders ``n_orders``, else (equal or not given)
+    the one with the larger response. Close modes with different shapes stay
+    apart, unless one of them is the split of the other (see
+    ``split_max_mpc``, ``split_mpc_gap``).
 
     Examples
     --------
@@ -371,6 +334,7 @@ def distinct_shapes(
     >>> distinct_shapes(f, H, lam, "receptance", np.array([True, True])).sum()
     np.int64(1)
     """
+    th = thresholds or SelectionThresholds()
     out = keep.copy()
     idx = np.flatnonzero(keep)
     if idx.size < 2:
@@ -387,12 +351,12 @@ def distinct_shapes(
             continue
         pa, pb = pole[idx[a]], pole[idx[b]]
         gap, width = abs(pa.imag - pb.imag), abs(pa.real) + abs(pb.real)
-        if gap < 0.5 * width and M[a, b] > 0.95:
+        if gap < 0.5 * width and M[a, b] > th.duplicate_min_mac:
             na, nb = np.linalg.norm(fit.a[a]), np.linalg.norm(fit.a[b])
             if n_orders is not None and n_orders[idx[a]] != n_orders[idx[b]]:
                 na, nb = n_orders[idx[a]], n_orders[idx[b]]
             out[idx[b] if na >= nb else idx[a]] = False
-        elif gap < width and min(collinear[a], collinear[b]) < SPLIT_MAX_MPC and (
-                abs(collinear[a] - collinear[b]) >= SPLIT_MPC_GAP):
+        elif gap < width and min(collinear[a], collinear[b]) < th.split_max_mpc and (
+                abs(collinear[a] - collinear[b]) >= th.split_mpc_gap):
             out[idx[a] if collinear[a] < collinear[b] else idx[b]] = False
     return out

@@ -24,12 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack
-
-#: Default local band of one mode: +-HALF_WIDTH half-power bandwidths around
-#: it, widened to at least MIN_LINES lines (the pole refinement and the local
-#: screens of :mod:`~ema_pipeline.identification.local_fits` use the same one).
-HALF_WIDTH = 12.0
-MIN_LINES = 40
+from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
 
 def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.ndarray:
@@ -103,10 +98,12 @@ def local_problem(
     Returns (f, Y, members, background, k, (lo, hi)): the lines (Hz), the
     real-stacked data (2n, n_ch), the indices of the member poles, the complex
     quadratic background (n, 3), the position of r among the members and the
-    band; None when the band holds fewer than 12 lines."""
+    band; None when the band holds fewer than 12 lines. The default band
+    (``half_width``, ``min_lines``) is ``SelectionThresholds.local_half_width``
+    and ``local_min_lines``, passed in by the callers."""
     df = freq_hz[1] - freq_hz[0]
-    f_r = poles.imag / (2 * np.pi)
-    hpb = np.abs(poles.real) / np.pi  # half-power bandwidth in Hz
+    f_r = pole_fd_hz(poles)
+    hpb = 2 * pole_half_width_hz(poles)  # half-power bandwidth in Hz
     width = max(half_width * hpb[r], 0.5 * min_lines * df)
     width = min(width, 0.2 * f_r[r]) if 0.2 * f_r[r] > 6.5 * df else width  # >= 13 lines
     lo, hi = f_r[r] - width, f_r[r] + width

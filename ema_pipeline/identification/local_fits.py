@@ -25,8 +25,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ema_pipeline.identification.local_band import (
-    HALF_WIDTH,
-    MIN_LINES,
     background_columns,
     global_residues,
     local_problem,
@@ -35,6 +33,7 @@ from ema_pipeline.identification.local_band import (
     scaled_solve,
 )
 from ema_pipeline.identification.refine import vp_solve
+from ema_pipeline.identification.thresholds import SelectionThresholds
 
 
 def quick_significance(
@@ -42,12 +41,12 @@ def quick_significance(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = HALF_WIDTH,
-    min_lines: int = MIN_LINES,
+    thresholds: SelectionThresholds | None = None,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cheap screen of candidate poles: std(sigma_r)/sigma_r, peak ratio and peak SNR.
 
     The local problem of :func:`~ema_pipeline.identification.refine.refine_poles`
+    (band ``thresholds.local_half_width``, ``local_min_lines``)
     at the given poles, solved once without iterating, with white noise per
     channel whose variance is the residual's mean square over the degrees of
     freedom. The *peak ratio* is the peak of the mode's own term,
@@ -70,6 +69,8 @@ def quick_significance(
     >>> bool(rel[0] < 0.01), bool(peak[0] > 1), bool(snr[0] > 1e3)
     (True, True, True)
     """
+    th = thresholds or SelectionThresholds()
+    half_width, min_lines = th.local_half_width, th.local_min_lines
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
     rel = np.full(poles.size, np.inf)
@@ -114,9 +115,8 @@ def local_shapes(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = HALF_WIDTH,
-    min_lines: int = MIN_LINES,
     quantity: str | None = "accelerance",
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """(n_modes, n_ch) complex residues of each pole from its own local
     problem (the band, member poles and quadratic background of
@@ -139,6 +139,8 @@ def local_shapes(
     >>> np.round(a[0] / a[0, 0], 6).tolist()
     [(1+0j), (-2+0j)]
     """
+    th = thresholds or SelectionThresholds()
+    half_width, min_lines = th.local_half_width, th.local_min_lines
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
     out = np.full((poles.size, H.shape[0]), np.nan + 0j)
@@ -175,17 +177,17 @@ def split_fit(
     poles: np.ndarray,
     r: int,
     *,
-    half_width: float = 6.0,
-    min_lines: int = MIN_LINES,
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
     residues: np.ndarray | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> SplitFit | None:
     """Refit pole r's local problem (as
-    :func:`~ema_pipeline.identification.refine.refine_poles`, on +-``half_width``
-    half-power bandwidths) with one extra pole started one decay rate above and
-    below it; the better of the two, or None when the band is too short.
+    :func:`~ema_pipeline.identification.refine.refine_poles`, on
+    +-``thresholds.split_half_width`` half-power bandwidths) with one extra
+    pole started one decay rate above and below it; the better of the two, or
+    None when the band is too short.
 
     A close mode that the diagram merged with pole r (one reference, a weak
     partner inside its resonance) leaves a residual that the extra pole
@@ -206,10 +208,11 @@ def split_fit(
     >>> np.sort(fit.pole.imag / (2 * np.pi)).round(2).tolist(), fit.residual_ratio < 0.01
     ([100.0, 100.6], True)
     """
+    th = thresholds or SelectionThresholds()
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
     a_all = residues if residues is not None else global_residues(freq_hz, H, poles, quantity)
-    local = local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
+    local = local_problem(freq_hz, H, poles, r, th.split_half_width, th.local_min_lines, a_all)
     if local is None:
         return None
     f, Y, members, background, k, _ = local

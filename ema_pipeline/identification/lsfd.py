@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ema_pipeline.data import quantity_factor
+from ema_pipeline.modal import mac_pairs
 
 
 def residual_basis(freq_hz: np.ndarray, quantity: str) -> np.ndarray:
@@ -264,10 +265,11 @@ def frac(H: np.ndarray, H_fit: np.ndarray) -> np.ndarray:
     >>> frac(H, H), frac(H, 2 * H).round(3)
     (array([[1.]]), array([[1.]]))
     """
-    num = np.abs(np.sum(H.conj() * H_fit, axis=-1)) ** 2
-    den = np.sum(np.abs(H) ** 2, axis=-1) * np.sum(np.abs(H_fit) ** 2, axis=-1)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(den > 0, num / den, 0.0)
+    H, H_fit = np.asarray(H), np.asarray(H_fit)
+    lead = H.shape[:-1]
+    n = H.shape[-1]
+    # the MAC of each FRF with its synthesis, lines as the "DOFs"
+    return mac_pairs(H.reshape(-1, n).T, H_fit.reshape(-1, n).T).reshape(lead)
 
 
 def normalised_error(H: np.ndarray, H_fit: np.ndarray) -> np.ndarray:

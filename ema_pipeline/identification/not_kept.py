@@ -10,7 +10,9 @@ but explain less of the local response than that mode's skirt, and none of
 them is in the published list of the test. They are not made modes, and they
 are not dropped silently either: :func:`resonances_not_kept` lists every
 rejected candidate at which enough FRFs have a clear peak of their own
-(:data:`MIN_LOG_PROMINENCE`, :data:`MIN_FRF_SHARE`), the result carries them
+(``min_log_prominence``, ``min_frf_share`` of
+:class:`~ema_pipeline.identification.thresholds.SelectionThresholds`), the result
+carries them
 (``IdentificationResult.not_kept_hz``, ``not_kept_frfs``) and
 ``ema-pipeline identify`` prints them as a warning (``batch``: the
 ``warnings`` column of ``summary.csv``). On the beam, ``--band 240 300``
@@ -19,7 +21,7 @@ keeps 274.6 Hz as a mode beside 265.5 Hz.
 A peak is a local maximum of |H| of one FRF (:func:`scipy.signal.find_peaks`,
 the library's prominence: the height over the higher of the two valleys that
 separate it from higher ground). Peaks within a kept mode's half-power band
-(plus :data:`PEAK_LINES` lines) are that mode's and never count for a candidate.
+(plus ``peak_lines`` lines) are that mode's and never count for a candidate.
 ``scipy.signal`` is imported where it is used, as in
 :mod:`~ema_pipeline.identification.uncertainty` (start-up time).
 """
@@ -28,26 +30,14 @@ from __future__ import annotations
 
 import numpy as np
 
-#: A peak of |H| stands out when its prominence in log|H| exceeds this: a
-#: factor e^0.5 = 1.65 over the valleys beside it. On the measured beam the
-#: rejected candidates that are not resonances have such a peak in at most 3
-#: of the 30 FRFs, the three resonances above in 9-16.
-MIN_LOG_PROMINENCE = 0.5
-#: A rejected candidate is listed when it stands out in at least this share of
-#: the FRFs, and in at least MIN_FRFS of them, ...
-MIN_FRF_SHARE = 0.2
-MIN_FRFS = 2
-#: ... with a peak within PEAK_LINES lines of its natural frequency. With the
-#: candidate's half-power band as the window instead, the random peaks of
-#: FRFs that are mostly noise counted for broad poles of the noise (hard cases
-#: baseline-9 at 176 Hz and close_1ref-9 at 1269 and 1302 Hz, 2 of 3 and 2 of
-#: 6 FRFs); only candidates whose decay rate is determined are passed.
-PEAK_LINES = 1.5
+from ema_pipeline.identification.thresholds import SelectionThresholds
+from ema_pipeline.modal import pole_fd_hz, pole_fn_hz, pole_half_width_hz
 
 
-def half_width_hz(freq_hz: np.ndarray, pole: np.ndarray) -> np.ndarray:
+def half_width_hz(freq_hz: np.ndarray, pole: np.ndarray,
+                  thresholds: SelectionThresholds | None = None) -> np.ndarray:
     """The band (Hz, each side) that belongs to each pole (rad/s): its
-    half-power half-width |Re lambda| / 2 pi plus :data:`PEAK_LINES` lines.
+    half-power half-width |Re lambda| / 2 pi plus ``thresholds.peak_lines`` lines.
 
     Examples
     --------
@@ -55,8 +45,9 @@ def half_width_hz(freq_hz: np.ndarray, pole: np.ndarray) -> np.ndarray:
     >>> half_width_hz(f, np.array([-2 * np.pi + 2j * np.pi * 50.0]))
     array([2.5])
     """
+    peak_lines = (thresholds or SelectionThresholds()).peak_lines
     df = float(np.median(np.diff(freq_hz))) if freq_hz.size > 1 else 0.0
-    return np.abs(np.asarray(pole).real) / (2 * np.pi) + PEAK_LINES * df
+    return np.asarray(pole_half_width_hz(np.asarray(pole)) + peak_lines * df)
 
 
 def visible_peaks(
@@ -66,9 +57,10 @@ def visible_peaks(
     within_hz: float,
     exclude_hz: np.ndarray | None = None,
     exclude_within_hz: np.ndarray | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """In how many FRFs a peak of |H| stands out (log-prominence above
-    :data:`MIN_LOG_PROMINENCE`) within ``within_hz`` of each ``center_hz``,
+    ``thresholds.min_log_prominence``) within ``within_hz`` of each ``center_hz``,
     not counting peaks within ``exclude_within_hz`` of an ``exclude_hz`` (the
     kept modes). ``H`` (n_ch, n_freq) on the lines ``freq_hz``.
 
@@ -81,6 +73,7 @@ def visible_peaks(
     >>> visible_peaks(f, H, np.array([40.0, 70.0]), 1.0).tolist()
     [1, 0]
     """
+    min_log_prominence = (thresholds or SelectionThresholds()).min_log_prominence
     center = np.asarray(center_hz, dtype=float)
     count = np.zeros(center.size, dtype=int)
     ex = np.zeros(0) if exclude_hz is None else np.asarray(exclude_hz, dtype=float)
@@ -94,7 +87,7 @@ def visible_peaks(
     for row in log_mag:
         finite = np.isfinite(row)
         peaks, _ = find_peaks(np.where(finite, row, row[finite].min(initial=0.0)),
-                              prominence=MIN_LOG_PROMINENCE)
+                              prominence=min_log_prominence)
         f_pk = freq_hz[peaks]
         if ex.size:
             f_pk = f_pk[np.all(np.abs(f_pk[:, None] - ex[None, :]) > ex_w[None, :], axis=1)]
@@ -107,11 +100,13 @@ def resonances_not_kept(
     H: np.ndarray,
     rejected: np.ndarray,
     kept: np.ndarray,
+    thresholds: SelectionThresholds | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``rejected`` candidate poles (rad/s) at which the FRFs ``H``
     (n_ch, n_freq) show a resonance of their own: a peak that stands out in
-    at least :data:`MIN_FRF_SHARE` of the FRFs (and :data:`MIN_FRFS`) within
-    :data:`PEAK_LINES` lines of the candidate's natural frequency, away from
+    at least ``min_frf_share`` of the FRFs (and ``min_frfs``) within
+    ``peak_lines`` lines of the candidate's natural frequency (fields of
+    ``thresholds``), away from
     the ``kept`` poles' half-power bands. Pass only candidates whose decay
     rate is determined
     (:func:`~ema_pipeline.identification.acceptance.decay_determined`).
@@ -134,17 +129,19 @@ def resonances_not_kept(
     >>> resonances_not_kept(f, H, rejected, kept)
     (array([60.]), array([2]))
     """
+    th = thresholds or SelectionThresholds()
     rejected = np.asarray(rejected, dtype=complex)
     rejected = rejected[rejected.imag > 0]
     kept = np.asarray(kept, dtype=complex)
     if rejected.size == 0:
         return np.zeros(0), np.zeros(0, dtype=int)
-    fn = np.abs(rejected) / (2 * np.pi)
+    fn = pole_fn_hz(rejected)
     df = float(np.median(np.diff(freq_hz)))
-    n_frfs = visible_peaks(freq_hz, H, fn, PEAK_LINES * df, kept.imag / (2 * np.pi),
-                           half_width_hz(freq_hz, kept))
-    listed = n_frfs >= max(MIN_FRFS, int(np.ceil(MIN_FRF_SHARE * np.shape(H)[0])))
-    fn, n_frfs, width = fn[listed], n_frfs[listed], half_width_hz(freq_hz, rejected[listed])
+    n_frfs = visible_peaks(freq_hz, H, fn, th.peak_lines * df, pole_fd_hz(kept),
+                           half_width_hz(freq_hz, kept, th), th)
+    listed = n_frfs >= max(th.min_frfs, int(np.ceil(th.min_frf_share * np.shape(H)[0])))
+    fn, n_frfs = fn[listed], n_frfs[listed]
+    width = half_width_hz(freq_hz, rejected[listed], th)
     # one entry per resonance: of candidates within each other's bands, the
     # one seen in most FRFs
     out_f: list[float] = []

@@ -4,18 +4,20 @@
 ``[identification]`` table (:func:`ema_pipeline.io.read_experiment`), the
 command line (``ema-pipeline identify`` / ``batch``) and library callers build,
 and what :func:`ema_pipeline.identification.identify` takes whole. This module
-imports only from :mod:`ema_pipeline.data`, so the data containers can refer to
-it without an import cycle.
+imports only from :mod:`ema_pipeline.data` and
+:mod:`~ema_pipeline.identification.thresholds`, so the data containers can refer
+to it without an import cycle.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import Literal
 
 import numpy as np
 
 from ema_pipeline.data import FRFSet
+from ema_pipeline.identification.thresholds import SelectionThresholds
 
 Method = Literal["plscf", "sdypy-lscf"]
 Weighting = Literal["none", "coherence"]
@@ -45,7 +47,13 @@ class IdentificationOptions:
     weighting : "none" (each output scaled by its RMS in the band) or
         "coherence" (additionally every line weighted by the coherence).
     tol_freq, tol_zeta, tol_mac : stabilization tolerances (relative frequency,
-        relative damping, 1 - MAC of participation vectors).
+        relative damping, 1 - MAC of participation vectors). A value given is
+        used by both the pole linking of the selection
+        (:func:`~ema_pipeline.identification.selection.track_poles`: looser
+        tolerances join more poles into a trajectory) and the stabilization
+        diagram's flags. ``None`` (default): each uses its tuned default,
+        ``thresholds.link_tol_*`` (1 %, 30 %, 0.05) and
+        ``thresholds.diagram_tol_*`` (1 %, 5 %, 0.02).
     min_fraction : a pole trajectory must hold poles of at least this fraction
         of the computed orders (and at least 6) to count as a physical mode;
         where in the diagram it starts does not matter (a mode that
@@ -54,6 +62,9 @@ class IdentificationOptions:
         squares (:func:`ema_pipeline.identification.refine.refine_poles`), which
         also gives their covariance.
     lower_residual, upper_residual : residual terms in LSFD.
+    thresholds : the tuned thresholds of the selection and the final tests
+        (:class:`~ema_pipeline.identification.thresholds.SelectionThresholds`);
+        for studies of the method, not for everyday use.
 
     Examples
     --------
@@ -70,13 +81,14 @@ class IdentificationOptions:
     expect_hz: tuple[float, ...] = ()
     exp_window_tau_s: float | None = None
     weighting: Weighting = "none"
-    tol_freq: float = 0.01
-    tol_zeta: float = 0.05
-    tol_mac: float = 0.02
+    tol_freq: float | None = None
+    tol_zeta: float | None = None
+    tol_mac: float | None = None
     min_fraction: float = 0.3
     refine: bool = True
     lower_residual: bool = True
     upper_residual: bool = True
+    thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
 
     def __post_init__(self) -> None:
         # normalise sequences so that options compare and hash by value
@@ -84,6 +96,34 @@ class IdentificationOptions:
             object.__setattr__(self, "band_hz", tuple(float(b) for b in self.band_hz))
         expect = () if self.expect_hz is None else np.atleast_1d(self.expect_hz)
         object.__setattr__(self, "expect_hz", tuple(float(f) for f in expect))
+
+    def link_tolerances(self) -> tuple[float, float, float]:
+        """(tol_freq, tol_zeta, tol_mac) of the selection's pole linking: the
+        options given, else ``thresholds.link_tol_*``.
+
+        Examples
+        --------
+        >>> IdentificationOptions().link_tolerances()
+        (0.01, 0.3, 0.05)
+        >>> IdentificationOptions(tol_zeta=0.1).link_tolerances()
+        (0.01, 0.1, 0.05)
+        """
+        th = self.thresholds
+        return _given_or(self, th.link_tol_freq, th.link_tol_zeta, th.link_tol_mac)
+
+    def diagram_tolerances(self) -> tuple[float, float, float]:
+        """(tol_freq, tol_zeta, tol_mac) of the stabilization diagram's flags:
+        the options given, else ``thresholds.diagram_tol_*``.
+
+        Examples
+        --------
+        >>> IdentificationOptions().diagram_tolerances()
+        (0.01, 0.05, 0.02)
+        >>> IdentificationOptions(tol_zeta=0.1).diagram_tolerances()
+        (0.01, 0.1, 0.02)
+        """
+        th = self.thresholds
+        return _given_or(self, th.diagram_tol_freq, th.diagram_tol_zeta, th.diagram_tol_mac)
 
     def apply_window(self, frf: FRFSet) -> FRFSet:
         """``frf`` with ``exp_window_tau_s`` recorded in its acquisition info
@@ -101,3 +141,13 @@ class IdentificationOptions:
         return replace(
             frf, acquisition=replace(frf.acquisition, exp_window_tau_s=self.exp_window_tau_s)
         )
+
+
+def _given_or(
+    options: IdentificationOptions, freq: float, zeta: float, mac: float
+) -> tuple[float, float, float]:
+    """The options' tolerances where given, else ``freq``, ``zeta``, ``mac``."""
+    given = (options.tol_freq, options.tol_zeta, options.tol_mac)
+    return tuple(  # type: ignore[return-value]
+        float(d) if g is None else float(g) for g, d in zip(given, (freq, zeta, mac), strict=True)
+    )

@@ -16,23 +16,26 @@ gain in determined modes, or at
 :func:`~ema_pipeline.identification.resources.order_cap`, which depends on the number
 of lines and references only. "Determined" is the screen
 :func:`~ema_pipeline.identification.local_fits.quick_significance`
-(std(sigma)/sigma below ``MAX_REL_SIGMA_STD``, own peak above
-:data:`MIN_PEAK_RATIO` of the local data) over the *mature* trajectories
-(started at or below :data:`MATURE_FRACTION` of the order). The diagram with
+(std(sigma)/sigma below ``max_rel_sigma_std``, own peak above
+``min_peak_ratio`` of the local data) over the *mature* trajectories
+(started at or below ``mature_fraction`` of the order). The thresholds named
+here are fields of
+:class:`~ema_pipeline.identification.thresholds.SelectionThresholds`
+(``OrderSearch.thresholds``). The diagram with
 the most determined modes is used, plus the determined resonances (the peak
 test of :func:`~ema_pipeline.identification.acceptance.resonant` passed too) of the other
 diagrams that none of its candidates covers: at low SNR a mode is sometimes
 resolved at one order and a neighbour's trajectory at another, and the best
 diagram alone loses one of them (SNR hard cases, seeds 600-615: 1 -> 0 missed of 66).
 
-Wide bands: when the band's top is more than :data:`ZOOM_RATIO` times its
-bottom, the same search runs once more on its lowest 1/ZOOM_RATIO
+Wide bands: when the band's top is more than ``zoom_ratio`` times its
+bottom, the same search runs once more on its lowest 1/``zoom_ratio``
 (:func:`add_zoom_modes`) and adds the candidates that the full band missed:
 pLSCF's time step follows the band top, so low modes of a wide band are poorly
 resolved (their poles crowd near z = 1).
 
-Dense bands: when the search selects :data:`WINDOW_MIN_MODES` candidates or
-more, it runs again in overlapping windows of :data:`WINDOW_MODES`
+Dense bands: when the search selects ``window_min_modes`` candidates or
+more, it runs again in overlapping windows of ``window_modes``
 consecutive candidates (:func:`mode_windows`, :func:`add_window_modes`) and
 adds what they find that no candidate covers. With one common denominator for
 20-40 modes the strong modes take the poles and a weak mode between them
@@ -42,18 +45,16 @@ of ten it does. The added candidates pass the same tests as all others.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ema_pipeline.data import DataError
-from ema_pipeline.identification.acceptance import MIN_WEAK_PEAK_SNR, WEAK_PEAK_RATIO
 from ema_pipeline.identification.common import default_max_order
 from ema_pipeline.identification.local_fits import quick_significance
 from ema_pipeline.identification.plscf import PoleSet, plscf
 from ema_pipeline.identification.resources import order_cap
 from ema_pipeline.identification.selection import (
-    MAX_ZETA,
     SelectedPoles,
     link_fragments,
     merge_coincident,
@@ -61,38 +62,23 @@ from ema_pipeline.identification.selection import (
     track_poles,
 )
 from ema_pipeline.identification.stabilization import pole_to_modal
-from ema_pipeline.identification.uncertainty import MAX_REL_SIGMA_STD
-
-#: A young trajectory asks for a higher order only when the screen determines
-#: its decay rate this well (stricter than ``MAX_REL_SIGMA_STD``: the screen
-#: ignores line correlation and the noise model) ...
-YOUNG_MAX_REL_SIGMA_STD = 0.1
-#: ... and when its own peak is at least this fraction of the local RMS of the
-#: data (noise-free data determine every pole; a mode must also show).
-YOUNG_MIN_PEAK_RATIO = 0.3
-#: A selected mode whose own peak is below this fraction of the local RMS of
-#: the data models background, not a resonance (dropped) ...
-MIN_PEAK_RATIO = 0.05
-#: ... or below this one with 3 or more channels, where the shape test of
-#: :func:`~ema_pipeline.identification.acceptance.resonant` (MPC) judges the weak candidates
-#: that remain.
-MIN_PEAK_RATIO_SHAPES = 0.02
-#: In the adaptive search a trajectory counts (and is kept) only when it starts
-#: below this fraction of the diagram's highest order, unless that is the cap.
-MATURE_FRACTION = 0.75
+from ema_pipeline.identification.thresholds import SelectionThresholds
+from ema_pipeline.modal import pole_fd_hz
 
 
-def diagram_orders(p: int, n_in: int, max_orders: int = 40) -> np.ndarray:
+def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarray:
     """Orders of one diagram: every order (every second for one reference, whose
-    odd orders only add a real pole) up to ``max_orders`` of them, else that
-    many evenly spaced up to p (the companion eigenvalues, O(sum n^3), dominate
-    the cost at high order).
+    odd orders only add a real pole) up to ``max_orders`` of them (default
+    ``SelectionThresholds.diagram_orders``), else that many evenly spaced up to
+    p (the companion eigenvalues, O(sum n^3), dominate the cost at high order).
 
     Examples
     --------
     >>> diagram_orders(10, 1).tolist(), diagram_orders(200, 2, 4).tolist()
     ([2, 4, 6, 8, 10], [1, 67, 134, 200])
     """
+    if max_orders is None:
+        max_orders = SelectionThresholds().diagram_orders
     step = 2 if n_in == 1 else 1
     orders = np.arange(step, p + 1, step)
     if orders.size > max_orders:
@@ -107,11 +93,13 @@ def young_trajectories(
     selected: SelectedPoles,
     band_hz: tuple[float, float],
     window_decay_rate: float,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """Last poles of the trajectories that are still young: alive at the last
-    order, at least 3 members, physical (0 < zeta < 0.2, inside the band less
-    its edges) and not among ``selected`` -- modes that stabilised late and
-    need more orders to be counted (if the data determine them).
+    order, at least ``young_min_members`` members, physical (0 < zeta <
+    ``max_zeta``, inside the band less its edges ``band_edge``) and not among
+    ``selected`` -- modes that stabilised late and need more orders to be
+    counted (if the data determine them); thresholds of ``thresholds``.
 
     Examples
     --------
@@ -123,6 +111,7 @@ def young_trajectories(
     >>> young_trajectories(ps, track_poles(ps), none, (1.0, 190.0), 0.0).size
     1
     """
+    th = thresholds or SelectionThresholds()
     p = int(poles.orders[-1])
     last = np.flatnonzero(poles.order == p)
     ids, counts = np.unique(traj, return_counts=True)
@@ -130,10 +119,10 @@ def young_trajectories(
     fn, _, zeta = pole_to_modal(poles.pole[last], window_decay_rate)
     lo, hi = band_hz
     ok = (
-        (n_of >= 3)
+        (n_of >= th.young_min_members)
         & ~np.isin(traj[last], selected.cluster)
-        & (zeta > 0) & (zeta < MAX_ZETA)
-        & (fn > lo + 0.005 * (hi - lo)) & (fn < hi - 0.02 * (hi - lo))
+        & (zeta > 0) & (zeta < th.max_zeta)
+        & (fn > lo + th.band_edge[0] * (hi - lo)) & (fn < hi - th.band_edge[1] * (hi - lo))
     )
     return np.asarray(poles.pole[last[ok]])
 
@@ -143,13 +132,20 @@ class OrderSearch:
     """The adaptive order search of one band (see the module docstring):
     diagrams of growing order, pole trajectories, the cheap screen, the
     diagram with the most determined modes (and the other diagrams'
-    determined resonances that it does not cover)."""
+    determined resonances that it does not cover).
+
+    ``min_peak`` is ``thresholds.min_peak_ratio`` or, with 3 or more
+    channels, ``min_peak_ratio_shapes``; ``tolerances`` those of the pole
+    linking (:func:`~ema_pipeline.identification.selection.track_poles`;
+    ``None``: ``thresholds.link_tol_*``)."""
 
     weights: np.ndarray | None
     window_decay_rate: float
     min_peak: float
     min_fraction: float
     expect: bool
+    thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
+    tolerances: tuple[float, float, float] | None = None
 
     def run(
         self,
@@ -166,15 +162,16 @@ class OrderSearch:
         n_in = Hn.shape[1]
         Hn_c = Hn.reshape(-1, Hn.shape[-1])
         decay, min_peak, weights = self.window_decay_rate, self.min_peak, self.weights
-        expect = self.expect
+        expect, th = self.expect, self.thresholds
         # a guess needs fewer members than an automatic pick
-        min_fraction, min_members = (0.0, 4) if expect else (self.min_fraction, 6)
+        min_fraction, min_members = ((0.0, th.expect_min_members) if expect
+                                     else (self.min_fraction, th.min_members))
         history: list[tuple[int, int]] = []
         resolved: list[SelectedPoles] = []
         best: tuple[SelectedPoles, np.ndarray, PoleSet] | None = None
         best_at = 0
         while True:
-            orders = diagram_orders(p, n_in)
+            orders = diagram_orders(p, n_in, th.diagram_orders)
             try:
                 poles = plscf(freq, Hn, max_order=p, orders=orders, weights=weights)
             except (np.linalg.LinAlgError, DataError):
@@ -187,34 +184,37 @@ class OrderSearch:
             # a band of few lines allows few orders (46 lines at one reference:
             # orders 2-10): a mode stable from the second of them on still counts
             members = min(min_members, max(orders.size - 1, 2))
-            traj = link_fragments(poles, track_poles(poles), decay,
-                                  min_fraction=min_fraction, min_members=members)
+            traj = link_fragments(poles, track_poles(poles, self.tolerances, th), decay,
+                                  min_fraction=min_fraction, min_members=members,
+                                  thresholds=th)
             sel = select_trajectories(
                 poles, traj, (lo, hi), decay,
                 min_fraction=min_fraction,
                 min_members=members,
+                thresholds=th,
             )
-            sel = merge_coincident(sel)
+            sel = merge_coincident(sel, th)
             if fixed:
-                rel, peak, snr = quick_significance(freq, Hn_c, sel.pole)
+                rel, peak, snr = quick_significance(freq, Hn_c, sel.pole, thresholds=th)
                 screen = peak > min_peak
                 if expect:  # a guess is answered by a determined resonance
-                    screen &= (rel < MAX_REL_SIGMA_STD) & (
-                        (peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
+                    screen &= (rel < th.max_rel_sigma_std) & (
+                        (peak >= th.weak_peak_ratio) | (snr >= th.min_weak_peak_snr))
                 best = (sel.subset(screen), traj, poles)
                 break
             # count only the modes the data determine (cheap screen, one linear fit)
-            young = young_trajectories(poles, traj, sel, (lo, hi), decay)
-            rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]))
-            ok = (rel < MAX_REL_SIGMA_STD) & (peak > min_peak)
+            young = young_trajectories(poles, traj, sel, (lo, hi), decay, th)
+            rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]),
+                                                thresholds=th)
+            ok = (rel < th.max_rel_sigma_std) & (peak > min_peak)
             # determined resonances (the peak test of acceptance.resonant):
             # what answers an expected frequency
-            counted = ok & ((peak >= WEAK_PEAK_RATIO) | (snr >= MIN_WEAK_PEAK_SNR))
+            counted = ok & ((peak >= th.weak_peak_ratio) | (snr >= th.min_weak_peak_snr))
             # mature: stable over at least the last quarter of the orders (a
             # trajectory born later is confirmed by the next, larger diagram)
-            mature = (sel.first_order < MATURE_FRACTION * p) | (p >= cap)
+            mature = (sel.first_order < th.mature_fraction * p) | (p >= cap)
             n_modes = int(np.sum(ok[: sel.pole.size] & mature))
-            ok_young = (rel < YOUNG_MAX_REL_SIGMA_STD) & (peak > YOUNG_MIN_PEAK_RATIO)
+            ok_young = (rel < th.young_max_rel_sigma_std) & (peak > th.young_min_peak_ratio)
             n_young = int(np.sum(ok_young[sel.pole.size :]))
             history.append((p, n_modes))
             # determined resonances of every diagram: a mode that one diagram
@@ -225,7 +225,7 @@ class OrderSearch:
                 if expect:  # a guess is answered by a determined resonance
                     keep = counted[: sel.pole.size]
                 best, best_at = (sel.subset(keep), traj, poles), len(history) - 1
-            room = p * n_in / 2 >= 4 * n_modes + 16
+            room = p * n_in / 2 >= th.room_pairs_per_mode * n_modes + th.room_spare_pairs
             grow = n_young > 0 or not room
             if len(history) >= 3 and n_modes <= history[-2][1] <= history[-3][1]:
                 grow = False  # two doublings without a gain: the data hold no more
@@ -242,22 +242,6 @@ class OrderSearch:
         return best
 
 
-#: A band whose top is more than ZOOM_RATIO times its bottom is searched once
-#: more in its lowest 1/ZOOM_RATIO (pLSCF's time step follows the band top, so
-#: the poles of low modes in a wide band crowd near z = 1 and are poorly
-#: resolved: impact tests of 2-900 Hz lose their modes below 50 Hz).
-ZOOM_RATIO = 8.0
-#: A band where the full search selects at least WINDOW_MIN_MODES candidates is
-#: searched again in windows of WINDOW_MODES consecutive candidates, each
-#: shifted by WINDOW_STEP candidates (so that they overlap): one common
-#: denominator for 20-40 modes lets the strong ones take the poles, and weak
-#: modes between them (a few per cent of the local response) never form a
-#: trajectory. In a window of 10 modes they do.
-WINDOW_MIN_MODES = 10
-WINDOW_MODES = 10
-WINDOW_STEP = 4
-
-
 def search_window(
     search: OrderSearch,
     freq: np.ndarray,
@@ -267,7 +251,8 @@ def search_window(
     """Candidates of ``search`` run on the lines of ``freq`` inside ``window_hz``
     alone, from the default order up to the window's cap (:func:`order_cap`
     with ``window=True``: 4:1 equations to coefficients); None when the window has
-    fewer than 64 lines or its normal equations are singular.
+    fewer than ``thresholds.window_min_lines`` lines or its normal equations
+    are singular.
 
     Examples
     --------
@@ -276,7 +261,7 @@ def search_window(
     True
     """
     lines = (freq >= window_hz[0]) & (freq <= window_hz[1])
-    if lines.sum() < 64:
+    if lines.sum() < search.thresholds.window_min_lines:
         return None
     fz, Hz = freq[lines], Hn[:, :, lines]
     if search.weights is not None:
@@ -326,8 +311,9 @@ def add_zoom_modes(
     band: tuple[float, float],
 ) -> SelectedPoles:
     """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of a
-    second search of the band's lowest 1/:data:`ZOOM_RATIO`. Unchanged for a
-    narrower band or one with fewer than 64 lines in that part.
+    second search of the band's lowest 1/``zoom_ratio`` (of
+    ``search.thresholds``). Unchanged for a narrower band or one with too few
+    lines in that part.
 
     Examples
     --------
@@ -337,32 +323,36 @@ def add_zoom_modes(
     0
     """
     lo, hi = band
-    if hi < ZOOM_RATIO * lo:
+    zoom = search.thresholds.zoom_ratio
+    if hi < zoom * lo:
         return sel
-    return add_uncovered(sel, search_window(search, freq, Hn, (lo, lo + (hi - lo) / ZOOM_RATIO)))
+    return add_uncovered(sel, search_window(search, freq, Hn, (lo, lo + (hi - lo) / zoom)))
 
 
-def mode_windows(fn_hz: np.ndarray, band: tuple[float, float]) -> list[tuple[float, float]]:
-    """Windows of :data:`WINDOW_MODES` consecutive candidate frequencies
-    ``fn_hz`` inside ``band``, shifted by :data:`WINDOW_STEP`, each reaching to
+def mode_windows(
+    fn_hz: np.ndarray, band: tuple[float, float], thresholds: SelectionThresholds | None = None
+) -> list[tuple[float, float]]:
+    """Windows of ``window_modes`` consecutive candidate frequencies
+    ``fn_hz`` inside ``band``, shifted by ``window_step``, each reaching to
     halfway between its outermost candidates and their outer neighbours (the
-    band's edges at the ends); none with fewer than :data:`WINDOW_MIN_MODES`
-    candidates.
+    band's edges at the ends); none with fewer than ``window_min_modes``
+    candidates (fields of ``thresholds``).
 
     Examples
     --------
     >>> mode_windows(np.arange(1.0, 15.0) * 10, (5.0, 145.0))
     [(5.0, 105.0), (45.0, 145.0)]
     """
+    th = thresholds or SelectionThresholds()
     lo, hi = band
     f = np.sort(fn_hz[(fn_hz > lo) & (fn_hz < hi)])
     n = f.size
-    if n < WINDOW_MIN_MODES:
+    if n < th.window_min_modes:
         return []
     edge = np.concatenate([[lo], (f[1:] + f[:-1]) / 2, [hi]])  # edge[k]: below candidate k
     out = []
-    for s in range(0, n, WINDOW_STEP):
-        e = min(s + WINDOW_MODES, n)
+    for s in range(0, n, th.window_step):
+        e = min(s + th.window_modes, n)
         out.append((float(edge[s]), float(edge[e])))
         if e == n:
             break
@@ -378,7 +368,7 @@ def add_window_modes(
 ) -> SelectedPoles:
     """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of searches
     in the windows of :func:`mode_windows` (a dense band; unchanged with fewer
-    than :data:`WINDOW_MIN_MODES` candidates).
+    than ``window_min_modes`` candidates).
 
     Examples
     --------
@@ -388,6 +378,6 @@ def add_window_modes(
     >>> add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60)).pole.size
     0
     """
-    for window in mode_windows(sel.pole.imag / (2 * np.pi), band):
+    for window in mode_windows(pole_fd_hz(sel.pole), band, search.thresholds):
         sel = add_uncovered(sel, search_window(search, freq, Hn, window))
     return sel

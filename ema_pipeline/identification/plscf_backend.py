@@ -45,8 +45,6 @@ from ema_pipeline.identification.common import (
 from ema_pipeline.identification.not_kept import resonances_not_kept
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.order_search import (
-    MIN_PEAK_RATIO,
-    MIN_PEAK_RATIO_SHAPES,
     OrderSearch,
     add_window_modes,
     add_zoom_modes,
@@ -78,29 +76,32 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     expect_hz = np.asarray(options.expect_hz, dtype=float) if options.expect_hz else None
     decay = float(frf.acquisition.window_decay_rate)
     freq = sub.freq_hz
+    th = options.thresholds
     rms = np.sqrt(np.mean(np.abs(sub.H) ** 2, axis=(1, 2)))
     Hn = sub.H / rms[:, None, None]
     Hn_c = Hn.reshape(n_out * n_in, n_freq)
-    min_peak = MIN_PEAK_RATIO_SHAPES if n_out * n_in >= 3 else MIN_PEAK_RATIO
+    min_peak = th.min_peak_ratio_shapes if n_out * n_in >= 3 else th.min_peak_ratio
     weights = None
     if options.weighting == "coherence":
         assert sub.coherence is not None  # identify() refuses coherence weighting without it
         weights = np.sqrt(np.clip(np.mean(sub.coherence, axis=1), 0.0, 1.0))
 
+    link_freq, link_zeta, link_mac = options.link_tolerances()
     search = OrderSearch(weights=weights, window_decay_rate=decay, min_peak=min_peak,
-                         min_fraction=options.min_fraction, expect=expect_hz is not None)
+                         min_fraction=options.min_fraction, expect=expect_hz is not None,
+                         thresholds=th, tolerances=(link_freq, link_zeta, link_mac))
     sel, traj, poles = search.run(freq, Hn, (lo, hi), p, cap, fixed)
     if not fixed and expect_hz is None:
         sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi))
         sel = add_window_modes(sel, search, freq, Hn, (lo, hi))
     p = int(poles.orders[-1])
+    diagram_freq, diagram_zeta, diagram_mac = options.diagram_tolerances()
     stab = stabilization(
-        poles, decay, tol_freq=options.tol_freq, tol_zeta=options.tol_zeta,
-        tol_mac=options.tol_mac,
+        poles, decay, tol_freq=diagram_freq, tol_zeta=diagram_zeta, tol_mac=diagram_mac,
     )
     stab = StabilizationData(**{**stab.__dict__, "cluster": traj})
     if expect_hz is not None:
-        sel = select_expected(sel, expect_hz, decay)
+        sel = select_expected(sel, expect_hz, decay, thresholds=th)
 
     Hc = sub.H.reshape(n_out * n_in, n_freq)
     cov = None
@@ -108,31 +109,32 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     rejected: list[np.ndarray] = []  # refined candidates that failed the final tests
     if options.refine and sel.pole.size:
         ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
-                           force_window_s=force_s)
+                           force_window_s=force_s, thresholds=th)
         keep = np.ones(sel.pole.size, bool)
         if expect_hz is None:
 
             def retest(c: SelectedPoles, partner: np.ndarray,
                        strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
                 r = refine_poles(freq, Hc, c.pole, quantity=sub.quantity, window_tau_s=tau,
-                                 force_window_s=force_s)
+                                 force_window_s=force_s, thresholds=th)
                 ok = final_tests(freq, Hc, Hn_c, r, sub.quantity, c.n_members,
-                                 partner=partner, strict=strict)
-                rejected.append(r.pole[~ok & decay_determined(r.pole, r.cov)])
+                                 partner=partner, strict=strict, thresholds=th)
+                rejected.append(r.pole[~ok & decay_determined(r.pole, r.cov, th)])
                 return r, ok
 
             none = np.zeros(sel.pole.size, bool)
             found = Candidates(sel, ref, final_tests(freq, Hc, Hn_c, ref, sub.quantity,
-                                                     sel.n_members), none, none)
-            rejected.append(ref.pole[~found.keep & decay_determined(ref.pole, ref.cov)])
+                                                     sel.n_members, thresholds=th), none, none)
+            rejected.append(ref.pole[~found.keep & decay_determined(ref.pole, ref.cov, th)])
             # close modes hidden in a kept resonance, then modes that no
             # diagram resolved (peaks of the residual)
             partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
-                                      window_tau_s=tau, force_window_s=force_s)
+                                      window_tau_s=tau, force_window_s=force_s, thresholds=th)
             found = add_found(found, partners, True, np.zeros(partners.size, bool), retest)
             # starts from a slope into the band's edge (a mode outside the band
             # looks the same) must pass the resonance test by their peak
-            peaks, from_edge = residual_peaks(freq, Hc, found.kept_poles(), sub.quantity)
+            peaks, from_edge = residual_peaks(freq, Hc, found.kept_poles(), sub.quantity,
+                                              thresholds=th)
             found = add_found(found, peaks, False, from_edge, retest)
             sel, ref, keep = found.sel, found.ref, found.keep
         order_s = np.argsort(ref.pole[keep].imag)
@@ -140,7 +142,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         cov = ref.cov[keep][order_s]
         # the local model's own error (band choice), added in quadrature
         cov = cov + band_sensitivity(freq, Hc, sel.pole, quantity=sub.quantity,
-                                     window_tau_s=tau, force_window_s=force_s)
+                                     window_tau_s=tau, force_window_s=force_s, thresholds=th)
     result = finish_identification(
         sub,
         sel.pole,
@@ -158,9 +160,9 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             dt_s=poles.dt,
             weighting=options.weighting,
             window_decay_rate=decay,
-            tol_freq=options.tol_freq,
-            tol_zeta=options.tol_zeta,
-            tol_mac=options.tol_mac,
+            tol_freq=link_freq,
+            tol_zeta=link_zeta,
+            tol_mac=link_mac,
             min_fraction=options.min_fraction,
             refine=options.refine,
             lower_residual=options.lower_residual,
@@ -169,10 +171,11 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             uncertainty="least-squares covariance of the refined poles"
             if options.refine
             else "scatter of the trajectory's poles over model orders",
+            thresholds=th,
         ),
     )
     if not rejected:
         return result
     not_kept_hz, not_kept_frfs = resonances_not_kept(freq, Hc, np.concatenate(rejected),
-                                                     sel.pole)
+                                                     sel.pole, th)
     return replace(result, not_kept_hz=not_kept_hz, not_kept_frfs=not_kept_frfs)

@@ -18,7 +18,9 @@ or with one pole more
 
 Why written here: scipy's ``least_squares`` neither eliminates the linear terms
 (variable projection) nor shares one projection between channels, which is what
-makes the fit cheap enough to run on every mode.
+makes the fit cheap enough to run on every mode. The damped step and the
+damping schedule are the package's one Levenberg-Marquardt
+(:mod:`ema_pipeline.numerics`), shared with the exact added-mass fit.
 """
 
 from __future__ import annotations
@@ -28,8 +30,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ema_pipeline.identification.local_band import (
-    HALF_WIDTH,
-    MIN_LINES,
     background_columns,
     global_residues,
     local_problem,
@@ -37,6 +37,7 @@ from ema_pipeline.identification.local_band import (
     pole_jacobian,
     scaled_solve,
 )
+from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.identification.uncertainty import (
     correlated_information,
     correlated_leverage,
@@ -45,6 +46,7 @@ from ema_pipeline.identification.uncertainty import (
     rect_window_correlation,
     residual_correlation,
 )
+from ema_pipeline.numerics import MarquardtDamping, marquardt_step
 
 
 @dataclass(frozen=True)
@@ -66,25 +68,48 @@ class RefinedPoles:
     n_iter: np.ndarray
 
 
-def vp_solve(
+@dataclass(frozen=True)
+class VPFit:
+    """A finished variable-projection fit of :func:`vp_fit`: what
+    :func:`vp_covariance` needs to add the covariance.
+
+    freq_hz : (n,) lines.   Y : (2n, n_ch) real-stacked data.
+    bg_r : (2n, K_bg) real-stacked background columns.
+    lam : (m,) fitted poles (rad/s).   F : (2m, 2m) Fisher matrix of the last
+    accepted step.   u : (2n,) row weights.   inv_s2 : (n_ch,) channel weights.
+    n_iter : Levenberg-Marquardt iterations taken.
+    """
+
+    freq_hz: np.ndarray
+    Y: np.ndarray
+    bg_r: np.ndarray
+    lam: np.ndarray
+    F: np.ndarray
+    u: np.ndarray
+    inv_s2: np.ndarray
+    n_iter: int
+
+    @property
+    def noise_std(self) -> np.ndarray:
+        """(2n, n_ch) the separable noise std s_c / u_k of the fit's weights."""
+        return np.sqrt(1.0 / self.inv_s2)[None, :] / self.u[:, None]
+
+
+def vp_fit(
     freq_hz: np.ndarray,
     Y: np.ndarray,
     poles: np.ndarray,
     background: np.ndarray,
     max_iter: int,
-    window_tau_s: float | None = None,
-    force_window_s: float | None = None,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
-    """Variable-projection Levenberg-Marquardt fit of ``poles`` to Y (2n, n_ch).
+) -> VPFit:
+    """The iterations of :func:`vp_solve` without its covariance.
 
-    Model per channel: sum_r a_r/(jw - l_r) + conj + background @ c (complex c).
-    Noise: independent per line with the variance model of :func:`noise_model`,
-    estimated from the residual of the start poles and once more after a first
-    weighted solve, approximated as separable, std_ck = s_c u_k, so that one
-    projection serves all channels. The noise level of the covariance is
-    estimated once more at the end, from the final weighted residual with the
-    leverage of each line (:func:`noise_model`). Returns the poles, the inverse Fisher matrix of
-    (sigma_r, omega_dr), the noise std (2n, n_ch) and the iterations.
+    Callers that use only the poles or the noise level (the narrower band of
+    :func:`band_sensitivity`, the fit without the extra pole of
+    :func:`~ema_pipeline.identification.local_fits.split_fit`, a refinement
+    that wandered off) skip the sandwich covariance of :func:`vp_covariance`,
+    about half of :func:`vp_solve`'s time with a window's line correlation;
+    the poles are the same numbers.
     """
     n = freq_hz.size
     m = poles.size
@@ -130,12 +155,11 @@ def vp_solve(
         inv_s2 = 1.0 / np.maximum(s2, np.finfo(float).tiny)
         u = 1.0 / np.sqrt(np.mean(std**2 * inv_s2[None, :], axis=1))
         F, g, cost = normal(lam_of(theta), u, inv_s2)
-        mu = 1e-3
+        damping = MarquardtDamping(mu=1e-3, mu_min=1e-9, mu_max=1e6)
         for _it in range(max_iter):
             it_total += 1
-            D = np.diag(np.diag(F)) + np.finfo(float).tiny
             try:
-                step = np.linalg.solve(F + mu * D, g)
+                step = marquardt_step(F, g, damping.mu, floor=np.finfo(float).tiny)
             except np.linalg.LinAlgError:
                 break
             trial = theta + step
@@ -147,19 +171,31 @@ def vp_solve(
                 sd = np.sqrt(1.0 / np.maximum(np.diag(F), 1e-300))
                 done = (cost - cost_new) < 1e-8 * cost or np.all(np.abs(step) < 1e-3 * sd)
                 cost = cost_new
-                mu = max(mu / 10, 1e-9)
+                damping.accepted()
                 if done:
                     break
-            else:
-                mu *= 10
-                if mu > 1e6:
-                    break
+            elif not damping.rejected():
+                break
+    return VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam_of(theta), F=F, u=u, inv_s2=inv_s2,
+                 n_iter=it_total)
+
+
+def vp_covariance(
+    fit: VPFit,
+    window_tau_s: float | None = None,
+    force_window_s: float | None = None,
+) -> np.ndarray:
+    """The sandwich covariance (2m, 2m) of (sigma_r, omega_dr) of a :func:`vp_fit`
+    (see :func:`vp_solve`)."""
+    freq_hz, Y, lam, u, inv_s2 = fit.freq_hz, fit.Y, fit.lam, fit.u, fit.inv_s2
+    n = freq_hz.size
+    jw = 2j * np.pi * freq_hz[:, None]
+    n_lin = 2 * lam.size + fit.bg_r.shape[1]
     try:
-        Finv = np.linalg.inv(F)
+        Finv = np.linalg.inv(fit.F)
     except np.linalg.LinAlgError:
-        Finv = np.linalg.pinv(F)
-    lam = lam_of(theta)
-    Qm, Rw, X = fit(lam, u)
+        Finv = np.linalg.pinv(fit.F)
+    Qm, Rw, X = scaled_solve(pole_columns(freq_hz, lam, fit.bg_r) * u[:, None], Y * u[:, None])
     sq = np.sqrt(inv_s2)
     Jw = pole_jacobian(jw, lam, X) * u[:, None, None]
     Jf = Jw.reshape(Jw.shape[0], -1)
@@ -208,9 +244,33 @@ def vp_solve(
     cov = Finv @ G @ Finv
     # a truncated correlation estimate must never make the fit look better
     # than independent lines would
-    cov = cov + np.diag(np.maximum(np.diag(Finv) - np.diag(cov), 0.0))
-    std = np.sqrt(1.0 / inv_s2)[None, :] / u[:, None]
-    return lam, cov, std, it_total
+    return np.asarray(cov + np.diag(np.maximum(np.diag(Finv) - np.diag(cov), 0.0)))
+
+
+def vp_solve(
+    freq_hz: np.ndarray,
+    Y: np.ndarray,
+    poles: np.ndarray,
+    background: np.ndarray,
+    max_iter: int,
+    window_tau_s: float | None = None,
+    force_window_s: float | None = None,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Variable-projection Levenberg-Marquardt fit of ``poles`` to Y (2n, n_ch).
+
+    Model per channel: sum_r a_r/(jw - l_r) + conj + background @ c (complex c).
+    Noise: independent per line with the variance model of :func:`noise_model`,
+    estimated from the residual of the start poles and once more after a first
+    weighted solve, approximated as separable, std_ck = s_c u_k, so that one
+    projection serves all channels. The noise level of the covariance is
+    estimated once more at the end, from the final weighted residual with the
+    leverage of each line (:func:`noise_model`). Returns the poles, the inverse Fisher matrix of
+    (sigma_r, omega_dr), the noise std (2n, n_ch) and the iterations: the fit
+    of :func:`vp_fit` and the covariance of :func:`vp_covariance`.
+    """
+    fit = vp_fit(freq_hz, Y, poles, background, max_iter)
+    cov = vp_covariance(fit, window_tau_s, force_window_s)
+    return fit.lam, cov, fit.noise_std, fit.n_iter
 
 
 def refine_poles(
@@ -218,18 +278,18 @@ def refine_poles(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = HALF_WIDTH,
-    min_lines: int = MIN_LINES,
+    half_width: float | None = None,
     max_iter: int = 10,
-    max_shift: float = 0.5,
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> RefinedPoles:
     """Local nonlinear least-squares refinement of each pole, with its covariance.
 
     For mode r the lines within f_r +- ``half_width`` half-power bandwidths
-    (sigma_r / pi Hz; at least ``min_lines`` lines, at most 20 % of f_r) are
+    (sigma_r / pi Hz; default ``thresholds.local_half_width``; at least
+    ``thresholds.local_min_lines`` lines, at most 20 % of f_r) are
     fitted with the poles of all modes whose half-power band reaches into that
     band plus a complex quadratic background c0 + c1 x + c2 x^2
     (x = (f - f_r)/width) per channel, which stands in for the modes outside
@@ -241,7 +301,8 @@ def refine_poles(
     respect to the poles, P the projection onto the linear terms): least-squares
     covariance propagation. A pole that moves by more than ``max_shift`` times
     its decay rate plus one line keeps its start value (refinement failed) and
-    gets the covariance evaluated there.
+    gets the covariance evaluated there (``max_shift`` is
+    ``thresholds.refine_max_shift``).
 
     The modes outside a local problem reach into its band with tails that a
     quadratic does not follow (a heavily damped neighbour, dense modes): with
@@ -254,6 +315,9 @@ def refine_poles(
     freq_hz : (n_freq,) Hz.   H : (n_ch, n_freq) complex FRFs (any quantity).
     poles : (n_modes,) identified poles (rad/s, Im > 0).
     """
+    th = thresholds or SelectionThresholds()
+    half_width = th.local_half_width if half_width is None else half_width
+    min_lines, max_shift = th.local_min_lines, th.refine_max_shift
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
     n_ch = H.shape[0]
@@ -291,20 +355,22 @@ def band_sensitivity(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    half_width: float = HALF_WIDTH / 2,
+    half_width: float | None = None,
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """Model-choice covariance of refined poles, (n_modes, 2, 2) in (sigma, omega_d).
 
-    The local fit of :func:`refine_poles` (at +-``HALF_WIDTH`` half-power bandwidths)
+    The local fit of :func:`refine_poles` (at +-``local_half_width`` half-power bandwidths)
     stands for everything outside its members by a quadratic background and
     the subtracted terms of a global LSFD; where that is not exact (modes just
     outside the band, heavily damped neighbours) the pole carries an error the
     residual does not show. It is estimated as the change d of (sigma,
     omega_d) when the fit is repeated on the narrower band of ``half_width``
-    half-power bandwidths (starting at ``poles``, the refined poles); half of
+    half-power bandwidths (default half of ``thresholds.local_half_width``;
+    starting at ``poles``, the refined poles); half of
     it is taken as the standard deviation of the model choice (the two fits
     bracket the error, and d also holds the extra noise of the narrower fit),
     returned as d d^T / 4, to be added to the noise covariance. Modes whose
@@ -320,8 +386,11 @@ def band_sensitivity(
     >>> float(np.abs(band_sensitivity(f, H, lam, quantity="receptance")).max()) < 1e-6
     True
     """
+    th = thresholds or SelectionThresholds()
+    half_width = th.local_half_width / 2 if half_width is None else half_width
     other = refine_poles(freq_hz, H, poles, half_width=half_width, quantity=quantity,
-                         window_tau_s=window_tau_s, force_window_s=force_window_s)
+                         window_tau_s=window_tau_s, force_window_s=force_window_s,
+                         thresholds=th)
     d = np.stack([other.pole.real - poles.real, poles.imag - other.pole.imag], axis=1)
     d = np.nan_to_num(d)
     return d[:, :, None] * d[:, None, :] / 4.0

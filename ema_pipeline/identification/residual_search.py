@@ -13,11 +13,12 @@ other peaks stood at 3-7 times it.
 
 :func:`residual_peaks` finds those peaks: the squared residual of each
 channel over its median (the floor; a median ignores the peaks), averaged
-over the channels and over 3 lines, above :data:`RESIDUAL_PEAK_RATIO`,
+over the channels and over 3 lines, above ``residual_peak_ratio``,
 outside the half-power bands of the kept modes (a kept mode's misfit, and
 the part of the noise proportional to |H|, peak there; close modes hidden in
 a kept resonance are the business of ``acceptance.close_partners``), and
-at least :data:`RESIDUAL_PEAK_CONTRAST` times its surroundings. A residual
+at least ``residual_peak_contrast`` times its surroundings (fields of
+:class:`~ema_pipeline.identification.thresholds.SelectionThresholds`). A residual
 that rises into the band's edge is the tail of a mode outside the band or a
 heavily damped mode whose resonance the edge cuts; it gives a start pole
 only when a pole fitted up to the band's end lies inside the band, and that
@@ -37,20 +38,8 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 
 from ema_pipeline.identification.lsfd import lsfd
-from ema_pipeline.identification.selection import MAX_ZETA
-
-#: A residual peak is a candidate when its squared residual (mean over the
-#: channels of each channel's |e|^2 over its median, over 3 lines) exceeds
-#: this. White noise gives 1/ln 2 = 1.44 on average and 3-7 at the highest
-#: peaks of a few thousand lines; missed modes of the hard cases 10-60.
-RESIDUAL_PEAK_RATIO = 8.0
-#: ... and at least this many times the median of its surroundings (the
-#: lines 1-4 peak widths plus 20 lines away): missed modes of the hard cases
-#: stand 5-30 times above theirs, the spikes of a noisy stretch (the top of
-#: the paper's simulated axis, at the anti-alias filter) 1.3-1.8 times.
-RESIDUAL_PEAK_CONTRAST = 3.0
-#: At most this many residual peaks (the highest) are tried per band.
-MAX_RESIDUAL_PEAKS = 6
+from ema_pipeline.identification.thresholds import SelectionThresholds
+from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
 
 def residual_ratio(R: np.ndarray) -> np.ndarray:
@@ -62,7 +51,7 @@ def residual_ratio(R: np.ndarray) -> np.ndarray:
     --------
     >>> rng = np.random.default_rng(0)
     >>> ratio = residual_ratio(rng.standard_normal((2, 801)) + 1j * rng.standard_normal((2, 801)))
-    >>> bool(1.2 < np.mean(ratio) < 1.7), bool(np.max(ratio) < RESIDUAL_PEAK_RATIO)
+    >>> bool(1.2 < np.mean(ratio) < 1.7), bool(np.max(ratio) < 8.0)
     (True, True)
     """
     p = np.abs(R) ** 2
@@ -90,11 +79,11 @@ def residual_peaks(
     pole: np.ndarray,
     quantity: str,
     *,
-    min_ratio: float = RESIDUAL_PEAK_RATIO,
-    max_peaks: int = MAX_RESIDUAL_PEAKS,
+    thresholds: SelectionThresholds | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Start poles (rad/s, ascending frequency) at the peaks of the residual of
-    the global LSFD of the kept ``pole`` that stand ``min_ratio`` above its
+    the global LSFD of the kept ``pole`` that stand
+    ``thresholds.residual_peak_ratio`` above its
     floor (:func:`residual_ratio`), outside 3 half-power half-widths plus 2
     lines of every pole (:func:`near`) and outside the band's outer 2 %.
 
@@ -106,7 +95,7 @@ def residual_peaks(
     lies inside the band, outside the edge zone, else the slope is passed
     over with the lines down to half its height. A peak that goes on rising
     into a kept mode's zone (its misfit) is passed over too. Greedy, at most
-    ``max_peaks`` times: the highest peak gets a start pole (:func:`peak_pole`
+    ``thresholds.max_residual_peaks`` times: the highest peak gets a start pole (:func:`peak_pole`
     on the lines around it, the peak's half-height width and as much again
     on each side, or, when that pole lies outside the half-height width, the
     peak's frequency with that width as half-power band; the half-power band
@@ -128,6 +117,8 @@ def residual_peaks(
     >>> (start.imag / (2 * np.pi)).round(1).tolist(), from_edge.tolist()
     ([120.0], [False])
     """
+    th = thresholds or SelectionThresholds()
+    min_ratio, max_peaks = th.residual_peak_ratio, th.max_residual_peaks
     freq_hz = np.asarray(freq_hz, dtype=float)
     n = freq_hz.size
     start = np.zeros(0, complex)
@@ -165,9 +156,10 @@ def residual_peaks(
             sl = slice(max(0, lo - width - 3), n) if at_edge[0] > k else slice(
                 0, min(n, hi + width + 4))
             lam = peak_pole(freq_hz[sl], R[:, sl])
-            j = int(np.argmin(np.abs(freq_hz - lam.imag / (2 * np.pi))))
-            inner = freq_hz[0] < lam.imag / (2 * np.pi) < freq_hz[-1] and not edge[j]
-            if not (is_physical(lam) and inner):
+            f_lam = pole_fd_hz(lam)
+            j = int(np.argmin(np.abs(freq_hz - f_lam)))
+            inner = freq_hz[0] < f_lam < freq_hz[-1] and not edge[j]
+            if not (is_physical(lam, th) and inner):
                 continue
         else:
             if any(skip[j] and raw[j] > ratio[k] / 2 for j in ends) or any(
@@ -180,15 +172,15 @@ def residual_peaks(
             around[max(0, lo - 4 * width - 20) : min(n, hi + 4 * width + 21)] = True
             around[max(0, lo - width) : min(n, hi + width + 1)] = False
             around &= ~(excluded | skip)
-            if around.any() and ratio[k] < RESIDUAL_PEAK_CONTRAST * np.median(raw[around]):
+            if around.any() and ratio[k] < th.residual_peak_contrast * np.median(raw[around]):
                 # no higher than its surroundings: a noisy stretch (the top of
                 # a measured axis, where the anti-alias filter acts), not a mode
                 skip[lo : hi + 1] = True
                 continue
             sl = slice(max(0, lo - width - 3), min(n, hi + width + 4))
             lam = peak_pole(freq_hz[sl], R[:, sl])
-            inside = freq_hz[lo] <= lam.imag / (2 * np.pi) <= freq_hz[hi]
-            if not (is_physical(lam) and inside):
+            inside = freq_hz[lo] <= pole_fd_hz(lam) <= freq_hz[hi]
+            if not (is_physical(lam, th) and inside):
                 lam = 2 * np.pi * freq_hz[k] * (-width * df / (2 * freq_hz[k]) + 1j)
         # a half-power band of at least 2 lines (narrower is not resolved)
         start = np.append(start, complex(min(lam.real, -2 * np.pi * df), lam.imag))
@@ -198,16 +190,17 @@ def residual_peaks(
     return start[order], from_edge[order]
 
 
-def is_physical(lam: complex) -> bool:
+def is_physical(lam: complex, thresholds: SelectionThresholds | None = None) -> bool:
     """True for a decaying pole with a damping ratio below
-    :data:`~ema_pipeline.identification.selection.MAX_ZETA`.
+    ``thresholds.max_zeta``.
 
     Examples
     --------
     >>> is_physical(-1.0 + 100j), is_physical(1.0 + 100j), is_physical(-50.0 + 100j)
     (True, False, False)
     """
-    return bool(lam.real < 0 and -lam.real < MAX_ZETA * abs(lam))
+    max_zeta = (thresholds or SelectionThresholds()).max_zeta
+    return bool(lam.real < 0 and -lam.real < max_zeta * abs(lam))
 
 
 def peak_region(ratio: np.ndarray, k: int) -> tuple[int, int]:
@@ -238,8 +231,8 @@ def near(freq_hz: np.ndarray, pole: np.ndarray, df: float) -> np.ndarray:
     """
     if pole.size == 0:
         return np.zeros(freq_hz.size, bool)
-    reach = 3 * np.abs(pole.real) / (2 * np.pi) + 2 * df
-    gap = np.abs(freq_hz[:, None] - pole.imag[None, :] / (2 * np.pi))
+    reach = 3 * pole_half_width_hz(pole) + 2 * df
+    gap = np.abs(freq_hz[:, None] - pole_fd_hz(pole)[None, :])
     return np.asarray(np.any(gap < reach[None, :], axis=1))
 
 

@@ -8,10 +8,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ema_pipeline.data import ModalParameters
+from ema_pipeline.data import ModalParameters, notebook_table_html
 from ema_pipeline.identification.lsfd import mpd
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.stabilization import StabilizationData
+from ema_pipeline.identification.thresholds import SelectionThresholds
 
 
 @dataclass(frozen=True)
@@ -21,6 +22,10 @@ class ResolvedSettings:
     The record stored with a result: the :class:`IdentificationOptions` after
     the defaults of the method and the data were applied (band, order, the
     orders computed, the z-domain sampling time, the window's decay rate).
+    ``tol_freq``, ``tol_zeta``, ``tol_mac`` are the tolerances of the
+    selection's pole linking (the diagram's are in ``result.stabilization``);
+    ``thresholds`` the tuned thresholds used, which also define the
+    ``doubtful`` rule (:func:`doubtful_reasons`).
     """
 
     method: str
@@ -39,6 +44,7 @@ class ResolvedSettings:
     upper_residual: bool
     expect_hz: np.ndarray | None
     uncertainty: str
+    thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
 
 
 @dataclass(frozen=True)
@@ -106,10 +112,11 @@ class IdentificationResult:
         )
 
     def _repr_html_(self) -> str:
-        """The modal table (notebooks): f, zeta with std, sigma, MPC, stable orders."""
-        from ema_pipeline.report import mode_table_html
-
-        return mode_table_html(self)
+        """The modal table (notebooks): :func:`modes_table` as plain HTML (the
+        report's formatted one is :func:`ema_pipeline.report.mode_table_html`)."""
+        m = self.modes
+        return notebook_table_html(modes_table(self).to_dict(orient="list"),
+                                   caption=f"{m.configuration or 'modes'}: {m.n_modes} modes")
 
     @property
     def fn_hz(self) -> np.ndarray:
@@ -122,18 +129,6 @@ class IdentificationResult:
     @property
     def zeta(self) -> np.ndarray:
         return self.modes.zeta
-
-
-#: A mode is marked ``doubtful`` (kept, never dropped) when its pole is stable
-#: at fewer model orders than this ...
-MIN_STABLE_ORDERS = 5
-#: ... or its damping is poorly determined (zeta_std above this fraction of zeta)
-MAX_REL_ZETA_STD = 0.5
-#: ... or its shape is strongly complex (MPC below this, with 3 or more responses)
-MIN_MPC = 0.5
-#: ... or its half-power bandwidth 2 zeta f_n is below this fraction of the line
-#: spacing (the lines do not resolve its damping).
-MIN_BANDWIDTH_LINES = 0.5
 
 
 def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -151,7 +146,7 @@ def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray,
     >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
     >>> res = identify(FRFSet(freq_hz=f, H=H))
     >>> first, last, count = stable_orders(res)
-    >>> bool(first.min() > 0 and count.min() >= MIN_STABLE_ORDERS)
+    >>> bool(first.min() > 0 and count.min() >= res.settings.thresholds.min_stable_orders)
     True
     """
     n = result.modes.n_modes
@@ -167,24 +162,64 @@ def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray,
     return first, last, count
 
 
-def doubtful_modes(result: IdentificationResult) -> np.ndarray:
-    """Modes to look at twice (result order), by the documented rule: stable at
-    fewer than :data:`MIN_STABLE_ORDERS` orders (where cluster data exist),
-    ``zeta_std > MAX_REL_ZETA_STD * zeta``, ``mpc < MIN_MPC`` with three or
-    more responses, or a half-power bandwidth 2 zeta f_n below
-    :data:`MIN_BANDWIDTH_LINES` line spacings. Such modes are reported with
-    ``doubtful = True``, not dropped.
+#: The names of the rules of :func:`doubtful_reasons`, in the order they are listed.
+DOUBTFUL_RULES = ("few_stable_orders", "loose_damping", "complex_shape", "unresolved_damping")
+
+
+def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
+    """Per rule of :data:`DOUBTFUL_RULES`, the modes (result order) it marks,
+    with the thresholds of ``result.settings.thresholds``:
+
+    * ``few_stable_orders``: stable at fewer than ``min_stable_orders`` model
+      orders (where cluster data exist);
+    * ``loose_damping``: ``zeta_std > max_rel_zeta_std * zeta``;
+    * ``complex_shape``: ``mpc < min_mpc`` with three or more responses;
+    * ``unresolved_damping``: a half-power bandwidth 2 zeta f_n below
+      ``min_bandwidth_lines`` line spacings.
     """
+    th = result.settings.thresholds
     m = result.modes
     _, _, count = stable_orders(result)
-    few = (count < MIN_STABLE_ORDERS) & (result.selected is not None) & (count > 0)
+    few = (count < th.min_stable_orders) & (result.selected is not None) & (count > 0)
     zeta_std = np.asarray(m.zeta_std, dtype=float)
-    loose = np.isfinite(zeta_std) & (zeta_std > MAX_REL_ZETA_STD * np.abs(m.zeta))
+    loose = np.isfinite(zeta_std) & (zeta_std > th.max_rel_zeta_std * np.abs(m.zeta))
     mpc = np.asarray(result.mpc, dtype=float)
-    complex_shape = (mpc < MIN_MPC) if len(m.dofs) >= 3 else np.zeros(m.n_modes, bool)
+    complex_shape = (mpc < th.min_mpc) if len(m.dofs) >= 3 else np.zeros(m.n_modes, bool)
     df = float(np.median(np.diff(result.freq_hz))) if result.freq_hz.size > 1 else 0.0
-    unresolved = 2 * np.abs(m.zeta) * m.fn_hz < MIN_BANDWIDTH_LINES * df
-    return np.asarray(few | loose | complex_shape | unresolved, dtype=bool)
+    unresolved = 2 * np.abs(m.zeta) * m.fn_hz < th.min_bandwidth_lines * df
+    flags = (few, loose, complex_shape, unresolved)
+    return {name: np.asarray(f, dtype=bool) for name, f in zip(DOUBTFUL_RULES, flags, strict=True)}
+
+
+def doubtful_modes(result: IdentificationResult) -> np.ndarray:
+    """Modes to look at twice (result order): any rule of
+    :func:`doubtful_flags` fires (:func:`doubtful_reasons` names which).
+    Such modes are reported with ``doubtful = True``, not dropped.
+    """
+    flags = doubtful_flags(result)
+    return np.asarray(np.logical_or.reduce(list(flags.values())), dtype=bool).reshape(-1)
+
+
+def doubtful_reasons(result: IdentificationResult) -> list[str]:
+    """Per mode (result order) the names of the doubtful rules that fire,
+    joined by ``";"`` (``""`` for a mode that is not doubtful), e.g.
+    ``"few_stable_orders;loose_damping"``; see :func:`doubtful_flags`.
+
+    Examples
+    --------
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import FRFSet
+    >>> from ema_pipeline.identification import identify
+    >>> f = np.linspace(0.0, 100.0, 401)  # 0.25 Hz lines
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.0005])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> res = identify(FRFSet(freq_hz=f, H=H), expect_hz=(30, 70))
+    >>> doubtful_reasons(res)  # 70 Hz: 2 zeta f_n = 0.07 Hz < 0.5 line
+    ['', 'unresolved_damping']
+    """
+    flags = doubtful_flags(result)
+    n = result.modes.n_modes
+    return [";".join(name for name in DOUBTFUL_RULES if flags[name][k]) for k in range(n)]
 
 
 def modes_table(result: IdentificationResult) -> pd.DataFrame:
@@ -192,7 +227,8 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
     fn_std_hz, zeta_std_pct`` (zeta in percent) and the quality columns ``mpc``
     (modal phase collinearity, 1 = real), ``mpd_deg`` (mean phase deviation,
     degrees), ``stable_from_order``, ``n_stable_orders`` (see
-    :func:`stable_orders`) and ``doubtful`` (see :func:`doubtful_modes`)."""
+    :func:`stable_orders`), ``doubtful`` (see :func:`doubtful_modes`) and
+    ``doubtful_reason`` (the rules that fire, :func:`doubtful_reasons`)."""
     m = result.modes
     order = np.argsort(m.fn_hz)
     first, _, count = stable_orders(result)
@@ -210,5 +246,6 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
             "stable_from_order": first[order],
             "n_stable_orders": count[order],
             "doubtful": doubtful_modes(result)[order],
+            "doubtful_reason": np.asarray(doubtful_reasons(result), dtype=object)[order],
         }
     )

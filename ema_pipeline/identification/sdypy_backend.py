@@ -42,6 +42,7 @@ from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
 from ema_pipeline.identification.stabilization import StabilizationData
+from ema_pipeline.modal import pole_fd_hz
 
 
 def min_sdypy_order(n_modes: int) -> int:
@@ -79,7 +80,8 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     decay = float(frf.acquisition.window_decay_rate)
     p = 100 if options.max_order is None else int(options.max_order)
     if not options.expect_hz:
-        auto = identify_plscf(frf, IdentificationOptions(band_hz=(lo, hi), refine=False))
+        auto = identify_plscf(frf, IdentificationOptions(band_hz=(lo, hi), refine=False,
+                                                         thresholds=options.thresholds))
         guesses = auto.modes.fd_hz
         if guesses.size == 0:
             raise DataError("sdypy-lscf: the automatic selection found no mode to look for")
@@ -115,7 +117,7 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         )
     poles = np.where(poles.imag < 0, poles.conj(), poles)
     poles = poles[(poles.real + decay < 0) & (poles.imag > 0)]  # structural damping > 0
-    match = match_expected(poles.imag / (2 * np.pi), guesses, EXPECT_TOL_PCT)
+    match = match_expected(pole_fd_hz(poles), guesses, EXPECT_TOL_PCT)
     poles = poles[np.unique(match[match >= 0])]
     if poles.size == 0:
         raise DataError(
@@ -142,6 +144,7 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         tol_mac=float("nan"), min_fraction=float("nan"), refine=False,
         lower_residual=lower_residual, upper_residual=upper_residual,
         expect_hz=guesses if options.expect_hz else None, uncertainty="none (NaN)",
+        thresholds=options.thresholds,
     )
     result = finish_identification(
         sub, poles, decay=decay, lower_residual=lower_residual,

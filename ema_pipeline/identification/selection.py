@@ -23,11 +23,8 @@ import numpy as np
 
 from ema_pipeline.identification.plscf import PoleSet
 from ema_pipeline.identification.stabilization import pole_to_modal
-
-#: A pole with a damping ratio at or above this is not a physical mode of the
-#: structures this tool is for (the selection, the search's young
-#: trajectories and the residual check's start poles all use it).
-MAX_ZETA = 0.2
+from ema_pipeline.identification.thresholds import SelectionThresholds
+from ema_pipeline.modal import mac
 
 
 @dataclass(frozen=True)
@@ -66,22 +63,22 @@ class SelectedPoles:
 
 def track_poles(
     poles: PoleSet,
-    *,
-    tol_freq: float = 0.01,
-    tol_zeta: float = 0.3,
-    tol_mac: float = 0.05,
-    max_gap: int = 2,
+    tolerances: tuple[float, float, float] | None = None,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """Trajectory label of every pole of ``poles`` (sorted by order).
 
     A pole of order n is linked to the open end of a trajectory whose last
-    pole is at one of the ``max_gap`` previous computed orders, one-to-one,
-    smallest distance first, if
+    pole is at one of the ``thresholds.link_max_gap`` previous computed
+    orders, one-to-one, smallest distance first, if
 
         d = |df| / (tol_freq f) + |dzeta| / (tol_zeta max(zeta)) + (1 - MAC(l)) / tol_mac < 1,
 
-    with l the participation vectors; otherwise it starts a new trajectory.
-    Memory: one (poles of order n) x (open trajectories) matrix at a time.
+    with l the participation vectors and ``tolerances`` = (tol_freq,
+    tol_zeta, tol_mac) (default ``thresholds.link_tol_*``; see
+    ``IdentificationOptions.link_tolerances``); otherwise it starts a new
+    trajectory. Memory: one (poles of order n) x (open trajectories) matrix at
+    a time.
 
     Examples
     --------
@@ -92,10 +89,13 @@ def track_poles(
     >>> track_poles(ps).tolist()
     [0, 0, 1, 0]
     """
+    th = thresholds or SelectionThresholds()
+    tol_freq, tol_zeta, tol_mac = tolerances or (th.link_tol_freq, th.link_tol_zeta,
+                                                 th.link_tol_mac)
+    max_gap = th.link_max_gap
     fn, _, zeta = pole_to_modal(poles.pole)
     zeta = np.abs(zeta)
     part = poles.participation
-    pn = np.sum(np.abs(part) ** 2, axis=1)
     traj = np.full(poles.pole.size, -1)
     starts = np.searchsorted(poles.order, poles.orders)
     ends = np.append(starts[1:], poles.order.size)
@@ -112,9 +112,7 @@ def track_poles(
             zmax = np.maximum(np.maximum(zeta[cur][:, None], zeta[tp][None, :]), 1e-4)
             d += np.abs(zeta[cur][:, None] - zeta[tp][None, :]) / (tol_zeta * zmax)
             if part.shape[1] > 1:
-                num = np.abs(part[cur].conj() @ part[tp].T) ** 2
-                den = np.maximum(pn[cur][:, None] * pn[tp][None, :], 1e-300)
-                d += (1 - num / den) / tol_mac
+                d += (1 - mac(part[cur].T, part[tp].T)) / tol_mac
             ii, jj = np.nonzero(d < 1)
             if ii.size:
                 o = np.argsort(d[ii, jj], kind="stable")
@@ -142,11 +140,9 @@ def link_fragments(
     traj: np.ndarray,
     window_decay_rate: float = 0.0,
     *,
-    min_zeta: float = 0.02,
-    tol_zeta: float = 0.3,
-    max_gap: int = 3,
     min_fraction: float = 0.3,
     min_members: int = 6,
+    thresholds: SelectionThresholds | None = None,
 ) -> np.ndarray:
     """``traj`` with the pieces of one heavily damped mode's trajectory joined.
 
@@ -156,10 +152,11 @@ def link_fragments(
     fewer than ``max(min_members, min_fraction * n_orders)``: one that
     :func:`select_trajectories` would not take on its own) whose median pole
     has structural damping (``window_decay_rate`` 1/tau
-    removed) of at least ``min_zeta`` is joined to a later piece that starts
-    within ``max_gap`` computed orders of its end, when their median
-    frequencies differ by less than half the half-power half-width zeta f and
-    their damping by less than ``tol_zeta`` of the larger (closest first,
+    removed) of at least ``thresholds.fragment_min_zeta`` is joined to a later
+    piece that starts within ``fragment_max_gap`` computed orders of its end,
+    when their median frequencies differ by less than half the half-power
+    half-width zeta f and their damping by less than ``fragment_tol_zeta`` of
+    the larger (closest first,
     one-to-one). The joined trajectory is then judged like any other by
     :func:`select_trajectories`.
 
@@ -174,6 +171,8 @@ def link_fragments(
     >>> len(set(tr.tolist())), len(set(link_fragments(ps, tr).tolist()))  # 3 + 3 < 6 members
     (2, 1)
     """
+    th = thresholds or SelectionThresholds()
+    min_zeta, tol_zeta, max_gap = th.fragment_min_zeta, th.fragment_tol_zeta, th.fragment_max_gap
     ids, inv, counts = np.unique(traj, return_inverse=True, return_counts=True)
     if ids.size < 2:
         return traj
@@ -185,7 +184,7 @@ def link_fragments(
     fn_all, _, z_all = pole_to_modal(poles.pole, window_decay_rate)
     fn, zs = _group_median(fn_all, inv, counts), _group_median(z_all, inv, counts)
     short = counts < max(min_members, int(np.ceil(min_fraction * poles.orders.size)))
-    cand = np.flatnonzero((counts >= 2) & short & (zs >= min_zeta) & (zs < MAX_ZETA))
+    cand = np.flatnonzero((counts >= 2) & short & (zs >= min_zeta) & (zs < th.max_zeta))
     if cand.size < 2:
         return traj
     a, b = cand[:, None], cand[None, :]
@@ -229,9 +228,7 @@ def select_trajectories(
     *,
     min_fraction: float = 0.1,
     min_members: int = 6,
-    edge: tuple[float, float] = (0.005, 0.02),
-    zeta_max: float = MAX_ZETA,
-    max_scatter: float = 0.15,
+    thresholds: SelectionThresholds | None = None,
 ) -> SelectedPoles:
     """The trajectories that are physical modes, ascending frequency.
 
@@ -240,11 +237,13 @@ def select_trajectories(
     * it holds at least ``max(min_members, min_fraction * n_orders)`` poles
       (however late it starts: a mode that stabilises at high order is kept);
     * its pole -- the median of the last half of its members -- has a positive
-      decay, window-corrected damping 0 < zeta < ``zeta_max`` and a frequency
-      inside ``band_hz`` less the fractions ``edge`` of its width at the
-      bottom and top (poles at a band edge model the truncation);
+      decay, window-corrected damping 0 < zeta < ``thresholds.max_zeta`` and a
+      frequency inside ``band_hz`` less the fractions ``thresholds.band_edge``
+      of its width at the bottom and top (poles at a band edge model the
+      truncation);
     * it has settled: over that last half f_n and zeta scatter by less than
-      ``max_scatter`` of the half-power half-width (zeta f_n) and of zeta.
+      ``thresholds.max_scatter`` of the half-power half-width (zeta f_n) and
+      of zeta.
 
     Examples
     --------
@@ -257,6 +256,8 @@ def select_trajectories(
     >>> (sel.pole.imag / (2 * np.pi)).round(1).tolist(), sel.n_members.tolist()
     ([50.0], [10])
     """
+    th = thresholds or SelectionThresholds()
+    edge, zeta_max, max_scatter = th.band_edge, th.max_zeta, th.max_scatter
     n_orders = poles.orders.size
     need = max(min_members, int(np.ceil(min_fraction * n_orders)))
     lo, hi = band_hz
@@ -296,8 +297,10 @@ def _selected(rows: list[tuple]) -> SelectedPoles:
     )
 
 
-def merge_coincident(sel: SelectedPoles, rel: float = 0.2) -> SelectedPoles:
-    """Drop a trajectory whose pole lies within ``rel`` of a decay rate of the
+def merge_coincident(sel: SelectedPoles, thresholds: SelectionThresholds | None = None
+                     ) -> SelectedPoles:
+    """Drop a trajectory whose pole lies within ``thresholds.coincident_rel``
+    of a decay rate of the
     pole of a longer one (numerically the same pole, e.g. a trajectory broken
     by a gap); close modes, whose poles differ by more, are kept.
 
@@ -309,6 +312,7 @@ def merge_coincident(sel: SelectedPoles, rel: float = 0.2) -> SelectedPoles:
     >>> merge_coincident(sel).pole.imag.tolist()
     [100.0, 110.0]
     """
+    rel = (thresholds or SelectionThresholds()).coincident_rel
     pole = sel.pole
     keep = np.ones(pole.size, bool)
     for a in np.argsort(-sel.n_members, kind="stable"):
@@ -325,10 +329,10 @@ def select_expected(
     expect_hz: np.ndarray,
     window_decay_rate: float = 0.0,
     *,
-    expect_tol: float = 0.15,
+    thresholds: SelectionThresholds | None = None,
 ) -> SelectedPoles:
     """For each expected frequency the candidate trajectory nearest to it
-    (relative distance < ``expect_tol``, the longer one when equally near),
+    (relative distance < ``thresholds.expect_tol``, the longer one when equally near),
     each candidate used once. A guess with no candidate that near gets none:
     :func:`ema_pipeline.identification.identify` then reports it as not
     found (a warning; an empty row in the modes table), it is never an error.
@@ -343,6 +347,7 @@ def select_expected(
     >>> (select_expected(sel, np.array([20.0, 52.0])).pole.imag / (2 * np.pi)).round(1).tolist()
     [50.0]
     """
+    expect_tol = (thresholds or SelectionThresholds()).expect_tol
     fn, _, _ = pole_to_modal(candidates.pole, window_decay_rate)
     chosen: list[int] = []
     for fe in np.atleast_1d(np.asarray(expect_hz, dtype=float)):

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ema_pipeline.identification.plscf import PoleSet
-from ema_pipeline.modal import mac_pairs
+from ema_pipeline.modal import mac_pairs, pole_fd_hz, pole_fn_hz
 
 #: Bits of :attr:`StabilizationData.flags`.
 STABLE_FREQ = 1
@@ -31,10 +31,9 @@ def pole_to_modal(pole: np.ndarray, window_decay_rate: float = 0.0) -> tuple[np.
     Returns ``(fn_hz, fd_hz, zeta)``.
     """
     lam = np.asarray(pole, dtype=complex) + window_decay_rate
-    wn = np.abs(lam)
     with np.errstate(divide="ignore", invalid="ignore"):
-        zeta = -lam.real / wn
-    return wn / (2 * np.pi), lam.imag / (2 * np.pi), zeta
+        zeta = -lam.real / np.abs(lam)
+    return pole_fn_hz(lam), pole_fd_hz(lam), zeta
 
 
 @dataclass(frozen=True)
@@ -52,7 +51,8 @@ class StabilizationData:
                               bit 4: participation vector stable (MAC > 1 - ``tol_mac``)
     pole : (n,) complex       identified pole lambda (rad/s, before window correction)
     cluster : (n,) int        cluster of the automatic selection, -1 = none
-    tol_freq, tol_zeta, tol_mac : the tolerances used.
+    tol_freq, tol_zeta, tol_mac : the tolerances used (NaN: no diagram, e.g.
+                              the sdypy backend).
     """
 
     order: np.ndarray
@@ -61,9 +61,9 @@ class StabilizationData:
     flags: np.ndarray
     pole: np.ndarray
     cluster: np.ndarray
-    tol_freq: float = 0.01
-    tol_zeta: float = 0.05
-    tol_mac: float = 0.02
+    tol_freq: float = float("nan")
+    tol_zeta: float = float("nan")
+    tol_mac: float = float("nan")
 
     @property
     def stable(self) -> np.ndarray:
@@ -75,11 +75,14 @@ def stabilization(
     poles: PoleSet,
     window_decay_rate: float = 0.0,
     *,
-    tol_freq: float = 0.01,
-    tol_zeta: float = 0.05,
-    tol_mac: float = 0.02,
+    tol_freq: float,
+    tol_zeta: float,
+    tol_mac: float,
 ) -> StabilizationData:
     """Flag each pole against the closest pole (in frequency) of the previous order.
+
+    The tolerances are ``IdentificationOptions.diagram_tolerances()`` (their
+    defaults are ``SelectionThresholds.diagram_tol_*``).
 
     Stable in frequency if |f - f_prev| / f_prev < ``tol_freq``; in damping if
     |zeta - zeta_prev| / zeta_prev < ``tol_zeta``; in participation vector if

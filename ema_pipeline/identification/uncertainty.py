@@ -76,8 +76,8 @@ the weighted noise, so
   line correlation above.
 * **Propagation** to f_n and zeta (:func:`modal_std`), first order.
 
-:data:`MAX_REL_SIGMA_STD` is the threshold below which a pole counts as
-determined by the data.
+``SelectionThresholds.max_rel_sigma_std`` is the threshold below which the
+order search's screen counts a pole as determined by the data.
 
 ``scipy.optimize`` and ``scipy.signal`` are imported inside the functions that
 use them: together they are about 0.8 s of every command's start-up (they pull
@@ -87,11 +87,6 @@ in ``scipy.stats``), and a command that stops at bad input never needs them.
 from __future__ import annotations
 
 import numpy as np
-
-#: Automatic selection drops a pole whose decay rate has a
-#: relative standard deviation above this: it models noise, not a mode.
-#: Physical modes of the simulated tests sit below 0.01, noise poles near 1.
-MAX_REL_SIGMA_STD = 0.5
 
 
 def noise_model(

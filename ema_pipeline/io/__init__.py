@@ -10,7 +10,8 @@ half-written result. Everything it reads is checked, and problems are raised as
 Modules: :mod:`.files` (hashes, atomic writes, CSV), :mod:`.hdf5` (FRF files
 and results stores), :mod:`.uff` (dataset 58 in and out, modes out as datasets
 164/15/82/55), :mod:`.uff_format` (the dataset parser), :mod:`.uff_units` (unit
-labels, dataset 164: the one home of unit factors), :mod:`.experiment` (TOML).
+labels, dataset 164), :mod:`.experiment` (TOML), :mod:`.recording` (raw time
+recordings: UFF-58 time records, TDMS, WAV, CSV).
 """
 
 from __future__ import annotations
@@ -51,6 +52,7 @@ from ema_pipeline.io.hdf5 import (
     write_frf_h5,
     write_results_h5,
 )
+from ema_pipeline.io.recording import RECORDING_SUFFIXES, read_recording
 from ema_pipeline.io.uff import (
     UFF_SUFFIXES,
     read_frf_uff,
@@ -200,6 +202,7 @@ __all__ = [
     "SCHEMA_FRF",
     "SCHEMA_RESULTS",
     "SCHEMA_VERSION",
+    "RECORDING_SUFFIXES",
     "UFF_SUFFIXES",
     "MAX_DATASET_BYTES",
     "atomic_path",
@@ -224,6 +227,7 @@ __all__ = [
     "read_frf_h5",
     "read_frf_uff",
     "read_results_h5",
+    "read_recording",
     "read_time_uff",
     "read_uff",
     "result_details",

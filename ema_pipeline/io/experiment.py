@@ -29,7 +29,8 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ema_pipeline.data import Beam, ConfigurationSpec, DataError, Experiment
+from ema_pipeline.data import Beam, DataError
+from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.io.files import check_readable
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -206,6 +207,88 @@ SIMULATED_CONFIGURATION: dict[str, Check] = {
 }
 
 
+def _recording_files(v: Any) -> tuple[str, ...]:
+    if isinstance(v, str):
+        return (v,)
+    return _list(_text, min_len=1, max_len=1000)(v)
+
+
+def _tau(v: Any) -> str | float | None:
+    if v in ("auto", "none"):
+        return None if v == "none" else "auto"
+    if isinstance(v, str):
+        raise ValueError(f"must be 'auto', 'none' or a time constant in s, got {v!r}")
+    return _number(0.0, 1e4)(v)
+
+
+def _channel_table(value: Check) -> Check:
+    def check(v: Any) -> tuple[tuple[str, Any], ...]:
+        if not isinstance(v, dict):
+            raise ValueError(f"must be a table {{CHANNEL = VALUE, ...}}, got {v!r}")
+        out = []
+        for key, x in v.items():
+            try:
+                out.append((str(key), value(x)))
+            except ValueError as exc:
+                raise ValueError(f"{key}: {exc}") from None
+        return tuple(out)
+
+    return check
+
+
+def _scale(v: Any) -> float:
+    v = _number()(v)
+    if v == 0:
+        raise ValueError("must be a non-zero number, got 0")
+    return v
+
+
+#: keys of a ``[[configurations]]`` entry that names raw impact recordings.
+RECORDING_CONFIGURATION: dict[str, Check] = {
+    "name": _name,
+    "recording": _recording_files,
+    "description": _text,
+    "frf": lambda v: v,  # checked against FRF_SETTINGS
+}
+#: keys of its ``frf`` table: the options of ``ema-pipeline frf``.
+FRF_SETTINGS: dict[str, Check] = {
+    "pretrigger_s": _number(0.0, 1e3, strict_lo=False),
+    "record_length_s": _number(0.0, 1e4),
+    "force_window_s": _number(0.0, 1e4, strict_lo=False),
+    "exp_window_tau": _tau,
+    "estimator": _choice("H1", "H2", "Hv"),
+    "keep_all": _flag,
+    "force_channel": _text,
+    "scale": _channel_table(_scale),
+    "units": _channel_table(_text),
+}
+
+
+def read_recording_configuration(
+    table: Mapping[str, Any], position: int, path: Path
+) -> ConfigurationSpec:
+    """A ``[[configurations]]`` entry with ``recording`` (a file, or a list of files:
+    segments of one test) instead of an FRF file, and an optional ``frf`` table
+    (:data:`FRF_SETTINGS`: ``pretrigger_s``, ``record_length_s``, ``force_window_s``,
+    ``exp_window_tau`` = "auto" | "none" | seconds, ``estimator``, ``keep_all``,
+    ``force_channel``, ``scale`` = {CHANNEL = FACTOR}, ``units`` = {CHANNEL = UNIT}).
+    """
+    where = f"{path}: [[configurations]] {position}"
+    for other in ("file", "added_mass"):
+        if other in table:
+            raise DataError(f"{where}: give either 'recording' or '{other}', not both")
+    entry = _check_table(table, RECORDING_CONFIGURATION, where)
+    settings = _check_table(table.get("frf", {}), FRF_SETTINGS, f"{where} frf:")
+    files = entry["recording"]
+    return ConfigurationSpec(
+        name=entry["name"],
+        file=files[0],
+        description=entry.get("description", ""),
+        recording=files,
+        frf=tuple(settings.items()),
+    )
+
+
 def _hint(key: str, known: list[str]) -> str:
     close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else f" (known: {', '.join(known)})"
@@ -274,13 +357,16 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
     specs = []
     for k, c in enumerate(configs, start=1):
         where = f"{path}: [[configurations]] {k}"
+        if isinstance(c, dict) and "name" in c and "recording" in c:
+            specs.append(read_recording_configuration(c, k, path))
+            continue
         if isinstance(c, dict) and "name" in c and "added_mass" in c:
             specs.append(read_simulated_configuration(c, k, beam, path))
             continue
         if not isinstance(c, dict) or "name" not in c or "file" not in c:
             raise DataError(
                 f"{where}: configuration {k} needs 'name' and 'file' (or 'added_mass' for a "
-                "simulated one)"
+                "simulated one, 'recording' for raw impact recordings)"
             )
         entry = _check_table(c, FILE_CONFIGURATION, where)
         specs.append(
@@ -336,7 +422,15 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
     )
     if check_files:
         for k, spec in enumerate(specs, start=1):
-            if spec.added_mass is None:
+            if spec.recording:
+                for file in experiment_recording_paths(experiment, spec):
+                    try:
+                        check_readable(file, "a recording")
+                    except DataError as exc:
+                        raise DataError(
+                            f"{path}: [[configurations]] {k} recording ({spec.name}): {exc}"
+                        ) from None
+            elif spec.added_mass is None:
                 try:
                     check_readable(experiment_file_path(experiment, spec), "an FRF file")
                 except DataError as exc:
@@ -419,3 +513,10 @@ def experiment_file_path(experiment: Experiment, spec: ConfigurationSpec) -> Pat
     """Absolute path of a configuration's FRF file (relative to the experiment file)."""
     p = Path(spec.file)
     return p if p.is_absolute() else Path(experiment.base_dir) / p
+
+
+def experiment_recording_paths(experiment: Experiment, spec: ConfigurationSpec) -> list[Path]:
+    """Absolute paths of a recorded configuration's files (relative to the experiment
+    file); empty for other configurations."""
+    return [p if p.is_absolute() else Path(experiment.base_dir) / p
+            for p in map(Path, spec.recording)]

@@ -8,7 +8,8 @@ FRF file layout (schema ``ema-pipeline/frf``, version 1)::
     /frf/coherence    (n_out, n_in, n_freq) float64, optional
     /frf/response_dofs, /frf/reference_dofs   (n, 2) int: node, direction
     /frf              attrs: quantity, units, configuration, source_path, source_sha256
-    /frf/acquisition  attrs: sample_rate_hz, n_samples, n_averages, windows, tau, estimator
+    /frf/acquisition  attrs: sample_rate_hz, n_samples, n_averages, windows, tau, estimator,
+                      force_band_hz (2 floats, optional: the force spectrum's -10/-20 dB points)
 
 A results store (schema ``ema-pipeline/results``) holds any tree of dataclasses,
 dicts, arrays, tables and FRF sets (:func:`write_results_h5`), one top-level
@@ -284,7 +285,22 @@ _ACQUISITION_KINDS = {
     "response_window": "str",
     "exp_window_tau_s": "float",
     "estimator": "str",
+    "force_band_hz": "pair",
 }
+
+
+def _pair_attr(obj: h5py.HLObject, key: str, path: Path) -> tuple[float, float] | None:
+    """A (lo, hi) pair attribute of positive finite numbers, lo <= hi ("" is None)."""
+    value = _attr(obj, key, None, path)
+    if value is None or (isinstance(value, str) and value == ""):
+        return None
+    pair = np.asarray(value)
+    if pair.shape != (2,) or pair.dtype.kind not in "fiu" or not (
+        np.all(np.isfinite(pair)) and 0 < pair[0] <= pair[1]
+    ):
+        raise DataError(f"{path}: attribute {key!r} of {obj.name} must be two positive "
+                        f"numbers lo <= hi, got {value!r}")
+    return float(pair[0]), float(pair[1])
 
 
 @overload
@@ -323,7 +339,9 @@ def read_frf_group(group: h5py.Group, path: str = "") -> FRFSet:
     acq = _member(group, "acquisition", where, h5py.Group)
     info_kwargs: dict[str, Any] = {}
     for f in fields(AcquisitionInfo):
-        value = _typed_attr(acq, f.name, _ACQUISITION_KINDS.get(f.name, "str"), where)
+        kind = _ACQUISITION_KINDS.get(f.name, "str")
+        value = (_pair_attr(acq, f.name, where) if kind == "pair"
+                 else _typed_attr(acq, f.name, kind, where))
         if value is not None and value != "":
             info_kwargs[f.name] = value
     h_ds = _member(group, "H", where, h5py.Dataset)

@@ -52,6 +52,7 @@ import logging
 import os
 import re
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -152,10 +153,32 @@ def _dof(node: int, direction: int, name: str) -> tuple[DOF, int]:
     return DOF(node, abs(direction)), (-1 if direction < 0 else 1)
 
 
+def response_dof(rec: Record58) -> tuple[DOF, int]:
+    """Response DOF of a record, with a non-negative direction (taken from the
+    entity name, e.g. ``1+Z``, when node and direction are 0), and the sign of the
+    stored direction (-1 for -X, -Y, -Z: the values are flipped to +X, +Y, +Z)."""
+    return _dof(rec.rsp_node, rec.rsp_dir, rec.rsp_name)
+
+
 def _record_dofs(rec: Record58) -> tuple[DOF, DOF, int]:
     rsp, s1 = _dof(rec.rsp_node, rec.rsp_dir, rec.rsp_name)
     ref, s2 = _dof(rec.ref_node, rec.ref_dir, rec.ref_name)
     return rsp, ref, s1 * s2
+
+
+def _negative_directions(records: Sequence[Record58]) -> dict[str, str]:
+    """``response_negative`` / ``reference_negative`` of the AcquisitionInfo: the
+    labels (``3-Z``) of the DOFs the records store with a negative direction."""
+    out = {}
+    for role, key in (("rsp", "response_negative"), ("ref", "reference_negative")):
+        labels: dict[str, None] = {}
+        for rec in records:
+            dof, sign = _dof(getattr(rec, f"{role}_node"), getattr(rec, f"{role}_dir"),
+                             getattr(rec, f"{role}_name"))
+            if sign < 0:
+                labels[DOF(dof.node, -dof.direction).label()] = None
+        out[key] = " ".join(labels)
+    return out
 
 
 def _label_unit(path: Path, rec: Record58, label: str, what: str) -> Unit:
@@ -356,6 +379,7 @@ def read_frf_uff(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
             response_window="exponential" if meta.get("tau", "none") != "none" else "none",
             estimator=meta.get("est", "H1"),
         )
+    info = replace(info, **_negative_directions(frf_recs))
     return FRFSet(
         freq_hz=freq,
         H=H,

@@ -108,11 +108,18 @@ class UffContents:
     header: dict[str, str] = field(default_factory=dict)
     dataset_numbers: list[int] = field(default_factory=list)
     unit_systems: list[UnitSystem] = field(default_factory=list)
+    #: Geometry datasets (15, 2411 nodes; 82 trace lines) as ``(number, body,
+    #: unit system in force, where)`` for :mod:`ema_pipeline.io.geometry`.
+    geometry_blocks: list[tuple[int, bytes, UnitSystem, str]] = field(default_factory=list)
 
     @property
     def skipped(self) -> dict[int, int]:
         """{dataset number: count} of the datasets not read (not 58, 164, 151)."""
         return dict(Counter(n for n in self.dataset_numbers if n not in (58, 151, 164)))
+
+
+#: Datasets whose text :func:`read_uff_file` keeps for the geometry reader.
+GEOMETRY_DATASETS = (15, 82, 2411)
 
 
 def _decode(raw: bytes) -> str:
@@ -222,6 +229,8 @@ def read_uff_file(path: Path) -> UffContents:
                 contents.unit_systems.append(units)
             elif dataset == 151:
                 contents.header = _read_151(body)
+            elif dataset in GEOMETRY_DATASETS:
+                contents.geometry_blocks.append((dataset, body, units, where))
         if record is not None:
             record.record, record.line, record.units = n_record, line_no, units
             contents.records.append(record)

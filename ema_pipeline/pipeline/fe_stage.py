@@ -20,6 +20,7 @@ from ema_pipeline import fe, paper
 from ema_pipeline.added_mass import (
     EXACT_METHOD,
     METHODS,
+    TABLE4_PARAMETER_NAMES,
     AddedMassResult,
     ExactOutcome,
     LocalAddedMassResult,
@@ -42,6 +43,7 @@ __all__ = [
     "fe_stage_tables",
     "run_fe_stage",
     "update_progress_bar",
+    "update_statement",
 ]
 
 #: The local added mass methods of Table 6, in table order.
@@ -216,3 +218,44 @@ def fe_stage_tables(result: FEStageResult) -> dict[str, pd.DataFrame]:
         "table6_local_added_mass": local_added_mass_table(result.local_added_mass,
                                                           result.exact_added_mass),
     }
+
+
+def update_statement(update: fe.UpdateResult) -> str:
+    """What the model update determined, in words for the report and the console:
+    the identifiable combination h*sqrt(E/rho)/L^2 with its value and its spread
+    over the differential-evolution runs, and the spread of the five parameters
+    (3 significant digits). The individual ``updated`` values of Table 4 are one
+    point of a valley whose digits differ between machines (BLAS builds), so
+    they are not quoted here.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import Beam
+    >>> fx = fe.beam_frequencies(Beam(), 4) * 0.8  # the same beam, 20 % slower
+    >>> text = update_statement(fe.update_beam(Beam(), fx, n_repeats=2, seed=0))
+    >>> text[text.index("h*"):text.index(" (initial")]  # 0.8 * 122.8105 = 98.2484
+    'h*sqrt(E/rho)/L^2 = 98.248 1/s'
+    """
+    runs = np.asarray(update.identifiable_runs, dtype=float)
+    if runs.size > 1:
+        std = float(np.std(runs, ddof=1))
+        over = (f", the same in the {runs.size} differential-evolution runs to "
+                f"{std / float(np.mean(runs)):.1g} (std {std:.2g} 1/s)")
+    else:
+        over = " (one differential-evolution run)"
+    parameters = ", ".join(
+        f"{TABLE4_PARAMETER_NAMES[name]} {lo:.4g} to {hi:.4g} {unit}"
+        for name, unit, lo, hi in zip(update.parameter_names, update.units, update.run_min,
+                                      update.run_max, strict=True)
+    )
+    which = ("a uniform beam's frequencies depend on the five parameters only through it "
+             "(the width b cancels)" if update.identifiable_exact else
+             "with point masses it is only the leading combination")
+    return (
+        f"model update (Table 4): the frequencies determine {update.identifiable_name} = "
+        f"{update.identifiable_updated:.3f} 1/s (initial {update.identifiable_initial:.3f})"
+        f"{over}; {which}. The five parameters are not identifiable one by one: the runs "
+        f"spread them over {parameters}; Table 4's 'updated' column is one point of that "
+        f"valley, its digits differ between machines. "
+        f"Objective eq. (26): {update.objective:.5f} (initial {update.objective_initial:.4f})."
+    )

@@ -11,6 +11,7 @@ import os
 from dataclasses import fields
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from ema_pipeline import __version__, io
@@ -68,6 +69,19 @@ def write_identify_report(
     return io.write_text(page, identify_report_path(outcome.path, out_dir))
 
 
+def _stored_shapes(out: Path, result_h5: object) -> np.ndarray | None:
+    """The mode shapes (n_dofs, n_modes) of one file's ``<stem>_result.h5`` (for
+    pairing modes by MAC in the batch report); None when it cannot be read."""
+    if not isinstance(result_h5, str) or not result_h5:
+        return None
+    try:
+        tree = io.read_results_h5(out / result_h5)
+        shapes = tree["identification"]["modes"]["shapes"]
+    except (DataError, OSError, KeyError, TypeError):
+        return None
+    return np.asarray(shapes) if isinstance(shapes, np.ndarray) else None
+
+
 def write_batch_report(
     out: str | Path,
     folder: str | Path,
@@ -90,13 +104,15 @@ def write_batch_report(
     for table in (summary, failures):
         for col in ("file", "reason", "configuration", "sha256", "frequencies_hz"):
             if col in table:
-                table[col] = table[col].fillna("").astype(str)
+                table[col] = table[col].astype(object).fillna("").astype(str)
+    shapes = [_stored_shapes(out, rel) for rel in summary.get("result_h5", [""] * len(summary))]
     page = render_batch_html(
         BatchReportInput(
             title=f"Batch identification: {Path(folder).name or folder}",
             folder=str(folder),
             summary=summary,
             failures=failures,
+            shapes=shapes,
             settings=options_text(options),
             seconds=seconds,
             interrupted=interrupted,

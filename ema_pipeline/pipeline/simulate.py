@@ -26,13 +26,8 @@ import numpy as np
 
 from ema_pipeline import acquisition, paper
 from ema_pipeline.added_mass.modified_beam import beam_modes_with_added_mass
-from ema_pipeline.data import (
-    ConfigurationSpec,
-    DataError,
-    Experiment,
-    FRFSet,
-    ModalParameters,
-)
+from ema_pipeline.data import DataError, FRFSet, ModalParameters
+from ema_pipeline.experiment import ConfigurationSpec, Experiment
 
 __all__ = [
     "added_mass_modes",

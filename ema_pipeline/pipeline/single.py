@@ -167,6 +167,7 @@ def identify_file(
             outcome.reason = "complete result with the same content hash exists"
             outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
             return outcome
+        out_dir.mkdir(parents=True, exist_ok=True)  # an unusable output folder fails now
         frf = load_frf(path, options)
         outcome.configuration = frf.configuration
         check_identification(frf, options, source=str(path))
@@ -178,6 +179,12 @@ def identify_file(
                                    frf.n_out * frf.n_in)
         if message:
             outcome.warnings.append(f"{path}: {message}")
+        force_band = frf.acquisition.force_band_hz  # FRFs from `ema-pipeline frf`
+        if force_band is not None and result.settings.band_hz[1] > force_band[1] * (1 + 1e-9):
+            outcome.warnings.append(
+                f"{path}: the identification band ends at {result.settings.band_hz[1]:.5g} Hz, "
+                f"past the usable band of the hammer: the force spectrum is 20 dB below its "
+                f"low-frequency level from {force_band[1]:.5g} Hz")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
             table = with_expected_rows(table, options.expect_hz)
             message = not_found_message(options.expect_hz, match_expected(
@@ -207,9 +214,15 @@ def identify_file(
             outcome.frf, outcome.result = frf, result
     except EMAError as exc:
         outcome.status, outcome.reason = "failed", str(exc)
-    except (OSError, ValueError, MemoryError, np.linalg.LinAlgError) as exc:
+    except OSError as exc:  # the file it names (an output, say), else the input's
+        where = getattr(exc, "filename", None)
+        outcome.status, outcome.reason = "failed", (
+            f"{where}: {exc.strerror or exc}" if where
+            else f"{path}: {type(exc).__name__}: {exc}")
+        outcome.runtime = True
+    except (ValueError, MemoryError, np.linalg.LinAlgError) as exc:
         outcome.status, outcome.reason = "failed", f"{path}: {type(exc).__name__}: {exc}"
-        outcome.runtime = isinstance(exc, OSError | MemoryError)  # else: the input's fault
+        outcome.runtime = isinstance(exc, MemoryError)  # else: the input's fault
     finally:
         outcome.seconds = time.perf_counter() - start
     return outcome

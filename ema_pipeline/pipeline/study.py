@@ -46,16 +46,25 @@ import pandas as pd
 
 from ema_pipeline import io, paper
 from ema_pipeline.data import (
+    DOF,
     ConfigError,
     DataError,
     EMAError,
-    Experiment,
     FRFSet,
     ModalParameters,
 )
+from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.identification.resources import check_identification
+from ema_pipeline.io.experiment import experiment_recording_paths
+from ema_pipeline.pipeline.frf import configuration_frf
 from ema_pipeline.pipeline.simulate import simulate_configuration
-from ema_pipeline.pipeline.single import identify_frf, load_frf, write_result_uff
+from ema_pipeline.pipeline.single import (
+    identify_frf,
+    load_frf,
+    single_reference,
+    write_result_uff,
+)
+from ema_pipeline.report.wording import plural
 
 Progress = Callable[[str], None]
 
@@ -73,6 +82,7 @@ class StudyResult:
     problems: list[str] = field(default_factory=list)
     notes: list[str] = field(default_factory=list)
     seconds: dict[str, float] = field(default_factory=dict)
+    hits: dict[str, pd.DataFrame] = field(default_factory=dict)  # recorded configurations
 
     @property
     def ok(self) -> bool:
@@ -122,8 +132,32 @@ def _check_sensors(exp: Experiment, frf: FRFSet, path: Path, experiment_file: st
     )
 
 
+def recorded_frf(exp: Experiment, spec: ConfigurationSpec) -> tuple[FRFSet, pd.DataFrame]:
+    """The FRFs and the hit table of a configuration that names raw recordings
+    (:func:`ema_pipeline.pipeline.frf.configuration_frf` with its ``frf`` settings).
+
+    Channels without a DOF (TDMS, WAV, CSV) are placed on the experiment's sensors:
+    the force at ``hammer_node``, the responses at ``response_nodes`` in channel
+    order (their numbers must agree), in ``direction``.
+    """
+    paths = experiment_recording_paths(exp, spec)
+    result = configuration_frf(paths, spec.frf, configuration=spec.name)
+    frf = result.frf
+    rec = result.recording
+    if rec is not None and all(ch.dof is None for ch in rec.channels):
+        if frf.n_out != len(exp.response_nodes):
+            raise DataError(
+                f"{paths[0]}: {frf.n_out} response channel(s) without DOFs, but [sensors] "
+                f"response_nodes has {len(exp.response_nodes)}; they are placed in channel order"
+            )
+        frf = replace(frf, response_dofs=tuple(DOF(n, exp.direction) for n in exp.response_nodes),
+                      reference_dofs=(DOF(exp.hammer_node, exp.direction),))
+    return single_reference(frf), result.hits_table()
+
+
 def prepare_study(
-    experiment: Experiment, experiment_file: str | os.PathLike[str] = "experiment.toml"
+    experiment: Experiment, experiment_file: str | os.PathLike[str] = "experiment.toml",
+    *, hits: dict[str, pd.DataFrame] | None = None,
 ) -> dict[str, FRFSet]:
     """Read and check every configuration's FRF file before anything is computed.
 
@@ -133,7 +167,8 @@ def prepare_study(
     (:func:`ema_pipeline.identification.resources.check_identification`: band,
     orders, window time constant, memory). Returns the FRF sets by
     configuration name; raises DataError / ConfigError (input errors) naming
-    the file.
+    the file. A configuration naming raw recordings gets its FRFs from them
+    (:func:`recorded_frf`); its hit table goes into ``hits`` when given.
     """
     frfs: dict[str, FRFSet] = {}
     for spec in experiment.configurations:
@@ -141,7 +176,12 @@ def prepare_study(
         if spec.added_mass is not None:
             continue
         path = io.experiment_file_path(experiment, spec)
-        frf = replace(load_frf(path, options), configuration=spec.name)
+        if spec.recording:
+            frf, table = recorded_frf(experiment, spec)
+            if hits is not None:
+                hits[spec.name] = table
+        else:
+            frf = replace(load_frf(path, options), configuration=spec.name)
         _check_sensors(experiment, frf, path, str(experiment_file))
         check_identification(frf, options, source=f"{path} ({spec.name})")
         frfs[spec.name] = frf
@@ -161,6 +201,8 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
             options = replace(exp.identification, exp_window_tau_s=spec.exp_window_tau_s)
             if spec.name in loaded:
                 frf = loaded[spec.name]
+            elif spec.recording:
+                frf, result.hits[spec.name] = recorded_frf(exp, spec)
             else:
                 frf = simulate_configuration(exp, spec) if path is None else replace(
                     load_frf(path, options), configuration=spec.name)
@@ -175,13 +217,14 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
         n_use = min(exp.n_modes, modes.n_modes)
         if modes.n_modes < exp.n_modes:
             result.problems.append(
-                f"configuration {spec.name!r}: only {modes.n_modes} modes identified, the FE "
-                f"stage needs {exp.n_modes}"
+                f"configuration {spec.name!r}: only {plural(modes.n_modes, 'mode')} identified, "
+                f"the FE stage needs {exp.n_modes}"
                 + ("" if spec.name == exp.genuine_name else "; the missing ones are paired as such")
             )
         elif modes.n_modes > exp.n_modes:
             result.notes.append(
-                f"{spec.name}: {modes.n_modes} modes identified, the lowest {exp.n_modes} are used"
+                f"{spec.name}: {plural(modes.n_modes, 'mode')} identified, the lowest "
+                f"{exp.n_modes} are used"
             )
         result.measured[spec.name] = ModalParameters(
             fn_hz=modes.fn_hz[:n_use],
@@ -195,12 +238,12 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
         seconds = time.perf_counter() - start
         result.seconds[f"identify_{spec.name}"] = seconds
         freqs = ", ".join(f"{f:.2f}" for f in modes.fn_hz)
-        say(f"    {modes.n_modes} modes [{freqs}] Hz in {seconds:.1f} s")
+        say(f"    {plural(modes.n_modes, 'mode')} [{freqs}] Hz in {seconds:.1f} s")
 
 
 def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars: bool) -> None:
     from ema_pipeline import fe
-    from ema_pipeline.pipeline.fe_stage import fe_stage_tables, run_fe_stage
+    from ema_pipeline.pipeline.fe_stage import fe_stage_tables, run_fe_stage, update_statement
 
     genuine = exp.genuine_name
     # The genuine state defines the mode numbers and must be complete; a modified
@@ -240,17 +283,7 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
     result.fe = stage
     result.tables.update(fe_stage_tables(stage))
     upd = stage.update
-    spread = ", ".join(
-        f"{name} {lo:.6g}..{hi:.6g}"
-        for name, lo, hi in zip(upd.parameter_names, upd.run_min, upd.run_max, strict=True)
-    )
-    result.notes.append(
-        f"model update: the frequencies of a uniform beam depend on the five parameters only "
-        f"through {upd.identifiable_name} = {upd.identifiable_updated:.6g} 1/s (initial "
-        f"{upd.identifiable_initial:.6g}); b cancels. The individual parameters are not "
-        f"identifiable: over the {len(upd.runs)} differential-evolution runs they spread over "
-        f"{spread}. Objective eq. (26): {upd.objective:.5f} (initial {upd.objective_initial:.4f})."
-    )
+    result.notes.append(update_statement(upd))
     result.notes.extend(stage.messages)
     result.seconds["fe"] = time.perf_counter() - start
     say(f"    done in {result.seconds['fe']:.1f} s (update {upd.wall_time_s:.1f} s)")
@@ -258,12 +291,13 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
 
 def run_study(
     experiment: Experiment, *, progress: Progress | None = None, progress_bars: bool = False,
-    frfs: dict[str, FRFSet] | None = None,
+    frfs: dict[str, FRFSet] | None = None, hits: dict[str, pd.DataFrame] | None = None,
 ) -> StudyResult:
     """Run identification, added mass and the FE stage for an experiment
-    (``frfs``: the FRF sets :func:`prepare_study` read, by configuration)."""
+    (``frfs``: the FRF sets :func:`prepare_study` read, by configuration;
+    ``hits``: the hit tables of the recorded configurations among them)."""
     say = progress or (lambda _msg: None)
-    result = StudyResult(experiment=experiment)
+    result = StudyResult(experiment=experiment, hits=dict(hits or {}))
     names = [c.name for c in experiment.configurations]
     if experiment.genuine_name not in names:
         raise ConfigError(f"genuine configuration {experiment.genuine_name!r} not in {names}")
@@ -295,7 +329,7 @@ def report_input(result: StudyResult, experiment_file: str | os.PathLike[str] | 
     """
     from ema_pipeline import __version__
     from ema_pipeline.pipeline.reports import report_date
-    from ema_pipeline.report import Geometry, ReportInput
+    from ema_pipeline.report import BeamSetup, ReportInput
 
     exp = result.experiment
     fe_x = fe_shapes = None
@@ -329,7 +363,7 @@ def report_input(result: StudyResult, experiment_file: str | os.PathLike[str] | 
         problems=result.problems,
         compare_with_paper=_is_paper_experiment(exp),
         descriptions={c.name: c.description for c in exp.configurations},
-        geometry=Geometry(
+        geometry=BeamSetup(
             length_m=exp.beam.length_m,
             n_elements=exp.beam.n_measurement_elements,
             response_nodes=tuple(exp.response_nodes),
@@ -338,6 +372,7 @@ def report_input(result: StudyResult, experiment_file: str | os.PathLike[str] | 
             direction=exp.direction,
         ),
         inputs=inputs,
+        hits=result.hits,
         settings=_settings_text(exp),
         version=__version__,
         generated=report_date(),
@@ -520,6 +555,8 @@ def write_study(
     try:
         for name, table in result.tables.items():
             io.write_csv(table, tmp_dir / "tables" / f"{name}.csv")
+        for name, table in result.hits.items():
+            io.write_csv(table, tmp_dir / "hits" / f"{name}_hits.csv")
         say("[report] report.html" + ("" if figures else " (no figures)"))
         rin = report_input(result, experiment_file)
         drawn = report.make_figures(rin) if figures else None
@@ -570,8 +607,9 @@ def summary_text(result: StudyResult, results_dir: Path) -> str:
     if t6 is not None and len(t6):
         lines.append("local added mass (eq. 20):")
         for r in t6.itertuples():
+            dk = f"{r.delta_k:+.4f}" if np.isfinite(r.delta_k) else "not fitted"  # exact: none
             lines.append(
-                f"  {r.configuration:<14} {r.method:<10} delta_k = {r.delta_k:+.4f}  "
+                f"  {r.configuration:<14} {r.method:<10} delta_k = {dk:<10} "
                 f"delta_m = {r.delta_m:+.4f}"
             )
     for note in result.notes:

@@ -22,7 +22,7 @@ blocks) and :mod:`.renderers` (the pages).
 
 from __future__ import annotations
 
-from ema_pipeline.report.inputs import BatchReportInput, Geometry, ReportInput
+from ema_pipeline.report.inputs import BatchReportInput, BeamSetup, ReportInput
 from ema_pipeline.report.page_figures import make_figures
 from ema_pipeline.report.renderers import (
     render_batch_html,
@@ -47,7 +47,7 @@ from ema_pipeline.report.tables import (
 __all__ = [
     "TABLE_TITLES",
     "BatchReportInput",
-    "Geometry",
+    "BeamSetup",
     "ReportInput",
     "compare_with_paper",
     "html_table",

@@ -53,10 +53,12 @@ def _label(name: str) -> str:
     return name.replace("_", " ")
 
 
-def figure_frf_coherence(frf: FRFSet, title: str = "", *, standalone: bool = False) -> str:
+def figure_frf_coherence(frf: FRFSet, title: str = "", *, standalone: bool = False,
+                         marks_hz: Sequence[float] = ()) -> str:
     """|H| of every response (log scale) with the coherence below it.
 
-    Without coherence in the data the lower panel says so.
+    Without coherence in the data the lower panel says so. ``marks_hz``: dashed
+    vertical lines on both panels (e.g. the usable band of the force spectrum).
     """
     f = frf.freq_hz
     sel = f >= max(f[0], f[min(5, f.size - 1)])  # the first lines hold no information
@@ -72,9 +74,14 @@ def figure_frf_coherence(frf: FRFSet, title: str = "", *, standalone: bool = Fal
             label = f"{frf.response_dofs[o].label()} / {frf.reference_dofs[i].label()}"
             ax.line(f[sel], H[o, i], COLORS[k % len(COLORS)], width=0.8, label=label)
             k += 1
+    marks = [x for x in marks_hz if xlim[0] < x < xlim[1]]
+    for x in marks:
+        ax.vline(x, "#888", dash="6 4")
     ax.frame(ylabel=f"|H| / ({frf.units})", title=title, show_x=False)
     ax.legend("upper right", columns=min(k, 3))
     cax = c.axes((_LEFT, 30 + n_panel_h + 24, _W - _LEFT - _RIGHT, c_h), xlim, (0.0, 1.05))
+    for x in marks:
+        cax.vline(x, "#888", dash="6 4")
     if frf.coherence is None:
         cax.text(
             sum(xlim) / 2, 0.5, "no coherence in this file", color="#888", size=12 * SCALE
@@ -344,20 +351,19 @@ def figure_geometry(
 
 
 def figure_batch_frequencies(
-    files: Sequence[str], fn_hz: Sequence[Sequence[float]], *, standalone: bool = False
+    files: Sequence[str], fn_hz: np.ndarray, *, standalone: bool = False
 ) -> str:
     """Each mode's natural frequency across the files of a batch, one panel per
     mode, in per cent from the mode's median; values more than 3 scaled median
-    absolute deviations (and 0.5 %) away are drawn red."""
-    n_files = len(files)
-    n_modes = max((len(f) for f in fn_hz), default=0)
+    absolute deviations (and 0.5 %) away are drawn red. ``fn_hz`` is
+    ``(n_files, n_modes)``, the modes paired across the files
+    (:func:`ema_pipeline.report.trends.pair_modes`), NaN where a file lacks one."""
+    table = np.asarray(fn_hz, dtype=float).reshape(len(files), -1)
+    n_files, n_modes = table.shape
     if n_files == 0 or n_modes == 0:
         c = Canvas(_W, 60, "No modes identified")
         c.text(_W / 2, 35, "no file gave modes")
         return c.to_svg(standalone)
-    table = np.full((n_files, n_modes), np.nan)
-    for i, f in enumerate(fn_hz):
-        table[i, : len(f)] = np.sort(np.asarray(f, dtype=float))
     ph = 80
     height = 30 + n_modes * (ph + 22) + 30
     c = Canvas(_W, height, "Natural frequency of each mode across the files")
@@ -379,7 +385,11 @@ def figure_batch_frequencies(
         last = m == n_modes - 1
         step = max(1, int(np.ceil(n_files / 20)))
         ticks = x[::step]
-        ax.frame(ylabel="%", title=f"mode {m + 1}: median {med:.4g} Hz, {int(out.sum())} outliers",
+        n_out = int(out.sum())
+        missing = n_files - int(ok.sum())
+        title = (f"mode {m + 1}: median {med:.4g} Hz, {n_out} outlier{'' if n_out == 1 else 's'}"
+                 + (f", missing in {missing} file{'' if missing == 1 else 's'}" if missing else ""))
+        ax.frame(ylabel="%", title=title,
                  xticks=ticks.tolist(), xticklabels=[str(int(t)) for t in ticks], show_x=last,
                  xlabel="file (number as in the table)" if last else "")
     return c.to_svg(standalone)

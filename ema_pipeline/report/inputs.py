@@ -1,5 +1,6 @@
 """What the report pages are drawn from: the plain inputs of the study page
-(:class:`ReportInput`, with the test :class:`Geometry`) and of the batch page
+(:class:`ReportInput`, with the beam's :class:`BeamSetup` and the test
+:class:`~ema_pipeline.data.Geometry`) and of the batch page
 (:class:`BatchReportInput`). The pipeline fills them; nothing here computes.
 """
 
@@ -13,11 +14,11 @@ import pandas as pd
 
 from ema_pipeline.data import FRFSet
 
-__all__ = ["BatchReportInput", "Geometry", "ReportInput"]
+__all__ = ["BatchReportInput", "BeamSetup", "ReportInput"]
 
 
 @dataclass(frozen=True)
-class Geometry:
+class BeamSetup:
     """Where the sensors and the hammer are: a cantilever of ``length_m``
     divided into ``n_elements`` measurement elements (node 1 clamped)."""
 
@@ -48,7 +49,9 @@ class ReportInput:
     ``compare_with_paper`` adds the paper's values and deviations to the tables.
     ``descriptions`` maps configuration names to what was tested; ``inputs``
     are ``(role, path, sha256)`` of every input file; ``settings`` the
-    settings as text; ``version`` the package version; ``generated`` the date.
+    settings as text; ``version`` the package version; ``generated`` the date;
+    ``hits`` the hit tables (``hit,time_s,force_peak_n,accepted,reasons``) of the
+    configurations measured as raw recordings.
     """
 
     title: str
@@ -63,22 +66,26 @@ class ReportInput:
     problems: list[str] = field(default_factory=list)
     compare_with_paper: bool = True
     descriptions: dict[str, str] = field(default_factory=dict)
-    geometry: Geometry | None = None
+    geometry: BeamSetup | None = None
     inputs: list[tuple[str, str, str]] = field(default_factory=list)
     settings: dict[str, str] = field(default_factory=dict)
     version: str = ""
     generated: str = ""
+    hits: dict[str, pd.DataFrame] = field(default_factory=dict)
 
 
 @dataclass
 class BatchReportInput:
     """What the batch page shows: ``summary`` and ``failures`` are the rows of
-    ``summary.csv`` and ``failures.csv`` (:mod:`ema_pipeline.pipeline.batch`)."""
+    ``summary.csv`` and ``failures.csv`` (:mod:`ema_pipeline.pipeline.batch`);
+    ``shapes`` (optional) one ``(n_dofs, n_modes)`` array per summary row, in the
+    order of its ``frequencies_hz`` (None where unknown), to pair modes by MAC."""
 
     title: str
     folder: str
     summary: pd.DataFrame
     failures: pd.DataFrame
+    shapes: list[np.ndarray | None] | None = None
     settings: dict[str, str] = field(default_factory=dict)
     seconds: float = float("nan")
     interrupted: bool = False

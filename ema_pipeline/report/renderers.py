@@ -7,13 +7,13 @@ settings) goes through :func:`.htmlparts.esc`; figures are inline SVG.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
-from ema_pipeline.data import FRFSet
+from ema_pipeline.data import FRFSet, Geometry
 from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.report import figures as figs
 from ema_pipeline.report.htmlparts import (
@@ -35,7 +35,10 @@ from ema_pipeline.report.result_tables import (
     report_tables,
     setup_table,
 )
+from ema_pipeline.report.shape_views import ModeSet, shape_views_html
 from ema_pipeline.report.tables import TABLE_TITLES, html_table, markdown_table
+from ema_pipeline.report.trends import PAIRING, pair_modes
+from ema_pipeline.report.wording import fit_grade, fit_limits_text, fit_verdict, plural
 
 if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.result import IdentificationResult
@@ -55,12 +58,20 @@ __all__ = [
 
 def _summary_study(report: ReportInput) -> str:
     n_prob = len(report.problems)
-    status = (
-        '<p class="status ok">Complete: every configuration identified, no problems.</p>'
-        if not n_prob
-        else f'<p class="status bad">{n_prob} problem(s): see the list below; what could be '
-        "computed is shown.</p>"
-    )
+    errors = {name: float(np.mean(r.error)) for name, r in report.identification.items()}
+    not_good = [f"{name}: {fit_verdict(e)}" for name, e in errors.items()
+                if fit_grade(e) != "good"]
+    if n_prob:
+        status = (f'<p class="status bad">{plural(n_prob, "problem")}: see the list below; '
+                  "what could be computed is shown.</p>")
+    elif not_good:
+        status = ('<p class="status">Every configuration identified, no problems, but not '
+                  f"every fit is good: {esc('; '.join(not_good))}.</p>")
+    else:
+        status = ('<p class="status ok">Complete: every configuration identified, no problems, '
+                  "every fit good.</p>")
+    status += _limits_note()
+
     what = []
     g = report.geometry
     if g is not None:
@@ -88,7 +99,7 @@ def _summary_study(report: ReportInput) -> str:
             "natural frequencies / Hz": ", ".join(f"{f:.2f}" for f in np.sort(r.modes.fn_hz)),
             "damping / %": ", ".join(f"{100 * z:.3f}" for z in r.modes.zeta[
                 np.argsort(r.modes.fn_hz)]),
-            "fit error / %": f"{100 * float(np.mean(r.error)):.2f}",
+            "fit error / %": f"{100 * errors[name]:.2f} ({fit_grade(errors[name])})",
         }
         if t2 is not None and len(t2):
             sub = t2[t2["configuration"] == name]
@@ -104,6 +115,23 @@ def _summary_study(report: ReportInput) -> str:
     )
 
 
+def _limits_note() -> str:
+    """The fit verdict's limits, printed beside every verdict."""
+    return (f'<p class="muted">{esc(fit_limits_text())} '
+            "(<code>report.wording.FIT_LIMITS</code>).</p>")
+
+
+def _doubtful_note(results: Iterable[Any]) -> str:
+    """Under the modes tables: where the doubtful rules are, unless the tables
+    already name the rule that fired (``doubtful_reason``)."""
+    if all("doubtful_reason" in mode_table(r) for r in results):
+        return ""
+    return ('<p class="muted">doubtful: marked for a second look by one of the rules of '
+            "<code>identification.result.doubtful_modes</code> (few stable orders, loose "
+            "damping, complex shape, damping not resolved by the lines; README, "
+            "Identification).</p>")
+
+
 def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
     """The self-contained HTML study report; ``figures`` from :func:`make_figures`
     (``None``: drawn without figures)."""
@@ -114,6 +142,11 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
         page.section("setup", "Test setup").append(
             html_table(setup_table(report.frfs, report.geometry), split=False)
         )
+    if report.hits:
+        sec = page.section("hits", "Impact hits (configurations measured as recordings)")
+        for name, table in report.hits.items():
+            sec.append(html_table(table, caption=f"{name}: hits found and checked",
+                                  split=False))
     if report.geometry is not None:
         g = report.geometry
         sec = page.section("geometry", "Geometry: sensors and hammer")
@@ -142,8 +175,7 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
         sec = page.section("modes", "Modes (MPC, MPD, stable orders)")
         for name, r in report.identification.items():
             sec.append(f"<h3>{esc(name)}</h3>" + mode_table_html(r))
-        if not any(getattr(r, "mpd", None) is not None for r in report.identification.values()):
-            sec.append('<p class="muted">MPD: not provided by this identification result.</p>')
+        sec.append(_doubtful_note(report.identification.values()))
         page.section("mac", "AutoMAC").append(
             mac_section(report.identification, report.genuine)
         )
@@ -188,6 +220,9 @@ def render_markdown(report: ReportInput, figures: Sequence[str]) -> str:
     if report.identification:
         parts += ["## Fit quality", "",
                   markdown_table(fit_table(report.identification, report.frfs)), ""]
+        parts += [f"- {name}: {fit_verdict(float(np.mean(r.error)))}"
+                  for name, r in report.identification.items()]
+        parts += [f"- limits: {fit_limits_text()}", ""]
     for name, table in report_tables(report).items():
         parts += [f"## {TABLE_TITLES[name]}", "", markdown_table(table), ""]
     if figures:
@@ -214,9 +249,11 @@ def render_identify_html(
     version: str = "",
     generated: str = "",
     figures: bool = True,
+    geometry: Geometry | None = None,
 ) -> str:
     """The report of one identified FRF file: the study report's sections that
-    apply to a single file (no geometry, FE or paper tables)."""
+    apply to a single file (no FE or paper tables); with ``geometry`` the modes
+    are animated on it (:mod:`.shape_views`)."""
     name = frf.configuration or frf.source.path or "FRF set"
     fg: dict[str, str] = {}
     if figures:
@@ -226,16 +263,18 @@ def render_identify_html(
         )
     page = Page(f"Modal identification: {frf.source.path or name}")
     m = result.modes
+    error = float(np.mean(result.error))
     summary = pd.DataFrame(
         {
-            "file": [frf.source.path],
-            "configuration": [frf.configuration],
-            "modes": [m.n_modes],
-            "natural frequencies / Hz": [", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz))],
-            "mean fit error / %": [f"{100 * float(np.mean(result.error)):.2f}"],
+            "": ["file", "configuration", "modes", "natural frequencies / Hz", "fit quality"],
+            "value": [frf.source.path, frf.configuration, str(m.n_modes),
+                      ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)), fit_verdict(error)],
         }
     )
-    page.section("summary", "Summary").append(html_table(summary))
+    page.section("summary", "Summary").append(
+        html_table(summary, split=False)
+        + _limits_note()
+    )
     page.section("setup", "Test setup").append(
         html_table(setup_table({name: frf}, None), split=False)
     )
@@ -248,12 +287,14 @@ def render_identify_html(
     )
     not_kept = not_kept_message(result.not_kept_hz, result.not_kept_frfs, frf.n_out * frf.n_in)
     page.section("modes", "Modes (MPC, MPD, stable orders)").append(
-        mode_table_html(result) + item_list([not_kept] if not_kept else [], "notes")
+        mode_table_html(result) + _doubtful_note([result])
+        + item_list([not_kept] if not_kept else [], "notes")
     )
     page.section("mac", "AutoMAC").append(mac_section({name: result}, name))
-    page.section("shapes", "Mode shapes").append(
-        no + figure("shapes_one", fg, "Real-normalised mode shapes at the measured DOFs")
-    )
+    sec = page.section("shapes", "Mode shapes")
+    if geometry is not None and m.shapes is not None:
+        sec.append(shape_views_html(geometry, ModeSet(m.fn_hz, m.zeta, m.shapes, m.dofs)))
+    sec.append(no + figure("shapes_one", fg, "Real-normalised mode shapes at the measured DOFs"))
     sec = page.section("fit", "Measured vs synthesised FRFs")
     sec.append(html_table(fit_table({name: result}, {name: frf}), titles=COLUMN_TITLES))
     sec.append(no + figure("fit_one", fg, "LSFD fit"))
@@ -275,6 +316,18 @@ def _frequencies(cell: Any) -> list[float]:
     return [float(v) for v in str(cell).split(";") if v]
 
 
+def _usable_shapes(
+    freqs: list[list[float]], shapes: list[np.ndarray | None] | None
+) -> list[np.ndarray | None] | None:
+    """The shapes that have one column per frequency of their row (else None)."""
+    if shapes is None:
+        return None
+    return [
+        sh if sh is not None and np.ndim(sh) == 2 and np.shape(sh)[1] == len(f) else None
+        for f, sh in zip(freqs, shapes, strict=True)
+    ]
+
+
 def render_batch_html(batch: BatchReportInput, *, figures: bool = True) -> str:
     """One page over a batch: status per file (with the failure reason), modes
     per file, each mode's frequency across the files."""
@@ -287,7 +340,7 @@ def render_batch_html(batch: BatchReportInput, *, figures: bool = True) -> str:
     state = "interrupted; " if batch.interrupted else ""
     cls = "bad" if n_failed or batch.interrupted else "ok"
     head = (
-        f'<p class="status {cls}">{state}{len(s)} files: {int(counts.get("ok", 0))} ok, '
+        f'<p class="status {cls}">{state}{plural(len(s), "file")}: {int(counts.get("ok", 0))} ok, '
         f'{int(counts.get("skipped", 0))} skipped, {n_failed} failed'
         + (f" in {batch.seconds:.1f} s" if np.isfinite(batch.seconds) else "") + "</p>"
         + f"<p>Input folder: <code>{esc(batch.folder)}</code></p>"
@@ -305,26 +358,36 @@ def render_batch_html(batch: BatchReportInput, *, figures: bool = True) -> str:
             page.section("warnings", "Warnings").append(html_table(
                 pd.DataFrame({"file": warned["file"], "warnings": warned["warnings"]})))
     freqs = [_frequencies(c) for c in s.get("frequencies_hz", [])]
-    n_modes = max((len(f) for f in freqs), default=0)
+    shapes = batch.shapes if batch.shapes is not None and len(batch.shapes) == len(s) else None
+    paired = pair_modes(freqs, _usable_shapes(freqs, shapes))
     table = pd.DataFrame({"#": np.arange(1, len(s) + 1), "file": s["file"],
                           "status": s["status"], "configuration": s.get("configuration", "")})
-    for k in range(n_modes):
-        table[f"f{k + 1}_hz"] = [f[k] if len(f) > k else np.nan for f in freqs]
-    if "fit_error" in s:
+    for k in range(paired.shape[1]):
+        table[f"f{k + 1}_hz"] = paired[:, k]
+    if "fit_error_pct" in s:
+        table["fit_error_pct"] = pd.to_numeric(s["fit_error_pct"], errors="coerce")
+    elif "fit_error" in s:  # a summary.csv of an earlier version: a ratio
         table["fit_error_pct"] = 100 * pd.to_numeric(s["fit_error"], errors="coerce")
+    if "fit_error_pct" in table:
+        table["fit"] = [fit_grade(v / 100) for v in table["fit_error_pct"]]
     table = table.fillna({"configuration": ""})
     page.section("files", "Status and modes per file").append(
-        html_table(table) + ('<p class="muted">Failed files and why: see above.</p>'
-                             if n_failed else "")
+        html_table(table)
+        + f'<p class="muted">f1_hz, f2_hz, ...: each file\'s modes paired across the files by '
+        f"frequency (within {100 * PAIRING.max_shift:g} %) and MAC (at least "
+        f"{PAIRING.min_mac:g}{'' if shapes is not None else ', when the shapes are known'}), "
+        "not by their index; an empty cell: the file lacks that mode. "
+        f"{esc(fit_limits_text())}.</p>"
+        + ('<p class="muted">Failed files and why: see above.</p>' if n_failed else "")
     )
     sec = page.section("trend", "Each mode's frequency across the files")
     if figures:
-        ok = [(str(f), fr) for f, fr, st in zip(s["file"], freqs, s["status"], strict=True)]
         sec.append(
             '<figure id="fig-batch_frequencies">'
-            + figs.figure_batch_frequencies([f for f, _ in ok], [fr for _, fr in ok])
+            + figs.figure_batch_frequencies([str(f) for f in s["file"]], paired)
             + "<figcaption>Deviation of each file's natural frequency from the mode's median "
-            "(red: outliers); file numbers as in the table above.</figcaption></figure>"
+            "(red: outliers; modes paired as in the table above); file numbers as in the "
+            "table above.</figcaption></figure>"
         )
     else:
         sec.append(no_figures(None))

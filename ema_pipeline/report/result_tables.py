@@ -16,7 +16,7 @@ import pandas as pd
 
 from ema_pipeline.data import FRFSet
 from ema_pipeline.modal import mac
-from ema_pipeline.report.inputs import Geometry, ReportInput
+from ema_pipeline.report.inputs import BeamSetup, ReportInput
 from ema_pipeline.report.tables import (
     TABLE_TITLES,
     compare_with_paper,
@@ -68,7 +68,8 @@ def mode_table(result: IdentificationResult) -> pd.DataFrame:
     """The modal table of one identification, ascending frequency: ``mode,
     fn_hz, fn_std_hz, fd_hz, zeta_pct, zeta_std_pct, sigma_1_s`` (decay rate
     -Re(lambda), 1/s), ``mpc``, ``mpd_deg``, ``doubtful`` and ``stable_orders``
-    (first-last order, count)."""
+    (first-last order, count), and ``doubtful_reason`` (the rule that fired) when the
+    identification names it."""
     from ema_pipeline.identification.result import modes_table
 
     table = modes_table(result)
@@ -77,6 +78,8 @@ def mode_table(result: IdentificationResult) -> pd.DataFrame:
     table["stable_orders"] = stable_order_range(result)
     columns = ["mode", "fn_hz", "fn_std_hz", "fd_hz", "zeta_pct", "zeta_std_pct", "sigma_1_s",
                "mpc", "stable_orders", "mpd_deg", "doubtful"]
+    if "doubtful_reason" in table:  # which rule fired
+        columns.append("doubtful_reason")
     return table[columns]
 
 
@@ -93,7 +96,9 @@ COLUMN_TITLES = {
     "sigma_1_s": "decay rate sigma = zeta omega_n = -Re(lambda), 1/s",
     "mpc": "modal phase collinearity (1 = real mode)",
     "mpd_deg": "mean phase deviation, degrees (0 = real mode)",
-    "doubtful": "marked for a second look: few stable orders, loose damping or complex shape",
+    "doubtful": "marked for a second look: few stable orders, loose damping, complex shape "
+    "or damping not resolved by the lines",
+    "doubtful_reason": "the rule that marked the mode doubtful",
     "stable_orders": "model orders at which the pole is stable (count of orders computed)",
     "frac": "FRF assurance criterion of the synthesis",
     "error_pct": "normalised fit error ||H - H_fit|| / ||H||, per cent",
@@ -121,7 +126,7 @@ def fit_table(identification: Mapping[str, Any], frfs: Mapping[str, FRFSet]) -> 
                                        "error_pct"])
 
 
-def setup_table(frfs: Mapping[str, FRFSet], geometry: Geometry | None) -> pd.DataFrame:
+def setup_table(frfs: Mapping[str, FRFSet], geometry: BeamSetup | None) -> pd.DataFrame:
     """Test setup, one column per configuration (rows: what an engineer checks)."""
 
     def fmt(v: Any, unit: str = "", spec: str = "g") -> str:

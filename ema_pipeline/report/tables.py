@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ema_pipeline import paper
+from ema_pipeline import data, fe, paper
 
 __all__ = [
     "TABLE_TITLES",
@@ -119,10 +119,8 @@ def compare_with_paper(name: str, table: pd.DataFrame) -> pd.DataFrame:
         t["paper_updated"] = t["parameter"].map(TABLE4_PAPER_KEYS).map(paper.TABLE4_UPDATED)
         if "identifiable" in t:  # the only combination the frequencies determine
             p = paper.TABLE4_UPDATED
-            combination = (
-                p["thickness_m"] * np.sqrt(p["youngs_modulus_pa"] / p["density_kg_m3"])
-                / p["length_m"] ** 2
-            )
+            combination = float(fe.frequency_scale(p["thickness_m"], p["youngs_modulus_pa"],
+                                                   p["density_kg_m3"], p["length_m"]))
             t.loc[t["identifiable"].astype(bool), "paper_updated"] = combination
         t["dev_pct"] = 100 * (t["updated"] / t["paper_updated"] - 1)
     elif name == "table6_local_added_mass":
@@ -144,7 +142,8 @@ def compare_with_paper(name: str, table: pd.DataFrame) -> pd.DataFrame:
 
 
 def std_column(table: pd.DataFrame, column: str) -> str | None:
-    """Name of the standard-deviation column of ``column`` in ``table``, if any.
+    """Name of the standard-deviation column of ``column`` in ``table``, if any
+    (the naming rule is :func:`ema_pipeline.data.std_column`).
 
     Examples
     --------
@@ -152,13 +151,7 @@ def std_column(table: pd.DataFrame, column: str) -> str | None:
     >>> [std_column(t, c) for c in ("fn_hz", "zeta_pct", "r", "fn_std_hz")]
     ['fn_std_hz', 'zeta_std_pct', 'r_std', None]
     """
-    if "_std" in column:
-        return None
-    candidates = [f"{column}_std"]
-    for unit in ("_hz", "_pct", "_m", "_kg"):
-        if column.endswith(unit):
-            candidates.append(column[: -len(unit)] + "_std" + unit)
-    return next((c for c in candidates if c in table.columns), None)
+    return data.std_column(column, [str(c) for c in table.columns])
 
 
 def _is_float(series: pd.Series) -> bool:
@@ -322,7 +315,8 @@ def html_table(
     ``titles`` maps column names to header tooltips (units, meaning). A table
     wider than :data:`TABLE_BUDGET_CHARS` is split into parts of columns, each
     repeating the leading text/integer columns (configuration, mode, ...), so
-    that it fits a narrow window and a printed page (unless ``split=False``).
+    that it fits a narrow window and a printed page (unless ``split=False``);
+    a one-row table is never split (it scrolls: a part of one row reads badly).
 
     Examples
     --------
@@ -330,9 +324,9 @@ def html_table(
     >>> s = html_table(t)
     >>> "&lt;b&gt;air&lt;/b&gt;" in s, "18.140 ± 0.010" in s, "fn_std_hz" in s
     (True, True, False)
-    >>> wide = pd.DataFrame({"mode": [1], **{f"value_{k}": [1.0e-3 * k] for k in range(12)}})
-    >>> html_table(wide).count("<table")
-    2
+    >>> wide = pd.DataFrame({"mode": [1, 2], **{f"value_{k}": [1e-3 * k] * 2 for k in range(12)}})
+    >>> html_table(wide).count("<table"), html_table(wide.head(1)).count("<table")
+    (2, 1)
     """
     fmts = column_formatters(table)
     cols = [str(c) for c in table.columns]
@@ -358,7 +352,7 @@ def html_table(
         if _is_float(table[c]):
             break
         keys.append(c)
-    parts = _chunks(shown, widths, keys) if split else [shown]
+    parts = _chunks(shown, widths, keys) if split and len(table) > 1 else [shown]
     out = []
     for k, part in enumerate(parts):
         head = "".join(

@@ -25,7 +25,7 @@ from tqdm import tqdm
 
 from ema_pipeline.data import ConfigError, EMAError
 from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.io import sha256_file
+from ema_pipeline.io import FRF_SUFFIXES, sha256_file
 from ema_pipeline.pipeline.batch.dask import DaskBackend
 from ema_pipeline.pipeline.batch.local import LocalBackend, default_workers
 from ema_pipeline.pipeline.batch.resume import batch_lock, remove_stale_temporaries
@@ -129,21 +129,31 @@ def run_batch(
 
     Raises
     ------
-    ConfigError : no such folder, ``out`` is or contains ``folder``, bad
-        ``workers``, unreachable scheduler or missing ``distributed``, another
-        batch writing to ``out``, or worker processes that keep dying.
+    ConfigError : no such folder (or a file), no FRF file in it, ``out`` is or
+        contains ``folder``, bad ``workers``, unreachable scheduler or missing
+        ``distributed``, another batch writing to ``out``, or worker processes that keep dying.
     KeyboardInterrupt : on a second SIGINT/SIGTERM (abort).
     """
     options = IdentificationOptions() if options is None else options
     folder, out = Path(folder).absolute(), Path(out).absolute()
     if not folder.is_dir():
-        raise ConfigError(f"{folder}: no such folder")
+        raise ConfigError(
+            f"{folder}: a file, not a folder (batch takes a folder; identify takes files)"
+            if folder.exists() else f"{folder}: no such folder"
+        )
     if workers is not None and workers < 1:
         raise ConfigError(f"workers must be at least 1, got {workers}")
     if is_inside(folder, out):
         raise ConfigError(
             f"the output folder {out} is (or contains) the input folder {folder}: results "
             "would be read back as inputs; choose an output folder outside it or below it"
+        )
+    files = find_inputs(folder, out)
+    if not files:  # before OUT and its lock exist: nothing is left behind
+        raise ConfigError(
+            f"{folder}: no FRF files in this folder or below it (suffixes "
+            f"{', '.join(sorted(FRF_SUFFIXES))}, any letter case; hidden files and "
+            "*_result.h5 outputs are not inputs)"
         )
     out.mkdir(parents=True, exist_ok=True)
     start = time.perf_counter()
@@ -155,7 +165,6 @@ def run_batch(
             failures_csv=out / "failures.csv",
         )
         report.n_stale_removed = remove_stale_temporaries(out)
-        files = find_inputs(folder, out)
         report.n_files = len(files)
         tasks = (
             FileTask(path=p, file=name, out_dir=target, options=options, force=force, uff=uff)

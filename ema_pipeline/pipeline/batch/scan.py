@@ -8,6 +8,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 
 from ema_pipeline import io
+from ema_pipeline.io.recording import RECORDING_ONLY_SUFFIXES, is_recording
 
 __all__ = ["find_inputs", "is_inside", "output_dirs"]
 
@@ -22,11 +23,17 @@ def is_inside(path: Path, folder: Path) -> bool:
 
 
 def find_inputs(folder: Path, out: Path) -> list[Path]:
-    """The FRF files under ``folder`` (sorted), without those inside ``out`` and
-    without result stores of ``identify`` / ``batch`` (``*_result.h5``): a batch
-    never ingests its own outputs."""
+    """The FRF files and raw recordings under ``folder`` (sorted), without those
+    inside ``out`` and without result stores of ``identify`` / ``batch``
+    (``*_result.h5``): a batch never ingests its own outputs. Recordings are the
+    ``.tdms`` and ``.wav`` files and the ``.csv`` files whose first column is a
+    time (:func:`ema_pipeline.io.recording.is_recording`); UFF files are inputs
+    either way (FRFs or time records, told apart when processed)."""
     folder, out = folder.absolute(), out.absolute()
     files = [p for p in io.find_frf_files(folder) if not p.name.endswith("_result.h5")]
+    files += [p for p in folder.rglob("*") if p.is_file() and not p.name.startswith(".")
+              and p.suffix.lower() in RECORDING_ONLY_SUFFIXES | {".csv"} and is_recording(p)]
+    files.sort()
     if is_inside(out, folder):
         files = [p for p in files if not is_inside(p, out)]
     return files

@@ -13,6 +13,7 @@ from typing import Any
 
 from ema_pipeline import io
 from ema_pipeline.pipeline.batch.tasks import FileRecord
+from ema_pipeline.report.wording import plural
 
 __all__ = [
     "FAILURE_COLUMNS",
@@ -23,6 +24,8 @@ __all__ = [
     "summary_row",
 ]
 
+#: ``summary.csv``: ``fit_frac`` is the mean FRAC (ratio, 1 = perfect), ``fit_error_pct``
+#: the mean normalised fit error ||H - H_fit|| / ||H|| in per cent (the unit of the reports).
 SUMMARY_COLUMNS = (
     "file",
     "sha256",
@@ -30,7 +33,7 @@ SUMMARY_COLUMNS = (
     "n_modes",
     "frequencies_hz",
     "fit_frac",
-    "fit_error",
+    "fit_error_pct",
     "status",
     "seconds",
     "modes_csv",
@@ -84,7 +87,7 @@ class BatchReport:
             head = f"batch: interrupted after {self.n_done} of {self.n_files} files: "
             counts += f", {self.n_not_run} not run (run again to finish)"
         else:
-            head = f"batch: {self.n_files} files: "
+            head = f"batch: {plural(self.n_files, 'file')}: "
         return f"{head}{counts} in {self.seconds:.1f} s, {self.files_per_second:.3g} files/s"
 
 
@@ -119,7 +122,7 @@ def summary_row(rec: FileRecord, out: Path) -> list[str]:
         str(rec.n_modes) if rec.status != "failed" else "",
         ";".join(f"{f:.10g}" for f in rec.fn_hz),
         _num(rec.fit_frac),
-        _num(rec.fit_error),
+        _num(100 * rec.fit_error),  # fit_error_pct: per cent, as the reports print it
         rec.status,
         f"{rec.seconds:.3f}",
         _relative(rec.modes_csv, out),

@@ -15,7 +15,9 @@ from typing import Any
 import numpy as np
 
 from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.io.recording import is_recording
 from ema_pipeline.pipeline.batch.resume import completed_details
+from ema_pipeline.pipeline.frf import identify_recording
 from ema_pipeline.pipeline.single import identify_file
 
 __all__ = ["FileRecord", "FileTask", "naming", "process_file"]
@@ -66,9 +68,13 @@ def process_file(task: FileTask) -> FileRecord:
     """Identify one file (in a worker) and return its summary row; never raises."""
     start = time.perf_counter()
     try:
-        outcome = identify_file(
-            task.path, task.out_dir, task.options, force=task.force, uff=task.uff
-        )
+        if is_recording(task.path):  # raw impact data: frf first (pipeline.frf)
+            outcome = identify_recording(task.path, task.out_dir, task.options,
+                                         force=task.force, uff=task.uff)
+        else:
+            outcome = identify_file(
+                task.path, task.out_dir, task.options, force=task.force, uff=task.uff
+            )
     except Exception as exc:  # one file must never stop the batch
         frames = traceback.extract_tb(exc.__traceback__)
         where = f" (at {Path(frames[-1].filename).name}:{frames[-1].lineno})" if frames else ""

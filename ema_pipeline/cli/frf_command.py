@@ -1,0 +1,149 @@
+"""``ema-pipeline frf``: raw impact recordings to checked, averaged FRFs.
+
+:func:`add_frf_parser` declares the subcommand (called by
+:func:`ema_pipeline.cli.parser.build_parser`); :func:`cmd_frf` runs
+:func:`ema_pipeline.pipeline.frf.frf_from_files` and prints the hits, the
+record length, the windows and the usable band.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+from typing import Any
+
+from ema_pipeline.cli.support import EXIT_OK
+from ema_pipeline.data import ConfigError
+
+__all__ = ["add_frf_parser", "cmd_frf"]
+
+
+def _pairs(values: list[str] | None, option: str, number: bool) -> dict:
+    """``CHANNEL=VALUE`` options as a dict (a bad item is a ConfigError)."""
+    out: dict = {}
+    for item in values or []:
+        name, sep, value = item.rpartition("=")
+        if not sep or not name or not value:
+            raise ConfigError(f"{option} expects CHANNEL=VALUE, got {item!r}")
+        if number:
+            try:
+                factor = float(value)
+            except ValueError:
+                raise ConfigError(f"{option} {item!r}: {value!r} is not a number") from None
+            if not (math.isfinite(factor) and factor != 0):
+                raise ConfigError(f"{option} {item!r}: the factor must be finite and non-zero")
+            out[name] = factor
+        else:
+            out[name] = value
+    return out
+
+
+def _tau(text: str) -> str | float | None:
+    """The argparse type of ``--exp-window-tau``: auto, none or seconds > 0."""
+    low = text.strip().lower()
+    if low in ("auto", "none"):
+        return "auto" if low == "auto" else None
+    try:
+        tau = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected auto, none or seconds, got {text!r}") from None
+    if not (math.isfinite(tau) and tau > 0):
+        raise argparse.ArgumentTypeError(f"the time constant must be > 0 s, got {text!r}")
+    return tau
+
+
+def add_frf_parser(sub: Any) -> None:
+    """Declare ``ema-pipeline frf`` on ``sub``, the subcommands' action of the
+    ``ema-pipeline`` parser (``parser.add_subparsers()``)."""
+    p = sub.add_parser(
+        "frf",
+        help="raw impact recordings to checked, averaged FRFs (hits found and checked)",
+        description="Read impact recordings (UFF-58 time records, TDMS, WAV, CSV; several "
+        "files are segments of one test), find the hits on the force channel, check them "
+        "(double_hit, overload, not_decayed, low_force, outlier, past_end), average the "
+        "accepted ones into FRFs with coherence and write FILE (.h5 or .uff) and "
+        "<stem>_hits.csv beside it.",
+    )
+    p.add_argument("inputs", nargs="+", type=Path, metavar="INPUT", help="recordings")
+    p.add_argument("--out", required=True, type=Path, metavar="FILE",
+                   help="FRF file to write (.h5 or .uff)")
+    p.add_argument("--pretrigger-s", type=float, default=None, metavar="S",
+                   help="time kept before each trigger crossing (default 0.01 s)")
+    p.add_argument("--record-length-s", type=float, default=None, metavar="S",
+                   help="record length (default: the longest power-of-two record that fits "
+                   "between hits)")
+    p.add_argument("--force-window-s", type=float, default=None, metavar="S",
+                   help="force window length from the record start, then a 10 ms taper "
+                   "(0 = none; default the pretrigger + 0.05 s)")
+    p.add_argument("--exp-window-tau", type=_tau, default="auto", metavar="auto|none|SECONDS",
+                   help="exponential window on force and responses: auto (the response "
+                   "decays to about 1 %% at the record end), none (records that have not "
+                   "decayed are rejected), or a time constant in s; stored with the FRFs")
+    p.add_argument("--estimator", choices=("H1", "H2", "Hv"), default="H1",
+                   help="FRF estimator (default H1)")
+    p.add_argument("--keep-all", action="store_true",
+                   help="average every hit that has a record, even rejected ones")
+    p.add_argument("--force-channel", default=None, metavar="NAME",
+                   help="name of the force channel (default: the channel in N)")
+    p.add_argument("--scale", action="append", default=None, metavar="CHANNEL=FACTOR",
+                   help="multiply a channel by FACTOR (e.g. WAV counts to units; repeatable)")
+    p.add_argument("--unit", action="append", default=None, metavar="CHANNEL=UNIT",
+                   help="unit of a channel after scaling (e.g. N, g, m/s^2; repeatable)")
+    p.add_argument("--report", action="store_true",
+                   help="also write the hit page <stem>_hits.html: every hit with its force "
+                   "pulse, force spectrum, response and windows, and why it was kept or not; "
+                   "the averaged FRF with coherence and the usable band")
+    p.add_argument("--quiet", action="store_true", help="print only errors")
+    p.set_defaults(func=cmd_frf)
+
+
+def cmd_frf(args: argparse.Namespace) -> int:
+    """``frf``: find, check and average the hits; write the FRFs and the hit table."""
+    from ema_pipeline.pipeline.frf import (
+        DEFAULT_PRETRIGGER_S,
+        FRFSettings,
+        check_output,
+        frf_from_files,
+        hits_csv_path,
+        hits_report_path,
+    )
+
+    check_output(args.out)  # before any work
+    for name, value, lo in (("--pretrigger-s", args.pretrigger_s, 0.0),
+                            ("--force-window-s", args.force_window_s, 0.0)):
+        if value is not None and not (math.isfinite(value) and value >= lo):
+            raise ConfigError(f"{name} must be a finite number >= 0, got {value:g}")
+    if args.record_length_s is not None and not (
+        math.isfinite(args.record_length_s) and args.record_length_s > 0
+    ):
+        raise ConfigError(f"--record-length-s must be > 0, got {args.record_length_s:g}")
+    settings = FRFSettings(
+        pretrigger_s=DEFAULT_PRETRIGGER_S if args.pretrigger_s is None else args.pretrigger_s,
+        record_length_s=args.record_length_s,
+        force_window_s=args.force_window_s,
+        exp_window_tau=args.exp_window_tau,
+        estimator=args.estimator,
+        keep_all=args.keep_all,
+    )
+    scale = _pairs(args.scale, "--scale", number=True) or None
+    units = _pairs(args.unit, "--unit", number=False) or None
+    result = frf_from_files(list(args.inputs), args.out, settings,
+                            force_channel=args.force_channel, scale=scale, units=units,
+                            report=args.report)
+    if not args.quiet:
+        rejected = [h for h in result.hits if not h.accepted or h.reasons]
+        print(f"{len(result.hits)} hits found, {result.n_accepted} averaged; records of "
+              f"{result.n_samples} samples ({result.record_length_s:.4g} s)")
+        for h in rejected:
+            state = "kept (--keep-all)" if h.accepted else "rejected"
+            print(f"  hit {h.index} at {h.time_s:.3f} s: {state}: {', '.join(h.reasons)}")
+        tau = result.exp_window_tau_s
+        fw = result.force_window_s
+        f10, f20 = result.force_band_hz
+        print(f"windows: force {'none' if not fw else f'{fw:g} s'}, exponential "
+              f"{'none' if tau is None else f'tau = {tau:.4g} s'}; estimator {args.estimator}")
+        print(f"usable band (force spectrum): -10 dB at {f10:.5g} Hz, -20 dB at {f20:.5g} Hz")
+        extra = f" and {hits_report_path(args.out)}" if args.report else ""
+        print(f"wrote {args.out}, {hits_csv_path(args.out)}{extra}")
+    return EXIT_OK

@@ -1,0 +1,262 @@
+"""Every tuned threshold of the ``"plscf"`` identification, in one place.
+
+:class:`SelectionThresholds` is one frozen record of the numbers that the
+automatic selection depends on: the tolerances that link poles into
+trajectories, the screens of the adaptive order search, the final tests of a
+refined pole, the residual check, the list of resonances not kept, the local
+band of the pole refinement and the rule that marks a mode ``doubtful``. Each
+field says what it was chosen on (the measured beam of ``../shared/data`` and
+the hard families of ``tests/hardcases.py``).
+
+It is a field of :class:`~ema_pipeline.identification.IdentificationOptions`
+(``options.thresholds``) and is passed down the chain from there, never
+imported as module constants: a study of one threshold is
+``identify(frf, thresholds=replace(SelectionThresholds(), max_rel_decay_std=0.3))``.
+The result keeps the record it was made with
+(``result.settings.thresholds``). This module imports nothing from the
+package.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+
+@dataclass(frozen=True)
+class SelectionThresholds:
+    """The tuned thresholds of the identification (defaults: the tuned values).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> th = SelectionThresholds()
+    >>> th.max_rel_decay_std, th.link_tol_zeta, th.diagram_tol_zeta
+    (0.2, 0.3, 0.05)
+    >>> replace(th, max_rel_decay_std=0.3) == th
+    False
+    >>> str(th), str(replace(th, max_rel_decay_std=0.3))  # what reports show
+    ('tuned defaults', 'max_rel_decay_std=0.3 (others tuned defaults)')
+    """
+
+    def __str__(self) -> str:
+        """The fields that differ from the tuned defaults, or ``"tuned defaults"``."""
+        default = SelectionThresholds()
+        changed = [f"{f.name}={getattr(self, f.name)!r}" for f in fields(self)
+                   if getattr(self, f.name) != getattr(default, f.name)]
+        return f"{', '.join(changed)} (others tuned defaults)" if changed else "tuned defaults"
+
+    # ------------------------------------------------ stabilization diagram
+    #: Diagram flags (:func:`~ema_pipeline.identification.stabilization.stabilization`,
+    #: drawn by ``plots.plot_stabilization``, not used by the selection): a pole is
+    #: stable in frequency when it moved by less than this fraction against the
+    #: nearest pole of the previous order (the textbook 1 %) ...
+    diagram_tol_freq: float = 0.01
+    #: ... in damping by less than this fraction (the textbook 5 %) ...
+    diagram_tol_zeta: float = 0.05
+    #: ... and in participation vector when 1 - MAC is below this (MAC > 0.98).
+    diagram_tol_mac: float = 0.02
+
+    # ------------------------------------------------ trajectories (selection)
+    #: Pole linking of :func:`~ema_pipeline.identification.selection.track_poles`:
+    #: d = |df| / (tol_freq f) + |dzeta| / (tol_zeta max(zeta)) + (1 - MAC) / tol_mac < 1.
+    #: 1 % in frequency keeps two close modes (hard cases ``close_*``, 0.5-2 %
+    #: apart) in two trajectories ...
+    link_tol_freq: float = 0.01
+    #: ... 30 % in damping: the damping of a true mode drifts by 10-30 % between
+    #: low orders, far more than its frequency ...
+    link_tol_zeta: float = 0.3
+    #: ... 0.05 in 1 - MAC of the participation vectors (several references).
+    link_tol_mac: float = 0.05
+    #: A trajectory stays open for poles of up to this many later computed orders
+    #: (a mode that a diagram misses at one order stays one trajectory).
+    link_max_gap: int = 2
+    #: A pole with a damping ratio at or above this is not a physical mode of the
+    #: structures this tool is for (the selection, the search's young
+    #: trajectories and the residual check's start poles all use it).
+    max_zeta: float = 0.2
+    #: A trajectory is a candidate when it holds at least this many poles (and
+    #: ``min_fraction`` of the orders; ``IdentificationOptions.min_fraction``) ...
+    min_members: int = 6
+    #: ... or this many when it answers an expected frequency (``expect_hz``).
+    expect_min_members: int = 4
+    #: Its pole must lie inside the band less these fractions of its width at the
+    #: bottom and the top (poles at a band edge model the truncation).
+    band_edge: tuple[float, float] = (0.005, 0.02)
+    #: It has settled when, over its last half, f_n and zeta scatter by less than
+    #: this fraction of the half-power half-width zeta f_n and of zeta.
+    max_scatter: float = 0.15
+    #: Two trajectories whose poles are within this fraction of a decay rate are
+    #: one pole (a trajectory broken by a gap); close modes differ by more.
+    coincident_rel: float = 0.2
+    #: Fragments of a heavily damped mode (``selection.link_fragments``): pieces
+    #: with a structural damping of at least this are joined ...
+    fragment_min_zeta: float = 0.02
+    #: ... when their damping differs by less than this fraction of the larger ...
+    fragment_tol_zeta: float = 0.3
+    #: ... and one starts within this many computed orders of the other's end.
+    fragment_max_gap: int = 3
+    #: An expected frequency is answered by the candidate nearest to it within
+    #: this relative distance (:func:`~ema_pipeline.identification.selection.select_expected`).
+    expect_tol: float = 0.15
+
+    # ------------------------------------------------ adaptive order search
+    #: The cheap screen counts a pole as determined when its decay rate has a
+    #: relative standard deviation below this: it models noise, not a mode, above.
+    #: Physical modes of the simulated tests sit below 0.01, noise poles near 1.
+    max_rel_sigma_std: float = 0.5
+    #: A young trajectory asks for a higher order only when the screen determines
+    #: its decay rate this well (stricter than ``max_rel_sigma_std``: the screen
+    #: ignores line correlation and the noise model) ...
+    young_max_rel_sigma_std: float = 0.1
+    #: ... and when its own peak is at least this fraction of the local RMS of the
+    #: data (noise-free data determine every pole; a mode must also show) ...
+    young_min_peak_ratio: float = 0.3
+    #: ... and it holds at least this many poles.
+    young_min_members: int = 3
+    #: A selected mode whose own peak is below this fraction of the local RMS of
+    #: the data models background, not a resonance (dropped) ...
+    min_peak_ratio: float = 0.05
+    #: ... or below this one with 3 or more channels, where the shape test of
+    #: :func:`~ema_pipeline.identification.acceptance.resonant` (MPC) judges the
+    #: weak candidates that remain.
+    min_peak_ratio_shapes: float = 0.02
+    #: In the adaptive search a trajectory counts (and is kept) only when it starts
+    #: below this fraction of the diagram's highest order, unless that is the cap.
+    mature_fraction: float = 0.75
+    #: The order is doubled while the diagram has fewer than this many pole pairs
+    #: per determined mode ...
+    room_pairs_per_mode: int = 4
+    #: ... plus this many to spare (noise and the modes outside the band take poles).
+    room_spare_pairs: int = 16
+    #: A diagram holds at most this many orders, evenly spaced (the companion
+    #: eigenvalues, O(sum n^3), dominate the cost at high order).
+    diagram_orders: int = 40
+    #: A band whose top is more than this times its bottom is searched once more
+    #: in its lowest 1/zoom_ratio (pLSCF's time step follows the band top, so
+    #: the poles of low modes in a wide band crowd near z = 1 and are poorly
+    #: resolved: impact tests of 2-900 Hz lose their modes below 50 Hz).
+    zoom_ratio: float = 8.0
+    #: A band where the full search selects at least this many candidates is
+    #: searched again in windows of ``window_modes`` consecutive candidates, each
+    #: shifted by ``window_step`` candidates (so that they overlap): one common
+    #: denominator for 20-40 modes lets the strong ones take the poles, and weak
+    #: modes between them (a few per cent of the local response) never form a
+    #: trajectory. In a window of 10 modes they do.
+    window_min_modes: int = 10
+    window_modes: int = 10
+    window_step: int = 4
+    #: A zoom or window search needs at least this many lines.
+    window_min_lines: int = 64
+
+    # ------------------------------------------------ local band, refinement
+    #: Local band of one mode: +-local_half_width half-power bandwidths around
+    #: it, widened to at least ``local_min_lines`` lines (the pole refinement and
+    #: the local screens use the same one; the model-choice covariance repeats
+    #: the refinement on half of it).
+    local_half_width: float = 12.0
+    local_min_lines: int = 40
+    #: The split fit of a close partner uses +-this many half-power bandwidths.
+    split_half_width: float = 6.0
+    #: A refined pole that moves by more than this many decay rates (plus one
+    #: line) keeps its start value (the refinement wandered off).
+    refine_max_shift: float = 0.5
+
+    # ------------------------------------------------ final tests (acceptance)
+    #: Final test of a refined pole (``acceptance.resonant``): a mode whose own
+    #: peak is below weak_peak_ratio of the local RMS of the data (it explains
+    #: less of the response than the modes and background around it) is kept
+    #: only when that peak exceeds the standard deviation of the local fit's
+    #: residual by at least min_weak_peak_snr, or (with at least 3 channels) its
+    #: shape in its own local fit is nearly real (MPC >= weak_min_mpc, a normal
+    #: mode; one global LSFD bends a weak mode's shape, down to MPC 0.2 for real
+    #: modes of the hard families, where the local fit gives 0.93-1.0 and the
+    #: measured beam's other poles 0.89 at most). On synthetic data the residual
+    #: is the noise and weak true modes stand far above it or have MPC ~ 1; on
+    #: measured data the residual also holds model error, and poles that fit it
+    #: have a small peak ratio, a modest SNR and a complex shape. Chosen on the
+    #: measured beam (its published modes have peak ratios of 0.69 and more, the
+    #: poles between them 0.63 and less) and on the hard families.
+    weak_peak_ratio: float = 0.65
+    min_weak_peak_snr: float = 150.0
+    weak_min_mpc: float = 0.95
+    #: A close mode hidden in a kept mode's resonance (``acceptance.close_partners``):
+    #: one pole more in that mode's local fit must leave at most
+    #: partner_max_residual_ratio of the residual variance, both poles must be
+    #: determined, apart by more than half the sum of their decay rates, and
+    #: both shapes nearly real (MPC >= partner_min_mpc, two normal modes) in
+    #: one global LSFD or in their own local fits. On synthetic close pairs the
+    #: missed partner leaves 0.002-0.64 of the residual and reaches MPC 0.9 in
+    #: one of the two fits; on the measured beam a second pole also removes
+    #: much of the residual beside most modes (model error: the roving channels
+    #: do not agree exactly), but one of the two shapes is then complex (MPC
+    #: 0.84 at most in the global LSFD, 0.75 in the local fits).
+    partner_max_residual_ratio: float = 0.75
+    partner_min_mpc: float = 0.9
+    #: A refined pole is kept only when its decay rate has a relative standard
+    #: deviation below this (5 sigma from zero). On the hard families (about 540
+    #: true modes, seeds 600-607) true modes reach 0.15, the poles that are not
+    #: modes start at 0.16 in frequency-domain data. In the impact tests (seeds
+    #: 600-639, 300 true modes) they start at 0.25, while two weak true modes
+    #: reach 0.20 and 0.24 (impact-605 105.6 Hz and impact-618 115.0 Hz, peak SNR
+    #: about 4, both dropped). The decay rate itself, not the structure's share
+    #: of it: a lightly damped low mode under a strong window (12.6 Hz, zeta
+    #: 0.27 %, 1/tau 2.6 1/s) has its total decay determined to 2 % and the
+    #: structure's only to 50 %.
+    max_rel_decay_std: float = 0.2
+    #: Two kept poles within each other's half-power bands with LSFD shapes of
+    #: MAC above this are one mode found twice (one of them stays).
+    duplicate_min_mac: float = 0.95
+    #: Of two kept poles within each other's half-power bands, one with a markedly
+    #: complex shape (MPC below split_max_mpc and split_mpc_gap below its
+    #: partner's) is the split of the other -- one mode whose frequency differs a
+    #: little between the channels (a roving-hammer test measures them one after
+    #: the other) -- and is dropped. On the measured beam 363.9 and 415.1 Hz,
+    #: beside 363.0 and 414.6 Hz, have MPC 0.67 and 0.39 against 0.83 and 0.88
+    #: (the synthetic families, with real shapes, are unaffected).
+    split_max_mpc: float = 0.7
+    split_mpc_gap: float = 0.15
+
+    # ------------------------------------------------ residual check
+    #: A residual peak is a candidate when its squared residual (mean over the
+    #: channels of each channel's |e|^2 over its median, over 3 lines) exceeds
+    #: this. White noise gives 1/ln 2 = 1.44 on average and 3-7 at the highest
+    #: peaks of a few thousand lines; missed modes of the hard cases 10-60.
+    residual_peak_ratio: float = 8.0
+    #: ... and at least this many times the median of its surroundings (the
+    #: lines 1-4 peak widths plus 20 lines away): missed modes of the hard cases
+    #: stand 5-30 times above theirs, the spikes of a noisy stretch (the top of
+    #: the paper's simulated axis, at the anti-alias filter) 1.3-1.8 times.
+    residual_peak_contrast: float = 3.0
+    #: At most this many residual peaks (the highest) are tried per band.
+    max_residual_peaks: int = 6
+
+    # ------------------------------------------------ resonances not kept
+    #: A peak of |H| stands out when its prominence in log|H| exceeds this: a
+    #: factor e^0.5 = 1.65 over the valleys beside it. On the measured beam the
+    #: rejected candidates that are not resonances have such a peak in at most 3
+    #: of the 30 FRFs, the three resonances (42.0, 274.7, 325.1 Hz) in 9-16.
+    min_log_prominence: float = 0.5
+    #: A rejected candidate is listed when it stands out in at least this share of
+    #: the FRFs, and in at least ``min_frfs`` of them, ...
+    min_frf_share: float = 0.2
+    min_frfs: int = 2
+    #: ... with a peak within this many lines of its natural frequency. With the
+    #: candidate's half-power band as the window instead, the random peaks of
+    #: FRFs that are mostly noise counted for broad poles of the noise (hard cases
+    #: baseline-9 at 176 Hz and close_1ref-9 at 1269 and 1302 Hz, 2 of 3 and 2 of
+    #: 6 FRFs).
+    peak_lines: float = 1.5
+
+    # ------------------------------------------------ doubtful modes (result)
+    #: A mode is marked ``doubtful`` (kept, never dropped) when its pole is stable
+    #: at fewer model orders than this (``few_stable_orders``) ...
+    min_stable_orders: int = 5
+    #: ... or its damping is poorly determined, zeta_std above this fraction of
+    #: zeta (``loose_damping``) ...
+    max_rel_zeta_std: float = 0.5
+    #: ... or its shape is strongly complex, MPC below this with 3 or more
+    #: responses (``complex_shape``) ...
+    min_mpc: float = 0.5
+    #: ... or its half-power bandwidth 2 zeta f_n is below this fraction of the
+    #: line spacing: the lines do not resolve its damping (``unresolved_damping``).
+    min_bandwidth_lines: float = 0.5

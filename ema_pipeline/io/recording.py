@@ -1,0 +1,434 @@
+"""Raw impact recordings (time data) in: UFF-58 time records, TDMS, WAV and CSV.
+
+:func:`read_recording` picks the format by suffix and returns a checked
+:class:`~ema_pipeline.data.Recording` in SI units, force first. The rules shared
+by every format (unit conversion, ``scale`` and ``units`` overrides, choice of the
+force channel, checks) are those of :mod:`ema_pipeline.acquisition.channels`;
+what each format adds:
+
+* **UFF** (``.uff``, ``.unv``, ... ASCII or binary): dataset 58 time records
+  (function type 1), other function types ignored. A channel is a response DOF
+  and signal kind; it is named ``<DOF> <kind>``, e.g. ``1+Z force``, ``2+Z
+  acceleration``. The kind comes from the units (label, else the ordinate data
+  type: 13/9 force, 12 acceleration, 11 velocity, 8 displacement, with dataset
+  164), as for FRFs in :mod:`ema_pipeline.io.uff`; -X/-Y/-Z records are flipped.
+  One record per channel is a continuous recording; several (load cases, or
+  repeated records) are pre-cut records, ordered by load case, concatenated with
+  ``segment_starts``; every channel must have as many, of equal lengths. The
+  sample rate is 1 / abscissa increment (rounded to whole Hz within 1e-4: the
+  header keeps 6 digits).
+* **TDMS** (npTDMS): every channel of every group with numeric data; name
+  ``<channel>`` (``<group>/<channel>`` when names repeat); unit from the property
+  ``unit_string``, sample rate from ``wf_increment``. A channel whose unit is a
+  time (``s``) is a time track: it gives the sample rate when ``wf_increment`` is
+  absent and is not a signal. A file npTDMS reads only partly (truncated) is
+  refused.
+* **WAV** (scipy): channels are named ``0``, ``1``, ...; ``units`` and ``scale``
+  are required for every channel (``0=N``, ``ch1=g``; ``0=0.5``). Integer samples
+  are read as fractions of full scale (int16 / 32768, int32 / 2^31, uint8
+  (x - 128) / 128), float samples as stored; ``scale`` turns them into the unit
+  (for integers the channel's full scale is ``scale``).
+* **CSV** (``,``, ``;`` or tab separated; ``#`` comment lines before the header
+  skipped): a header row, then one row per sample. The first column is the time,
+  ``time [s]``, ``t (ms)`` or ``time_s`` / ``time_ms``; every other column is a
+  channel ``NAME [UNIT]`` or ``NAME (UNIT)``, e.g. ``force [N],acc1 [g]``. A
+  column without a unit needs ``units``. The time must be equally spaced (within
+  a quarter step).
+
+Errors are one-line :class:`~ema_pipeline.data.DataError` naming the file: empty,
+truncated or unparsable file, no force channel, different sample rates, NaN,
+missing or unknown unit.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import re
+import warnings
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from ema_pipeline.acquisition.channels import (
+    ChannelData,
+    assemble_recording,
+    match_channel,
+    nice_rate,
+    rate_from_time,
+)
+from ema_pipeline.data import DOF, DataError, Provenance, Recording
+from ema_pipeline.io.files import check_readable, sha256_file
+from ema_pipeline.io.uff import UFF_SUFFIXES, ordinate_unit, read_uff, response_dof
+from ema_pipeline.io.uff_format import Record58
+from ema_pipeline.io.uff_units import FORCE_TYPES, Unit, parse_unit_label
+
+#: Suffixes :func:`read_recording` reads (compared in lower case).
+RECORDING_SUFFIXES = UFF_SUFFIXES | {".tdms", ".wav", ".csv"}
+
+_UFF_FUNC_TIME = 1
+_TIME_DIMS = (0, 1, 0)
+
+
+def read_recording(
+    path: str | os.PathLike[str],
+    *,
+    force_channel: str | None = None,
+    scale: Mapping[str, float] | None = None,
+    units: Mapping[str, str] | None = None,
+) -> Recording:
+    """Read a raw impact recording (UFF-58 time records, TDMS, WAV or CSV) in SI units.
+
+    Parameters
+    ----------
+    path : the file; the format comes from its suffix (see the module docstring).
+    force_channel : name or position (``"0"``, ``"ch0"``) of the force channel;
+        default: the one channel in a force unit (N, kN, lbf).
+    scale : {CHANNEL: FACTOR} multiplying the stored numbers (before unit
+        conversion); required for WAV.
+    units : {CHANNEL: UNIT} replacing or supplying the file's units; required for WAV.
+
+    Returns
+    -------
+    Recording : force first, then the responses; ``segment_starts`` marks pre-cut
+    records (UFF).
+
+    Raises
+    ------
+    DataError
+        One line naming the file: empty, truncated or unparsable file, no force
+        channel, different sample rates, NaN, missing or unknown unit.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "hit.csv"
+    >>> _ = p.write_text("time_s,force [kN],acc [g]\\n0,0,0\\n0.001,0.2,0\\n0.002,0,1\\n")
+    >>> rec = read_recording(p)
+    >>> rec.sample_rate_hz, [c.quantity for c in rec.channels], rec.signals[:, 1:].tolist()
+    (1000.0, ['force', 'acceleration'], [[200.0, 0.0], [0.0, 9.80665]])
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    readers = {".tdms": _read_tdms, ".wav": _read_wav, ".csv": _read_csv}
+    if suffix in UFF_SUFFIXES:
+        reader = _read_uff
+    elif suffix in readers:
+        reader = readers[suffix]
+    else:
+        raise DataError(f"{path}: unknown recording format {suffix or '(no suffix)'!r}; "
+                        f"expected one of {', '.join(sorted(RECORDING_SUFFIXES))}")
+    check_readable(path, "a recording (UFF, TDMS, WAV or CSV)")
+    channels, starts = reader(path)
+    if suffix == ".wav":
+        _require_wav_settings(path, channels, scale, units)
+    source = Provenance(path=str(path), sha256=sha256_file(path))
+    return assemble_recording(channels, where=str(path), force_channel=force_channel,
+                              scale=scale, units=units, segment_starts=starts, source=source)
+
+
+#: Suffixes that are recordings whatever their content (a CSV is one when its header
+#: starts with a time column; a UFF when its first dataset 58 is a time record).
+RECORDING_ONLY_SUFFIXES = {".tdms", ".wav"}
+_SNIFF_BYTES = 1 << 16
+
+
+def is_recording(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a raw recording rather than an FRF file (or neither), told
+    from its suffix and first bytes only: ``.tdms`` and ``.wav`` are; a ``.csv`` is
+    when its first column is a time (``time [s]``, ``t (ms)``, ``time_s``); a UFF
+    (:data:`ema_pipeline.io.uff.UFF_SUFFIXES`) when its first dataset 58 in the first
+    64 KiB has function type 1 (time response). An unreadable file is not.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "hit.csv"
+    >>> _ = p.write_text("time_s,force [N],acc [g]\\n0,0,0\\n")
+    >>> is_recording(p), is_recording(p.with_name("modes.csv"))
+    (True, False)
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix in RECORDING_ONLY_SUFFIXES:
+        return True
+    if suffix not in UFF_SUFFIXES | {".csv"}:
+        return False
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(_SNIFF_BYTES).decode("latin-1")
+    except OSError:
+        return False
+    lines = head.splitlines()
+    if suffix == ".csv":
+        first = next((ln for ln in lines if ln.strip() and not ln.lstrip().startswith("#")), "")
+        name = _split_header(first)[1][0]
+        m = _HEADER_UNIT.match(name)
+        label = (m.group("u1") if m.group("u1") is not None else m.group("u2")) if m else None
+        if label is None:
+            ms = _TIME_SUFFIX.match(name)
+            label = ms.group("unit") if ms else None
+        try:
+            unit = parse_unit_label(label) if label else None
+        except ValueError:
+            unit = None
+        return unit is not None and unit.dims == _TIME_DIMS
+    for k in range(1, len(lines) - 7):
+        if lines[k - 1].strip() == "-1" and lines[k].split()[:1] in (["58"], ["58b"]):
+            fields = lines[k + 6].split()
+            return bool(fields) and fields[0] == str(_UFF_FUNC_TIME)
+    return False
+
+
+# ------------------------------------------------------------------------ UFF
+def _uff_rate(path: Path, rec: Record58) -> float:
+    if rec.uniform:
+        if not (np.isfinite(rec.dx) and rec.dx > 0):
+            raise DataError(f"{path}: record {rec.record} ({rec.at}): abscissa increment "
+                            f"{rec.dx} is not a time step")
+        return nice_rate(1.0 / rec.dx)
+    return rate_from_time(rec.x, f"{path}: record {rec.record}")
+
+
+def _read_uff(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
+    contents = read_uff(path)
+    if not contents.dataset_numbers:
+        raise DataError(f"{path}: no UFF datasets found (not a Universal File, or empty)")
+    records = [r for r in contents.records if r.func_type == _UFF_FUNC_TIME]
+    if not records:
+        found = sorted({r.func_type for r in contents.records})
+        raise DataError(f"{path}: no time records (dataset 58, function type 1); function "
+                        f"types found: {found or 'none (no dataset 58)'}")
+    groups: dict[tuple[DOF, str], list[tuple[Record58, Unit | None, int]]] = {}
+    for rec in records:
+        dof, sign = response_dof(rec)
+        try:
+            unit: Unit | None = ordinate_unit(path, rec)
+            kind = unit.signal or rec.numerator.units  # type: ignore[union-attr]
+        except DataError:
+            unit, kind = None, rec.numerator.units.strip() or "unknown"  # reported by channel
+        groups.setdefault((dof, kind), []).append((rec, unit, sign))
+    n_records = {len(v) for v in groups.values()}
+    if len(n_records) != 1:
+        listed = ", ".join(f"{d.label()} {k}: {len(v)}" for (d, k), v in groups.items())
+        raise DataError(f"{path}: channels have different numbers of records ({listed}); "
+                        "truncated file?")
+    channels = []
+    seg_lengths: list[int] | None = None
+    for (dof, kind), recs in groups.items():
+        if any(r.load_case for r, _, _ in recs):
+            recs = sorted(recs, key=lambda item: item[0].load_case)
+        rates = {_uff_rate(path, r) for r, _, _ in recs}
+        if len(rates) != 1:
+            raise DataError(f"{path}: channel {dof.label()} {kind} has records at different "
+                            f"sample rates ({', '.join(f'{r:g}' for r in sorted(rates))} Hz)")
+        lengths = [r.data.size for r, _, _ in recs]
+        if seg_lengths is None:
+            seg_lengths = lengths
+        elif lengths != seg_lengths:
+            raise DataError(f"{path}: records of channel {dof.label()} {kind} have "
+                            f"{lengths} samples, others {seg_lengths}: truncated file?")
+        data = np.concatenate([np.real(r.data).astype(float) * s for r, _, s in recs])
+        first = recs[0][0]
+        channels.append(ChannelData(
+            name=f"{dof.label()} {kind}",
+            data=data,
+            sample_rate_hz=rates.pop(),
+            unit_label=first.numerator.units,
+            unit=recs[0][1],
+            dof=dof,
+            force_hint=first.numerator.data_type in FORCE_TYPES,
+        ))
+    starts = tuple(int(s) for s in np.cumsum([0] + (seg_lengths or [0])[:-1]))
+    return channels, starts
+
+
+# ----------------------------------------------------------------------- TDMS
+@contextmanager
+def _nptdms_log() -> Iterator[list[str]]:
+    """Collect npTDMS's warnings (it prints them to stderr itself) for the caller."""
+    from nptdms.log import log_manager  # type: ignore[import-untyped]
+
+    messages: list[str] = []
+
+    class _Collect(logging.Handler):
+        def emit(self, record: logging.LogRecord) -> None:
+            if record.levelno >= logging.WARNING:
+                messages.append(record.getMessage())
+
+    collect = _Collect()
+    saved = {name: (lg.handlers[:], lg.propagate) for name, lg in log_manager.loggers.items()}
+    for lg in log_manager.loggers.values():
+        lg.handlers, lg.propagate = [collect], False
+    try:
+        yield messages
+    finally:
+        for name, (handlers, propagate) in saved.items():
+            lg = log_manager.loggers[name]
+            lg.handlers, lg.propagate = handlers, propagate
+
+
+def _read_tdms(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
+    try:
+        from nptdms import TdmsFile  # type: ignore[import-untyped]
+    except ImportError:  # pragma: no cover - a runtime dependency
+        raise DataError(f"{path}: reading TDMS needs npTDMS (pip install npTDMS)") from None
+    try:
+        with _nptdms_log() as problems:
+            tdms = TdmsFile.read(str(path))
+            raw = [(g.name, c.name, dict(c.properties), np.asarray(c[:]))
+                   for g in tdms.groups() for c in g.channels()]
+    except Exception as exc:  # npTDMS raises many kinds on damaged files
+        raise DataError(f"{path}: not a readable TDMS file ({type(exc).__name__}: {exc})") \
+            from None
+    bad = [m for m in problems if re.search(r"less data|not a multiple|incomplete", m)]
+    if bad:
+        raise DataError(f"{path}: truncated TDMS file ({bad[0]})")
+    raw = [r for r in raw if r[3].size and np.issubdtype(r[3].dtype, np.number)]
+    if not raw:
+        raise DataError(f"{path}: no numeric channels in the TDMS file")
+    names = [c for _, c, _, _ in raw]
+    time_rate = None
+    channels: list[tuple[str, np.ndarray, float, str]] = []
+    for group, name, props, data in raw:
+        label = str(props.get("unit_string", ""))
+        full_name = f"{group}/{name}" if names.count(name) > 1 else name
+        if label.strip():
+            try:
+                unit = parse_unit_label(label)
+            except ValueError:
+                unit = None
+            if unit is not None and unit.dims == _TIME_DIMS:
+                time_rate = rate_from_time(data * unit.factor, f"{path}: time track {name!r}")
+                continue
+        rate = np.nan
+        if "wf_increment" in props:
+            try:
+                step = float(props["wf_increment"])
+            except (TypeError, ValueError):
+                step = np.nan
+            rate = nice_rate(1.0 / step) if np.isfinite(step) and step > 0 else np.nan
+        channels.append((full_name, data, rate, label))
+    out = []
+    for full_name, data, rate, label in channels:
+        if not np.isfinite(rate):
+            if time_rate is None:
+                raise DataError(f"{path}: channel {full_name!r} has no valid wf_increment "
+                                "(sample interval) and the file no time track")
+            rate = time_rate
+        out.append(ChannelData(name=full_name, data=data, sample_rate_hz=rate,
+                               unit_label=label))
+    return out, (0,)
+
+
+# ------------------------------------------------------------------------ WAV
+def _require_wav_settings(path: Path, channels: list[ChannelData],
+                          scale: Mapping[str, float] | None,
+                          units: Mapping[str, str] | None) -> None:
+    """Every WAV channel needs a unit and a scale (keys: name or position)."""
+    names = [c.name for c in channels]
+    for what, given in (("units", units), ("scale", scale)):
+        covered = {match_channel(key, names, str(path), what) for key in (given or {})}
+        missing = [n for k, n in enumerate(names) if k not in covered]
+        if missing:
+            raise DataError(f"{path}: a WAV file holds no units: give {what} for channel(s) "
+                            f"{', '.join(missing)} (e.g. units 0=N 1=g, scale 0=500 1=50)")
+
+
+def _read_wav(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
+    from scipy.io import wavfile
+
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", wavfile.WavFileWarning)
+            rate, data = wavfile.read(path)
+    except wavfile.WavFileWarning as exc:
+        raise DataError(f"{path}: truncated or damaged WAV file ({exc})") from None
+    except (ValueError, OSError, EOFError, IndexError, TypeError) as exc:
+        raise DataError(f"{path}: not a readable WAV file ({type(exc).__name__}: {exc})") \
+            from None
+    data = np.asarray(data)
+    if data.ndim == 1:
+        data = data[:, None]
+    full: float | None = 1.0
+    if data.dtype == np.uint8:
+        values = (data.astype(float) - 128.0) / 128.0
+    elif np.issubdtype(data.dtype, np.integer):
+        values = data.astype(float) / float(2 ** (8 * data.dtype.itemsize - 1))
+    else:
+        values, full = data.astype(float), None
+    channels = [ChannelData(name=str(k), data=values[:, k], sample_rate_hz=float(rate),
+                            full_scale=full) for k in range(values.shape[1])]
+    return channels, (0,)
+
+
+# ------------------------------------------------------------------------ CSV
+_HEADER_UNIT = re.compile(r"^(?P<name>.*?)\s*(?:\[(?P<u1>[^\]]*)\]|\((?P<u2>[^)]*)\))\s*$")
+_TIME_SUFFIX = re.compile(r"^(?P<name>.*?)_(?P<unit>s|ms|us)$", re.IGNORECASE)
+
+
+def _split_header(line: str) -> tuple[str | None, list[str]]:
+    for delim in (";", "\t", ","):
+        if delim in line:
+            return delim, [f.strip().strip('"').strip("'").strip() for f in line.split(delim)]
+    return None, [line.strip()]
+
+
+def _read_csv(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        text = path.read_text(encoding="latin-1")
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read ({exc.strerror})") from None
+    lines = text.splitlines()
+    first = next((k for k, ln in enumerate(lines) if ln.strip() and not ln.lstrip()
+                  .startswith("#")), None)
+    if first is None:
+        raise DataError(f"{path}: empty CSV file (no header row)")
+    delim, fields = _split_header(lines[first])
+    if len(fields) < 2:
+        raise DataError(f"{path}: CSV header {lines[first][:80]!r} has fewer than 2 columns; "
+                        "expected 'time_s,force [N],acc [g]' (',', ';' or tab separated)")
+    body = [ln for ln in lines[first + 1:] if ln.strip()]
+    if len(body) < 2:
+        raise DataError(f"{path}: CSV file has fewer than 2 data rows")
+    try:
+        values = np.loadtxt(body, delimiter=delim, ndmin=2, dtype=float)
+    except ValueError as exc:
+        raise DataError(f"{path}: unparsable or truncated CSV data ({exc})") from None
+    if values.shape[1] != len(fields):
+        raise DataError(f"{path}: {values.shape[1]} data columns but {len(fields)} in the "
+                        "header")
+    time_name = fields[0]
+    m = _HEADER_UNIT.match(time_name)
+    t_label = (m.group("u1") if m.group("u1") is not None else m.group("u2")) if m else None
+    if t_label is None:
+        ms = _TIME_SUFFIX.match(time_name)
+        t_label = ms.group("unit") if ms else None
+    if t_label is None:
+        raise DataError(f"{path}: time column {time_name!r} has no unit; write "
+                        "'time [s]' or 'time_s' (first column)")
+    try:
+        t_unit = parse_unit_label(t_label)
+    except ValueError:
+        t_unit = None
+    if t_unit is None or t_unit.dims != _TIME_DIMS:
+        raise DataError(f"{path}: first column {time_name!r} must be the time in s or ms, "
+                        f"got unit {t_label!r}")
+    if not np.all(np.isfinite(values[:, 0])):
+        raise DataError(f"{path}: time column has NaN/inf values")
+    rate = rate_from_time(values[:, 0] * t_unit.factor, str(path))
+    channels = []
+    for k, field in enumerate(fields[1:], start=1):
+        m = _HEADER_UNIT.match(field)
+        if m:
+            name, label = m.group("name"), m.group("u1") if m.group("u1") is not None \
+                else m.group("u2")
+        else:
+            name, label = field, ""
+        channels.append(ChannelData(name=name or f"column {k + 1}", data=values[:, k],
+                                    sample_rate_hz=rate, unit_label=label or ""))
+    return channels, (0,)

@@ -1,0 +1,506 @@
+"""Raw impact recordings to checked, averaged FRFs: what ``ema-pipeline frf`` runs.
+
+:func:`frf_from_recording` does the numerics on one :class:`~ema_pipeline.data.Recording`
+(find and check the hits, cut the accepted records, choose the exponential
+window, estimate the FRFs, find the usable band of the force spectrum);
+:func:`frf_from_files` reads the input files (several files are segments of one
+recording: pre-cut records or recordings of the same test), runs it and writes
+the FRF file (``.h5`` or ``.uff`` by suffix) and ``<stem>_hits.csv`` beside it.
+Both return an :class:`ImpactFRF` (FRFs, hit table, record length, tau, band), so
+that a report or a batch run can use them.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ema_pipeline import acquisition, io
+from ema_pipeline.acquisition import hits as hitlib
+from ema_pipeline.data import (
+    ConfigError,
+    DataError,
+    EMAError,
+    FRFSet,
+    Provenance,
+    Quantity,
+    Recording,
+    TimeRecords,
+)
+from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
+from ema_pipeline.report.hits_page import HitsPageInput, HitView, render_hits_html
+
+__all__ = [
+    "AUTO_FORCE_WINDOW_S",
+    "DEFAULT_PRETRIGGER_S",
+    "FRFSettings",
+    "ImpactFRF",
+    "concatenate_recordings",
+    "frf_from_files",
+    "frf_from_recording",
+    "hits_csv_path",
+    "configuration_frf",
+    "hits_page_input",
+    "hits_report_path",
+    "identify_recording",
+    "impact_frf",
+]
+
+#: Default pretrigger (s) kept before each hit's trigger crossing.
+DEFAULT_PRETRIGGER_S = 0.01
+#: Default force window: the pretrigger plus this much (s) after the trigger.
+AUTO_FORCE_WINDOW_S = 0.05
+
+_QUANTITY_OF_RESPONSE: dict[str, Quantity] = {"acceleration": "accelerance", "velocity": "mobility",
+                         "displacement": "receptance"}
+
+
+@dataclass(frozen=True)
+class FRFSettings:
+    """Settings of ``ema-pipeline frf``.
+
+    ``pretrigger_s``: time kept before each trigger crossing. ``record_length_s``:
+    ``None`` = the longest power of two of samples that fits between hits.
+    ``force_window_s``: length of the rectangular force window from the record
+    start (then a 10 ms cosine taper); ``None`` = the pretrigger plus
+    :data:`AUTO_FORCE_WINDOW_S`, 0 = none. ``exp_window_tau``: ``"auto"``
+    (:func:`ema_pipeline.acquisition.hits.auto_exp_window_tau`), ``None`` (no
+    exponential window: records that have not decayed are rejected) or a time
+    constant in s. ``estimator``: H1, H2 or Hv. ``keep_all``: average every hit
+    that has a record, whatever the checks say.
+    """
+
+    pretrigger_s: float = DEFAULT_PRETRIGGER_S
+    record_length_s: float | None = None
+    force_window_s: float | None = None
+    exp_window_tau: str | float | None = "auto"
+    estimator: str = "H1"
+    keep_all: bool = False
+
+    def __post_init__(self) -> None:
+        def bad(name: str, value: object, rule: str) -> ConfigError:
+            return ConfigError(f"{name} must be {rule}, got {value!r}")
+
+        if not (math.isfinite(self.pretrigger_s) and self.pretrigger_s >= 0):
+            raise bad("pretrigger_s", self.pretrigger_s, "a finite number >= 0 s")
+        if self.record_length_s is not None and not (
+            math.isfinite(self.record_length_s) and self.record_length_s > 0
+        ):
+            raise bad("record_length_s", self.record_length_s, "a finite number > 0 s")
+        if self.force_window_s is not None and not (
+            math.isfinite(self.force_window_s) and self.force_window_s >= 0
+        ):
+            raise bad("force_window_s", self.force_window_s, "a finite number >= 0 s (0: none)")
+        tau = self.exp_window_tau
+        if not (tau is None or tau == "auto" or (
+            isinstance(tau, int | float) and math.isfinite(tau) and tau > 0
+        )):
+            raise bad("exp_window_tau", tau, "'auto', None or a time constant > 0 s")
+        if self.estimator not in ("H1", "H2", "Hv"):
+            raise bad("estimator", self.estimator, "H1, H2 or Hv")
+
+
+@dataclass
+class ImpactFRF:
+    """What :func:`frf_from_recording` made: the averaged ``frf``, the hit table
+    ``hits``, the record length (``n_samples``, ``record_length_s``), the
+    exponential window's ``exp_window_tau_s`` (None: none), the force window
+    (s, None: none), the usable band ``force_band_hz`` = (f_10dB, f_20dB) and
+    the accepted ``records``, and for a report the ``recording`` (force first,
+    the responses used) and the ``settings``."""
+
+    frf: FRFSet
+    hits: tuple[hitlib.Hit, ...]
+    n_samples: int
+    record_length_s: float
+    exp_window_tau_s: float | None
+    force_window_s: float | None
+    force_band_hz: tuple[float, float]
+    records: TimeRecords
+    recording: Recording | None = None
+    settings: FRFSettings | None = None
+
+    @property
+    def n_accepted(self) -> int:
+        return sum(h.accepted for h in self.hits)
+
+    def hits_table(self) -> pd.DataFrame:
+        """One row per hit: ``hit,time_s,force_peak_n,accepted,reasons``."""
+        return pd.DataFrame(hitlib.hits_columns(self.hits))
+
+
+def _force_index(recording: Recording, force_channel: str | None, where: str) -> int:
+    if force_channel is not None:
+        names = [ch.name for ch in recording.channels]
+        if force_channel not in names:
+            raise DataError(f"{where}: no channel named {force_channel!r} (channels: "
+                            f"{', '.join(names)})")
+        return names.index(force_channel)
+    forces = recording.channel_index("force")
+    if not forces:
+        raise DataError(f"{where}: no force channel (a channel in N, or name one with "
+                        "--force-channel)")
+    if len(forces) > 1:
+        listed = ", ".join(recording.channels[k].name for k in forces)
+        raise DataError(f"{where}: several force channels ({listed}); choose one with "
+                        "--force-channel")
+    return forces[0]
+
+
+def frf_from_recording(
+    recording: Recording,
+    settings: FRFSettings | None = None,
+    *,
+    force_channel: str | None = None,
+    configuration: str = "",
+) -> ImpactFRF:
+    """Find and check the hits of ``recording``, and average the accepted ones.
+
+    The force is the channel named ``force_channel`` or else the only channel of
+    quantity ``force``; the responses are the channels of another quantity (all
+    of one: acceleration gives accelerance, velocity mobility, displacement
+    receptance). Rules of the checks: :mod:`ema_pipeline.acquisition.hits`. No
+    force channel, no hit, or every hit rejected: a DataError naming the source.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import Channel
+    >>> fs, n = 512.0, 5 * 1024
+    >>> t = np.arange(n) / fs
+    >>> force, resp = np.zeros(n), np.zeros(n)
+    >>> for t0 in (0.5, 2.6, 4.7, 6.8):  # four clean hits, a 40 Hz mode
+    ...     k = int(t0 * fs)
+    ...     force[k:k + 3] = [50.0, 100.0, 50.0]
+    ...     resp[k:] += np.exp(-8 * (t[k:] - t0)) * np.sin(2 * np.pi * 40 * (t[k:] - t0))
+    >>> rec = Recording(np.vstack([force, resp]), fs,
+    ...                 (Channel("hammer", "force"), Channel("acc", "acceleration")))
+    >>> out = frf_from_recording(rec)
+    >>> out.n_accepted, out.n_samples, out.frf.H.shape
+    (4, 1024, (1, 1, 513))
+    """
+    settings = FRFSettings() if settings is None else settings
+    where = recording.source.path or "recording"
+    k_force = _force_index(recording, force_channel, where)
+    keep = [k_force] + [k for k, ch in enumerate(recording.channels)
+                        if k != k_force and ch.quantity != "force"]
+    if len(keep) < 2:
+        raise DataError(f"{where}: no response channel beside the force")
+    quantities = {recording.channels[k].quantity for k in keep[1:]}
+    if len(quantities) > 1:
+        raise DataError(f"{where}: responses mix quantities {sorted(quantities)}; an FRF set "
+                        "needs one")
+    rec = replace(recording, signals=recording.signals[keep],
+                  channels=tuple(recording.channels[k] for k in keep))
+    found = hitlib.find_hits(rec, 0, pretrigger_s=settings.pretrigger_s,
+                             record_length_s=settings.record_length_s)
+    hits = hitlib.check_hits(rec, 0, found, exp_window=settings.exp_window_tau is not None,
+                             keep_all=settings.keep_all)
+    accepted = [h.index - 1 for h in hits if h.accepted]
+    if not accepted:
+        summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {','.join(h.reasons)}"
+                            for h in hits)
+        raise DataError(f"{where}: every hit rejected ({summary})")
+    records = hitlib.cut_records(rec, 0, found, accepted)
+    records = replace(records, configuration=configuration)
+    fs, n = rec.sample_rate_hz, found.n_samples
+    tau: float | None
+    if settings.exp_window_tau == "auto":
+        tau = hitlib.auto_exp_window_tau(records)
+    else:
+        tau = None if settings.exp_window_tau is None else float(settings.exp_window_tau)
+    force_window_s = settings.force_window_s
+    if force_window_s is None:
+        force_window_s = records.trigger_s + AUTO_FORCE_WINDOW_S  # the pretrigger used
+    force_window_s = force_window_s or None
+    frf = acquisition.estimate_frf(records, force_window_s=force_window_s,
+                                   exp_window_tau_s=tau, estimator=settings.estimator)
+    w = np.ones(n)
+    if tau is not None:
+        w = acquisition.exponential_window(n, fs, tau, records.trigger_s)
+    if force_window_s:
+        w = w * acquisition.force_window(n, fs, force_window_s)
+    force_auto = np.mean(np.abs(np.fft.rfft(records.force * w, axis=-1)) ** 2, axis=0)
+    band = hitlib.force_band(frf.freq_hz, force_auto)
+    frf = replace(frf, quantity=_QUANTITY_OF_RESPONSE[quantities.pop()],
+                  acquisition=replace(frf.acquisition, force_band_hz=band))
+    return ImpactFRF(
+        frf=frf,
+        hits=hits,
+        n_samples=n,
+        record_length_s=n / fs,
+        exp_window_tau_s=tau,
+        force_window_s=force_window_s,
+        force_band_hz=band,
+        records=records,
+        recording=rec,
+        settings=settings,
+    )
+
+
+def concatenate_recordings(recordings: list[Recording]) -> Recording:
+    """Recordings of one test (the same channels and sample rate) as the segments
+    of one recording; the segments of each are kept.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import Channel
+    >>> one = Recording(np.ones((1, 10)), 100.0, (Channel("f", "force"),))
+    >>> concatenate_recordings([one, one]).segment_starts
+    (0, 10)
+    """
+    first = recordings[0]
+    starts: list[int] = []
+    offset = 0
+    for rec in recordings:
+        name = rec.source.path or "recording"
+        if rec.sample_rate_hz != first.sample_rate_hz:
+            raise DataError(f"{name}: sample rate {rec.sample_rate_hz:g} Hz differs from "
+                            f"{first.sample_rate_hz:g} Hz of {first.source.path}")
+        if [(c.name, c.quantity) for c in rec.channels] != [
+            (c.name, c.quantity) for c in first.channels
+        ]:
+            raise DataError(f"{name}: channels differ from those of {first.source.path}")
+        starts += [offset + s for s in rec.segment_starts]
+        offset += rec.n_samples
+    if len(recordings) == 1:
+        return first
+    return Recording(
+        signals=np.concatenate([r.signals for r in recordings], axis=1),
+        sample_rate_hz=first.sample_rate_hz,
+        channels=first.channels,
+        segment_starts=tuple(starts),
+        source=Provenance(path=", ".join(r.source.path for r in recordings)),
+    )
+
+
+def hits_csv_path(out: str | os.PathLike[str]) -> Path:
+    """``<stem>_hits.csv`` beside the FRF file ``out``.
+
+    Examples
+    --------
+    >>> hits_csv_path("out/test.h5").as_posix()
+    'out/test_hits.csv'
+    """
+    out = Path(out)
+    return out.with_name(f"{out.stem}_hits.csv")
+
+
+def hits_report_path(out: str | os.PathLike[str]) -> Path:
+    """``<stem>_hits.html`` beside the FRF file ``out`` (the hit page of ``--report``).
+
+    Examples
+    --------
+    >>> hits_report_path("out/test.h5").as_posix()
+    'out/test_hits.html'
+    """
+    out = Path(out)
+    return out.with_name(f"{out.stem}_hits.html")
+
+
+def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
+    """The record of one hit (as far as the data go) with its windows, force spectrum
+    and end level, for the hit page."""
+    rec = result.recording
+    assert rec is not None
+    fs, n = rec.sample_rate_hz, result.n_samples
+    n_pre = int(round(result.records.trigger_s * fs))
+    if hit.record_start >= 0:
+        a, b = hit.record_start, hit.record_start + n
+    else:  # past_end: what the data hold of the record, within the hit's segment
+        cross = int(np.ceil(hit.time_s * fs))
+        seg_starts = np.array(rec.segment_starts + (rec.n_samples,))
+        k = int(np.searchsorted(seg_starts, cross, side="right")) - 1
+        a = max(cross - n_pre, int(seg_starts[k]))
+        b = min(cross - n_pre + n, int(seg_starts[k + 1]))
+    m = b - a
+    tau, fw = result.exp_window_tau_s, result.force_window_s
+    w_exp = (np.ones(m) if tau is None
+             else acquisition.exponential_window(m, fs, tau, result.records.trigger_s))
+    w_force = np.ones(m) if not fw else acquisition.force_window(m, fs, fw)
+    force = rec.signals[0, a:b]
+    responses = rec.signals[1:, a:b]
+    end, _ = hitlib.tail_level(responses[None], min(n_pre, m - 1))
+    j = int(np.argmax(end[0]))
+    spec = np.abs(np.fft.rfft(force * w_force * w_exp, n))
+    db = 20 * np.log10(np.maximum(spec, np.finfo(float).tiny) / max(spec.max(), 1e-300))
+    return HitView(
+        hit=hit, time_s=np.arange(a, b) / fs, force_n=force, response=responses[j],
+        response_name=rec.channels[1 + j].name, force_window=w_force, exp_window=w_exp,
+        freq_hz=np.fft.rfftfreq(n, 1.0 / fs), force_db=db, end_level=float(end[0, j]),
+    )
+
+
+def hits_page_input(result: ImpactFRF) -> HitsPageInput:
+    """What the hit page of ``frf --report`` shows, gathered from ``result`` (the
+    recording must be kept: :func:`frf_from_recording` does)."""
+    from ema_pipeline import __version__
+    from ema_pipeline.pipeline.reports import report_date
+
+    if result.recording is None:
+        raise DataError("no recording kept with the FRFs: cannot draw the hit page")
+    settings = result.settings or FRFSettings()
+    source = result.frf.source.path or result.recording.source.path
+    return HitsPageInput(
+        title=f"Impact hits: {source}",
+        source=source,
+        sha256=result.frf.source.sha256,
+        frf=result.frf,
+        hits=[_hit_view(result, h) for h in result.hits],
+        n_samples=result.n_samples,
+        record_length_s=result.record_length_s,
+        pretrigger_s=result.records.trigger_s,
+        force_window_s=result.force_window_s,
+        exp_window_tau_s=result.exp_window_tau_s,
+        estimator=result.frf.acquisition.estimator,
+        force_band_hz=result.force_band_hz,
+        keep_all=settings.keep_all,
+        settings={f"frf.{k}": str(v) for k, v in vars(settings).items()},
+        version=__version__,
+        generated=report_date(),
+    )
+
+
+def check_output(out: str | os.PathLike[str]) -> str:
+    """The FRF format of ``out`` (by suffix), refused before any work when the
+    suffix is unknown or ``out`` is a folder."""
+    out = Path(out)
+    fmt = io.frf_format_for_writing(out)
+    if out.is_dir():
+        raise DataError(f"{out}: is a folder; --out needs an FRF file name (.h5 or .uff)")
+    if out.parent.exists() and not out.parent.is_dir():
+        raise DataError(f"{out.parent}: not a folder")
+    return fmt
+
+
+def impact_frf(
+    paths: list[str | os.PathLike[str]] | list[Path],
+    settings: FRFSettings | None = None,
+    *,
+    force_channel: str | None = None,
+    scale: dict[str, float] | None = None,
+    units: dict[str, str] | None = None,
+    configuration: str = "",
+) -> ImpactFRF:
+    """Read the recordings ``paths`` (segments of one test) and run
+    :func:`frf_from_recording`; nothing is written. The FRFs' source is the
+    file list (with its sha256 for one file)."""
+    from ema_pipeline.io.recording import read_recording
+
+    if not paths:
+        raise ConfigError("no input recording")
+    recordings = [read_recording(Path(p), force_channel=force_channel, scale=scale,
+                                 units=units) for p in paths]
+    recording = concatenate_recordings(recordings)
+    chosen = None if force_channel is None else recording.channels[0].name  # force first
+    result = frf_from_recording(recording, settings, force_channel=chosen,
+                                configuration=configuration)
+    names = [str(p) for p in paths]
+    result.frf = replace(result.frf, source=Provenance(
+        path=", ".join(names),
+        sha256=recordings[0].source.sha256 if len(names) == 1 else "",
+    ))
+    return result
+
+
+#: Keys of an experiment file's ``frf`` table that go to the reader, not to FRFSettings.
+READER_KEYS = ("force_channel", "scale", "units")
+
+
+def configuration_frf(
+    paths: list[Path], items: tuple[tuple[str, object], ...] | dict[str, object],
+    configuration: str = "",
+) -> ImpactFRF:
+    """:func:`impact_frf` with the ``frf`` settings of an experiment-file configuration
+    (:data:`ema_pipeline.io.experiment.FRF_SETTINGS`, already checked).
+
+    Examples
+    --------
+    >>> configuration_frf([], {"estimator": "H9"})
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.ConfigError: estimator must be H1, H2 or Hv, got 'H9'
+    """
+    values = dict(items)
+    reader: dict = {k: values.pop(k) for k in READER_KEYS if k in values}
+    for key in ("scale", "units"):
+        if key in reader:
+            reader[key] = dict(reader[key])
+    settings = FRFSettings(**values)  # type: ignore[arg-type]
+    return impact_frf(paths, settings, configuration=configuration, **reader)
+
+
+def frf_from_files(
+    paths: list[str | os.PathLike[str]] | list[Path],
+    out: str | os.PathLike[str],
+    settings: FRFSettings | None = None,
+    *,
+    force_channel: str | None = None,
+    scale: dict[str, float] | None = None,
+    units: dict[str, str] | None = None,
+    configuration: str = "",
+    report: bool = False,
+) -> ImpactFRF:
+    """Read the recordings ``paths`` (segments of one test), run
+    :func:`frf_from_recording`, and write the FRFs to ``out`` (``.h5`` or ``.uff``)
+    and the hit table to ``<stem>_hits.csv`` beside it (each atomically; on an
+    error nothing is written). ``report``: also the hit page ``<stem>_hits.html``
+    (:func:`ema_pipeline.report.hits_page.render_hits_html`). ``force_channel``,
+    ``scale`` and ``units`` go to the reader
+    (:func:`ema_pipeline.io.recording.read_recording`)."""
+    fmt = check_output(out)
+    result = impact_frf(paths, settings, force_channel=force_channel, scale=scale,
+                        units=units, configuration=configuration)
+    frf = result.frf
+    page = render_hits_html(hits_page_input(result)) if report else None
+    io.write_csv(result.hits_table(), hits_csv_path(out))
+    io.write_frf(frf, out, fmt)
+    if page is not None:
+        io.write_text(page, hits_report_path(out))
+    return result
+
+
+def identify_recording(
+    path: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    options: IdentificationOptions | None = None,
+    *,
+    force: bool = True,
+    uff: bool = False,
+) -> FileOutcome:
+    """What ``batch`` does with a raw recording: ``frf`` with the default settings,
+    then ``identify`` on its FRFs. Writes ``<stem>.h5`` (the FRFs),
+    ``<stem>_hits.csv``, ``<stem>_modes.csv`` and ``<stem>_result.h5`` in
+    ``out_dir``; the result records the recording's sha256, so that with
+    ``force=False`` a recording already done is skipped. Problems are returned as
+    ``status="failed"`` with the reason, never raised (as
+    :func:`ema_pipeline.pipeline.single.identify_file`)."""
+    path, out_dir = Path(path), Path(out_dir)
+    frf_path = out_dir / f"{path.stem}.h5"
+    start = time.perf_counter()
+    try:
+        sha = io.sha256_file(path)
+        _, result_h5 = output_paths(frf_path, out_dir)
+        if not force and io.completed_result_sha256(result_h5) == sha:  # done: skipped
+            return identify_file(frf_path, out_dir, options, force=False, sha256=sha)
+        out_dir.mkdir(parents=True, exist_ok=True)
+        result = impact_frf([path], configuration=path.stem)
+        io.write_csv(result.hits_table(), hits_csv_path(frf_path))
+        io.write_frf(result.frf, frf_path, "h5")
+    except EMAError as exc:
+        return FileOutcome(path=path, status="failed", reason=str(exc),
+                           seconds=time.perf_counter() - start)
+    except OSError as exc:
+        where = getattr(exc, "filename", None) or path
+        return FileOutcome(path=path, status="failed", runtime=True,
+                           reason=f"{where}: {exc.strerror or exc}",
+                           seconds=time.perf_counter() - start)
+    outcome = identify_file(frf_path, out_dir, options, force=True, sha256=sha, uff=uff)
+    outcome.seconds = time.perf_counter() - start
+    return outcome

@@ -1,0 +1,243 @@
+"""The hit page of ``ema-pipeline frf --report``: every hit, why it was kept or not,
+and the averaged FRF.
+
+Presentation only: :class:`HitsPageInput` holds what the page shows, already
+computed (:func:`ema_pipeline.pipeline.frf.hits_page_input` gathers it); the
+page is self-contained HTML with inline SVG figures (:mod:`.svg` reduces every
+curve to its per-pixel envelope, so a 16384-sample record costs a few hundred
+points). Sections: summary (record length, windows, estimator, the usable band),
+the hit table, one section per hit (its verdict with the reasons spelled out,
+the force pulse zoomed, the force spectrum, the response with its decay and the
+windows), the averaged FRF with coherence and the usable band, provenance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from ema_pipeline.acquisition.hits import NOT_DECAYED_LEVEL, Hit
+from ema_pipeline.data import FRFSet
+from ema_pipeline.report.figures import COLORS, figure_frf_coherence
+from ema_pipeline.report.htmlparts import Page, esc, kv_table, provenance
+from ema_pipeline.report.svg import Canvas
+from ema_pipeline.report.tables import html_table
+
+__all__ = ["REASON_TEXT", "HitView", "HitsPageInput", "render_hits_html"]
+
+#: What each rejection reason means, as the page says it (rules:
+#: :mod:`ema_pipeline.acquisition.hits`).
+REASON_TEXT = {
+    "past_end": "past_end: the record would run past the end of the data (or start "
+                "before it)",
+    "double_hit": "double_hit: a second force pulse in the record (or ripple in the "
+                  "force spectrum)",
+    "overload": "overload: a channel reaches its full scale or has flat tops (clipped)",
+    "not_decayed": "not_decayed: the response has not decayed at the record end and no "
+                   "exponential window is allowed",
+    "low_force": "low_force: the force peak is far below the other hits'",
+    "outlier": "outlier: force peak, pulse width or response level far from the other "
+               "hits'",
+}
+
+_W = 720
+_PANEL_W, _PANEL_H = 170, 150
+
+
+@dataclass
+class HitView:
+    """One hit as the page draws it: the :class:`~ema_pipeline.acquisition.hits.Hit`,
+    the data of its record (``time_s`` from the recording start; ``force_n``;
+    ``response`` (n_out, n) of the response ``response_name``; shorter when the
+    record runs past the data), the force window and exponential window over those
+    samples (ones: none), the force spectrum (``freq_hz``, ``force_db`` re its
+    largest line) and the response level at the record end relative to its peak
+    (``end_level``)."""
+
+    hit: Hit
+    time_s: np.ndarray
+    force_n: np.ndarray
+    response: np.ndarray
+    response_name: str
+    force_window: np.ndarray
+    exp_window: np.ndarray
+    freq_hz: np.ndarray
+    force_db: np.ndarray
+    end_level: float
+
+
+@dataclass
+class HitsPageInput:
+    """Everything the hit page shows (see the module docstring)."""
+
+    title: str
+    source: str
+    sha256: str
+    frf: FRFSet
+    hits: list[HitView]
+    n_samples: int
+    record_length_s: float
+    pretrigger_s: float
+    force_window_s: float | None
+    exp_window_tau_s: float | None
+    estimator: str
+    force_band_hz: tuple[float, float]
+    keep_all: bool = False
+    settings: Mapping[str, str] = field(default_factory=dict)
+    version: str = ""
+    generated: str = ""
+
+
+def verdict_text(hit: Hit, keep_all: bool = False) -> str:
+    """``accepted``, ``accepted (--keep-all)`` or ``rejected``, then the reasons.
+
+    Examples
+    --------
+    >>> verdict_text(Hit(2, 1.5, 80.0, False, ("double_hit",)))
+    'rejected: double_hit: a second force pulse in the record (or ripple in the force spectrum)'
+    """
+    if hit.accepted and not hit.reasons:
+        return "accepted: no check objects"
+    state = "kept (--keep-all) despite" if hit.accepted else "rejected"
+    return f"{state}: " + "; ".join(REASON_TEXT.get(r, r) for r in hit.reasons)
+
+
+def _pulse_panel(c: Canvas, left: float, view: HitView) -> None:
+    """The force pulse zoomed: from 2 ms before the hit to 8 ms after it, or 3 ms after
+    the last force above 10 % of the peak within 0.1 s (a second pulse shows)."""
+    t_ms = (view.time_s - view.hit.time_s) * 1e3
+    level = np.abs(view.force_n - np.median(view.force_n))
+    late = (t_ms > 0) & (t_ms < 100.0) & (level > 0.1 * level.max())
+    stop = max(8.0, float(t_ms[late].max()) + 3.0 if late.any() else 0.0)
+    sel = (t_ms >= -2.0) & (t_ms <= stop)
+    if sel.sum() < 2:
+        sel = np.ones(t_ms.size, dtype=bool)
+    f = view.force_n[sel]
+    lo, hi = float(min(f.min(), 0.0)), float(f.max())
+    pad = 0.05 * (hi - lo or 1.0)
+    ax = c.axes((left, 30, _PANEL_W, _PANEL_H), (float(t_ms[sel][0]), float(t_ms[sel][-1])),
+                (lo - pad, hi + pad))
+    ax.line(t_ms[sel], f, COLORS[0], width=1.0)
+    ax.vline(0.0, "#888", dash="4 4")
+    ax.frame(xlabel="time from hit / ms", ylabel="force / N", title="force pulse")
+
+
+def _spectrum_panel(c: Canvas, left: float, view: HitView, band: tuple[float, float]) -> None:
+    """The force spectrum (dB re its largest line) with the usable band's limits."""
+    f, db = view.freq_hz, view.force_db
+    lo = max(-60.0, float(np.nanmin(db)) if db.size else -60.0)
+    ax = c.axes((left, 30, _PANEL_W, _PANEL_H), (float(f[0]), float(f[-1])), (lo - 2, 3.0))
+    ax.line(f, db, COLORS[0], width=1.0)
+    for x, color in zip(band, (COLORS[2], COLORS[1]), strict=True):
+        ax.vline(x, color, dash="6 4")
+    ax.frame(xlabel="frequency / Hz", ylabel="|F| / dB", title="force spectrum")
+
+
+def _response_panel(c: Canvas, left: float, view: HitView) -> None:
+    """The response over the record with the exponential window (scaled to its peak)
+    and the force window."""
+    t = view.time_s - view.time_s[0]
+    x = view.response
+    peak = float(np.abs(x).max()) or 1.0
+    ax = c.axes((left, 30, _PANEL_W, _PANEL_H), (0.0, float(t[-1]) or 1.0),
+                (-1.1 * peak, 1.1 * peak))
+    ax.line(t, x, COLORS[3], width=0.6)
+    if np.any(view.exp_window != 1.0):
+        ax.line(t, peak * view.exp_window / view.exp_window.max(), COLORS[1], width=1.0,
+                dash="6 4")
+    if np.any(view.force_window != 1.0):
+        ax.line(t, peak * view.force_window, COLORS[2], width=1.0, dash="2 3")
+    ax.frame(xlabel="time in record / s", ylabel=f"{view.response_name}"[:24],
+             title="response and windows")
+
+
+def hit_figure(view: HitView, band: tuple[float, float]) -> str:
+    """Three panels of one hit: force pulse, force spectrum, response with windows."""
+    c = Canvas(_W, 30 + _PANEL_H + 48, f"hit {view.hit.index}")
+    _pulse_panel(c, 60, view)
+    _spectrum_panel(c, 60 + 240, view, band)
+    _response_panel(c, 60 + 480, view)
+    return c.to_svg()
+
+
+def _hit_table(hits: Sequence[HitView]) -> pd.DataFrame:
+    return pd.DataFrame({
+        "hit": [v.hit.index for v in hits],
+        "time / s": [f"{v.hit.time_s:.4f}" for v in hits],
+        "force peak / N": [f"{v.hit.force_peak_n:.4g}" for v in hits],
+        "accepted": ["yes" if v.hit.accepted else "no" for v in hits],
+        "reasons": [";".join(v.hit.reasons) for v in hits],
+        "end level / % of peak": [f"{100 * v.end_level:.2g}" if np.isfinite(v.end_level)
+                                  else "" for v in hits],
+    })
+
+
+def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
+    """The hit page as one self-contained HTML string.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import FRFSet
+    >>> f = np.linspace(0.0, 100.0, 101)
+    >>> frf = FRFSet(freq_hz=f, H=(1.0 + f)[None, None, :] + 0j, coherence=np.ones((1, 1, 101)))
+    >>> t = np.arange(256) / 256.0
+    >>> view = HitView(Hit(1, 0.01, 90.0, True), t, np.exp(-((t - 0.01) / 0.002) ** 2),
+    ...                np.sin(60 * t), "acc", np.ones(256), np.ones(256), f[:50],
+    ...                np.zeros(50), 0.01)
+    >>> page = render_hits_html(HitsPageInput("Hits", "rec.uff", "", frf, [view], 256, 1.0,
+    ...                         0.01, None, None, "H1", (40.0, 70.0)))
+    >>> page.count('class="hit"'), "-10 dB at 40 Hz" in page
+    (1, True)
+    """
+    p = page_input
+    f10, f20 = p.force_band_hz
+    band_text = f"-10 dB at {f10:.5g} Hz, -20 dB at {f20:.5g} Hz"
+    n_acc = sum(v.hit.accepted for v in p.hits)
+    page = Page(p.title)
+    summary = {
+        "recording": p.source,
+        "hits": f"{len(p.hits)} found, {n_acc} averaged"
+                + (" (--keep-all: rejected hits kept)" if p.keep_all else ""),
+        "records": f"{p.n_samples} samples ({p.record_length_s:.4g} s), pretrigger "
+                   f"{p.pretrigger_s:.4g} s",
+        "force window": "none" if not p.force_window_s else f"{p.force_window_s:.4g} s "
+                        "(then a 10 ms cosine taper)",
+        "exponential window": "none" if p.exp_window_tau_s is None
+        else f"tau = {p.exp_window_tau_s:.4g} s (stored with the FRFs; identification "
+             "corrects the damping)",
+        "estimator": p.estimator,
+        "usable band (force spectrum)": band_text,
+    }
+    page.section("summary", "Summary").append(kv_table(summary))
+    page.section("hits", "Hit table").append(html_table(_hit_table(p.hits), split=False))
+    for v in p.hits:
+        cls = "ok" if v.hit.accepted and not v.hit.reasons else "bad"
+        body = [f'<p class="status {cls}">{esc(verdict_text(v.hit, p.keep_all))}</p>']
+        decay = (f"Response {v.response_name}: level at the record end "
+                 f"{100 * v.end_level:.2g} % of its peak (limit without exponential window "
+                 f"{100 * NOT_DECAYED_LEVEL:g} %)." if np.isfinite(v.end_level) else "")
+        body.append(f"<p>{esc(decay)}</p>" if decay else "")
+        if figures:
+            body.append(f"<figure>{hit_figure(v, p.force_band_hz)}<figcaption>Force pulse "
+                        "(dashed: the hit time), force spectrum (dashed: -10 dB green, "
+                        "-20 dB red), response with the exponential window scaled to its "
+                        "peak (red dashed) and the force window (green dotted)"
+                        "</figcaption></figure>")
+        sec = page.section(f"hit-{v.hit.index}",
+                           f"Hit {v.hit.index} at {v.hit.time_s:.3f} s")
+        sec.append(f'<div class="hit" id="hit-body-{v.hit.index}">{"".join(body)}</div>')
+    frf_part = [f"<p>Usable band of the averaged force spectrum: {esc(band_text)}.</p>"]
+    if figures:
+        frf_part.append("<figure>" + figure_frf_coherence(p.frf, "Averaged FRF",
+                                                          marks_hz=p.force_band_hz)
+                        + "<figcaption>Averaged FRF and coherence; dashed: the usable band "
+                          "(-10 dB, -20 dB)</figcaption></figure>")
+    page.section("frf", "Averaged FRF and coherence").append("".join(frf_part))
+    page.section("provenance", "Provenance").append(
+        provenance([("recording", p.source, p.sha256)], dict(p.settings), p.version,
+                   p.generated)
+    )
+    return page.html()

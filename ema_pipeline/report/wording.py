@@ -1,0 +1,98 @@
+"""Words the reports and the console share: counts with the right plural, and
+the fit-quality verdict with its limits (the one home of those limits).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["FIT_LIMITS", "FitLimits", "fit_grade", "fit_limits_text", "fit_verdict", "plural"]
+
+
+def plural(n: int, word: str, many: str | None = None) -> str:
+    """``n`` and ``word``, plural unless ``n`` is 1.
+
+    Examples
+    --------
+    >>> plural(1, "mode"), plural(4, "mode"), plural(0, "file"), plural(2, "analysis", "analyses")
+    ('1 mode', '4 modes', '0 files', '2 analyses')
+    """
+    return f"{n} {word if n == 1 else many or word + 's'}"
+
+
+@dataclass(frozen=True)
+class FitLimits:
+    """Limits of the fit-quality verdict on the mean normalised fit error
+    ``||H - H_fit|| / ||H||`` of a configuration (or file), in per cent.
+
+    ``good_pct``: at most this is a good fit. Chosen on the paper's simulated
+    test (``ema-pipeline simulate``, genuine and larger tank, identified with
+    the defaults): noise-free 2.1-4.7 % (leakage and windows, not noise),
+    60 dB 2.6-4.7 %, 40 dB 5.6-7.0 %, 30 dB 8.8-9.7 %: a test with the right
+    modes and a usable signal stays below 10 %.
+    ``fair_pct``: above ``good_pct`` and at most this is fair (look at the fit
+    figure: more noise, leakage or a weak mode not modelled); above it the
+    synthesis misses a large part of the measured response (a mode missing or
+    wrong, or the band holds mostly noise): poor.
+    """
+
+    good_pct: float = 10.0
+    fair_pct: float = 20.0
+
+
+#: The limits every report and the console use (:func:`fit_verdict`).
+FIT_LIMITS = FitLimits()
+
+
+def fit_grade(error: float, limits: FitLimits = FIT_LIMITS) -> str:
+    """``"good"``, ``"fair"`` or ``"poor"`` for a mean fit error (a ratio), ``""`` if NaN.
+
+    Examples
+    --------
+    >>> fit_grade(0.059), fit_grade(0.117), fit_grade(0.3), fit_grade(float("nan"))
+    ('good', 'fair', 'poor', '')
+    """
+    if not math.isfinite(error):
+        return ""
+    pct = 100 * error
+    return "good" if pct <= limits.good_pct else "fair" if pct <= limits.fair_pct else "poor"
+
+
+def fit_limits_text(limits: FitLimits = FIT_LIMITS) -> str:
+    """The limits in words, printed beside every verdict.
+
+    Examples
+    --------
+    >>> fit_limits_text()
+    'fit: good if the mean error ||H - H_fit|| / ||H|| <= 10 %, fair <= 20 %, else poor'
+    """
+    return (f"fit: good if the mean error ||H - H_fit|| / ||H|| <= {limits.good_pct:g} %, "
+            f"fair <= {limits.fair_pct:g} %, else poor")
+
+
+def fit_verdict(error: float, limits: FitLimits = FIT_LIMITS) -> str:
+    """The verdict on a mean fit error (a ratio, 0.117 = 11.7 %), with the limit
+    it was judged against.
+
+    Examples
+    --------
+    >>> fit_verdict(0.059)
+    'good fit (error 5.9 % <= 10 %)'
+    >>> fit_verdict(0.15)
+    'fair fit (error 15.0 % > 10 %, <= 20 %): check the fit figure'
+    >>> fit_verdict(0.4)
+    'poor fit (error 40.0 % > 20 %): a mode may be missing or wrong'
+    >>> fit_verdict(float("nan"))
+    'fit not computed'
+    """
+    grade, pct = fit_grade(error, limits), 100 * error
+    if grade == "good":
+        return f"good fit (error {pct:.1f} % <= {limits.good_pct:g} %)"
+    if grade == "fair":
+        return (f"fair fit (error {pct:.1f} % > {limits.good_pct:g} %, <= {limits.fair_pct:g} %): "
+                "check the fit figure")
+    if grade == "poor":
+        return (f"poor fit (error {pct:.1f} % > {limits.fair_pct:g} %): a mode may be missing "
+                "or wrong")
+    return "fit not computed"
