@@ -739,6 +739,22 @@ class Beam:
     def second_moment_m4(self) -> float:
         return self.width_m * self.thickness_m**3 / 12.0
 
+    def measurement_geometry(self) -> Geometry:
+        """The measurement mesh as a :class:`Geometry`: nodes 1..n+1 along x (m),
+        y = z = 0, one trace line from the clamp to the tip.
+
+        Examples
+        --------
+        >>> g = Beam(length_m=1.0, n_elements=4, n_measurement_elements=2).measurement_geometry()
+        >>> g.node_ids.tolist(), g.xyz_m[:, 0].tolist(), g.lines
+        ([1, 2, 3], [0.0, 0.5, 1.0], ((1, 2, 3),))
+        """
+        ids = np.arange(1, self.n_measurement_elements + 2)
+        xyz = np.zeros((ids.size, 3))
+        xyz[:, 0] = (ids - 1) * self.length_m / self.n_measurement_elements
+        return Geometry(node_ids=ids, xyz_m=xyz, lines=(tuple(ids.tolist()),),
+                        source="the FE beam's measurement mesh")
+
     def node_x_m(self, node: int) -> float:
         """Position of measurement node ``node`` (1-based, node 1 at the clamp)."""
         n = self.n_measurement_elements

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ema_pipeline.data import Beam, DataError
+from ema_pipeline.data import Beam, DataError, Geometry
 
 if TYPE_CHECKING:  # pragma: no cover
     # type only: reading the experiment file (io) must not import the
@@ -81,6 +81,9 @@ class Experiment:
     n_modes: int = 4
     update_repeats: int = 5
     seed: int = 0
+    #: The test geometry of the ``[geometry]`` table (the report's animated shapes);
+    #: None: the report draws the FE beam's measurement mesh.
+    geometry: Geometry | None = None
 
     @property
     def genuine_name(self) -> str:

@@ -1,4 +1,6 @@
-"""Every ```python, ```bash and ```toml block of README.md runs (issue 14).
+"""Every ```python, ```bash and ```toml block of README.md and of the Markdown
+pages of the documentation (``docs/**/*.md``) runs (issues 14, 29; the
+tutorials of ``docs/tutorials_src`` run in the docs build, tests/test_docs.py).
 
 Each block runs on its own, as a reader would paste it, in a scratch copy of
 the repository (``raw_frf/`` copied, ``results/tables`` from the suite's run of
@@ -7,7 +9,7 @@ bash blocks with ``bash -e`` (``ema-pipeline`` and ``python`` are this
 interpreter, ``/tmp/`` is the scratch folder), TOML blocks are parsed (a
 complete experiment file is also read with :func:`ema_pipeline.io.read_experiment`).
 
-Convention, in README.md: an HTML comment on the line before the opening fence,
+Convention, in README.md and the docs pages: an HTML comment on the line before the opening fence,
 
 * ``<!-- readme-test: skip REASON -->`` skips the block with that reason (for
   installs, synopses with placeholders and minutes-long benchmarks);
@@ -35,6 +37,9 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 README = REPO / "README.md"
+DOCS = REPO / "docs"
+SOURCES = [README, *sorted(p for p in DOCS.rglob("*.md")
+                           if not {"_build", "tutorials"} & set(p.relative_to(DOCS).parts))]
 SHARED = REPO.parent / "shared"
 FENCE = re.compile(
     r"(?:<!--\s*readme-test:\s*(?P<directive>.*?)\s*-->\s*\n)?```(?P<lang>\w*)\n(?P<body>.*?)```",
@@ -42,13 +47,16 @@ FENCE = re.compile(
 )
 
 
-def _blocks() -> list[tuple[str, str, str, int]]:
-    text = README.read_text(encoding="utf-8")
+def _blocks() -> list[tuple[str, str, str, str]]:
+    """(language, body, directive, ``file:line``) of every block of SOURCES."""
     out = []
-    for m in FENCE.finditer(text):
-        if m.group("lang") in ("python", "bash", "toml"):
-            line = text[: m.start("body")].count("\n") + 1
-            out.append((m.group("lang"), m.group("body"), m.group("directive") or "", line))
+    for source in SOURCES:
+        text = source.read_text(encoding="utf-8")
+        for m in FENCE.finditer(text):
+            if m.group("lang") in ("python", "bash", "toml"):
+                line = text[: m.start("body")].count("\n") + 1
+                where = f"{source.relative_to(REPO)}:{line}"
+                out.append((m.group("lang"), m.group("body"), m.group("directive") or "", where))
     return out
 
 
@@ -78,31 +86,34 @@ def sandbox(tmp_path, request) -> Path:
 def test_readme_has_blocks_of_each_kind_and_skips_give_reasons():
     kinds = {lang for lang, *_ in BLOCKS}
     assert kinds == {"python", "bash", "toml"}
+    assert any(where.startswith("README.md") for *_, where in BLOCKS)
+    assert any(where.startswith("docs") for *_, where in BLOCKS)
     for _, body, directive, line in BLOCKS:
         if directive.startswith("reduce"):
             _, old, _new, *reason = shlex.split(directive)
-            assert old in body and len(" ".join(reason)) > 8, f"README.md:{line}: {directive!r}"
+            assert old in body and len(" ".join(reason)) > 8, f"{line}: {directive!r}"
         elif directive:
-            assert re.fullmatch(r"skip \S.{8,}", directive), f"README.md:{line}: {directive!r}"
+            assert re.fullmatch(r"skip \S.{8,}", directive), f"{line}: {directive!r}"
 
 
 @pytest.mark.parametrize(
-    ("lang", "body", "directive", "line"), BLOCKS, ids=[f"line{b[3]}-{b[0]}" for b in BLOCKS]
+    ("lang", "body", "directive", "line"), BLOCKS,
+    ids=[f"{b[3].removeprefix('docs/').replace('.md:', '-line')}-{b[0]}" for b in BLOCKS]
 )
 def test_readme_block_runs(lang, body, directive, line, sandbox, monkeypatch):
     if directive.startswith("skip"):
-        pytest.skip(f"README.md:{line}: {directive}")
+        pytest.skip(f"{line}: {directive}")
     if directive.startswith("reduce"):
         _, old, new, *_reason = shlex.split(directive)
         body = body.replace(old, new)
     if "../shared" in body and not SHARED.is_dir():
-        pytest.skip(f"README.md:{line} needs {SHARED}")
+        pytest.skip(f"{line} needs {SHARED}")
     monkeypatch.chdir(sandbox)
     scratch = sandbox.parent / "scratch"
     if lang == "python":
         namespace: dict[str, object] = {"__name__": "__readme__"}
         with contextlib.redirect_stdout(stdio.StringIO()):
-            exec(compile(body, f"README.md:{line}", "exec"), namespace)  # noqa: S102
+            exec(compile(body, line, "exec"), namespace)  # noqa: S102
     elif lang == "toml":
         doc = tomllib.loads(body)
         if "experiment" in doc:
@@ -121,4 +132,4 @@ def test_readme_block_runs(lang, body, directive, line, sandbox, monkeypatch):
         env = dict(os.environ, PYTHONPATH=str(REPO), MPLBACKEND="Agg")
         proc = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", script], cwd=sandbox,
                               env=env, capture_output=True, text=True, timeout=600)
-        assert proc.returncode == 0, f"README.md:{line}\n{script}\n{proc.stdout}\n{proc.stderr}"
+        assert proc.returncode == 0, f"{line}\n{script}\n{proc.stdout}\n{proc.stderr}"

@@ -28,8 +28,8 @@ from ema_pipeline.report import (
 from ema_pipeline.report.svg import envelope
 from ema_pipeline.report.tables import column_formatters
 
-SECTIONS = ["summary", "setup", "geometry", "frf", "stabilization", "modes", "mac", "shapes",
-            "fit", "tables", "provenance"]
+SECTIONS = ["summary", "setup", "geometry", "frf", "stabilization", "modes", "mac", "across",
+            "shapes", "fit", "tables", "provenance"]
 INPUTS = ["genuine.uff", "larger_tank.h5", "smaller_tank.uff"]
 
 
@@ -54,7 +54,7 @@ class _Page(HTMLParser):
             self.tables[-1].append([])
         elif tag in ("td", "th"):
             self._cell = []
-        elif tag == "svg":
+        elif tag == "svg" and a.get("class") != "shape":  # the figures, not the shape views
             self.svgs += 1
 
     def handle_endtag(self, tag):

@@ -155,10 +155,10 @@ def test_no_import_cycle_among_package_modules():
 # ------------------------------------------------------------------ layers
 def readme_layers(text: str) -> dict[str, int]:
     """Package or module (second name of ``ema_pipeline.X``, ``ema_pipeline`` for
-    the package itself) -> its layer, 0 the lowest, from README.md's block after
+    the package itself) -> its layer, 0 the lowest, from docs/architecture.md's block after
     ``<!-- import layers ... -->`` (one line per layer, top to bottom)."""
     match = re.search(r"<!-- import layers[^>]*-->\s*```text\n(.*?)```", text, re.S)
-    assert match, "README.md: no '<!-- import layers -->' block"
+    assert match, "docs/architecture.md: no '<!-- import layers -->' block"
     lines = [line for line in match.group(1).splitlines() if line.strip()]
     return {name.strip(): len(lines) - 1 - k
             for k, line in enumerate(lines) for name in line.split(",")}
@@ -232,9 +232,9 @@ def test_layer_check_sees_an_upward_import_in_a_function(tmp_path):
 
 
 def test_every_import_goes_down_the_readme_layers():
-    """README.md's layer order holds for every import of the package, function-level
+    """docs/architecture.md's layer order holds for every import of the package, function-level
     and type-only imports included; every package and module has a layer."""
-    layers = readme_layers((REPO / "README.md").read_text(encoding="utf-8"))
+    layers = readme_layers((REPO / "docs" / "architecture.md").read_text(encoding="utf-8"))
     modules = package_modules()
     assert {group(name) for name in modules} <= set(layers), "a package missing in README layers"
     assert layer_violations(modules, layers) == []

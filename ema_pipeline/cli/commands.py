@@ -22,7 +22,7 @@ if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
 
     from ema_pipeline.acquisition import TestSetup
-    from ema_pipeline.data import ModalParameters
+    from ema_pipeline.data import Geometry, ModalParameters
     from ema_pipeline.experiment import Experiment
     from ema_pipeline.identification.options import IdentificationOptions
 
@@ -222,6 +222,14 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
     )
 
 
+def _geometry(args: argparse.Namespace) -> Geometry | None:
+    """``--geometry FILE``: the geometry read now (a bad file exits with 2), or None."""
+    from ema_pipeline import io
+
+    path = getattr(args, "geometry", None)
+    return None if path is None else io.read_geometry(path)
+
+
 def cmd_identify(args: argparse.Namespace) -> int:
     """``identify``: modal parameters of each FRF file, one after the other."""
     from ema_pipeline.pipeline.single import identify_file
@@ -229,6 +237,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
     options = _identify_options(args)
     check_output_dir(args.out, "--out")
+    geometry = _geometry(args)
     failed = runtime = 0
     for path in args.files:
         outcome = identify_file(path, args.out, options, keep=args.report, uff=args.uff)
@@ -237,13 +246,14 @@ def cmd_identify(args: argparse.Namespace) -> int:
             runtime += outcome.runtime
             print(f"ema-pipeline identify: error: {outcome.reason}", file=sys.stderr)
             continue
-        for warning in outcome.warnings:  # shown even with --quiet
-            print(f"ema-pipeline identify: warning: {warning}", file=sys.stderr)
         page = None
         if args.report:
             from ema_pipeline.pipeline.reports import write_identify_report
 
-            page = write_identify_report(outcome, args.out, options, figures=not args.no_figures)
+            page = write_identify_report(outcome, args.out, options, figures=not args.no_figures,
+                                         geometry=geometry)
+        for warning in outcome.warnings:  # shown even with --quiet
+            print(f"ema-pipeline identify: warning: {warning}", file=sys.stderr)
         if not args.quiet:
             freqs = ", ".join(f"{f:.3f}" for f in outcome.fn_hz)
             print(
@@ -307,6 +317,11 @@ def cmd_run(args: argparse.Namespace) -> int:
     check_output_dir(args.results, "--results")
     _memory_limit(args)
     experiment = study.load_experiment(experiment_path)
+    geometry = _geometry(args)  # --geometry: the report's wireframe instead of [geometry]
+    if geometry is not None:
+        import dataclasses
+
+        experiment = dataclasses.replace(experiment, geometry=geometry)
     hits: dict = {}  # hit tables of configurations measured as raw recordings
     frfs = study.prepare_study(experiment, experiment_path, hits=hits)  # inputs checked: exit 2
 

@@ -184,6 +184,17 @@ def _add_uff_and_verbose(p: argparse.ArgumentParser, where: str) -> None:
     )
 
 
+def _add_geometry(p: argparse.ArgumentParser, what: str) -> None:
+    p.add_argument(
+        "--geometry",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help=f"test geometry (UFF datasets 15 or 2411 with nodes, 82 with trace lines) to "
+        f"animate the mode shapes on in {what}; default: the geometry in the FRF file",
+    )
+
+
 def _add_no_figures(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--no-figures",
@@ -289,6 +300,7 @@ def build_parser() -> argparse.ArgumentParser:
         "stabilization, modes with MPC, AutoMAC, shapes, fit, provenance)",
     )
     _add_no_figures(p)
+    _add_geometry(p, "the report")
     _add_identify_options(p)
     _add_uff_and_verbose(p, "DIR/<stem>_modes.uff")
     p.set_defaults(func=cmd_identify)
@@ -362,6 +374,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="print only problems")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     _add_no_figures(p)
+    _add_geometry(p, "the report (default: the experiment's [geometry], else its FE beam)")
     _add_memory_limit(p)
     _add_uff_and_verbose(p, "RESULTS/modes/<configuration>.uff (with the beam's node coordinates)")
     p.set_defaults(func=cmd_run)

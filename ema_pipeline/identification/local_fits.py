@@ -32,7 +32,7 @@ from ema_pipeline.identification.local_band import (
     pole_jacobian,
     scaled_solve,
 )
-from ema_pipeline.identification.refine import vp_solve
+from ema_pipeline.identification.refine import vp_covariance, vp_fit
 from ema_pipeline.identification.thresholds import SelectionThresholds
 
 
@@ -216,18 +216,19 @@ def split_fit(
     if local is None:
         return None
     f, Y, members, background, k, _ = local
+    # the covariance of the better split only (vp_covariance: the fit without
+    # the extra pole and the worse split need none)
     fits = []
     try:
-        _, _, s_a, _ = vp_solve(f, Y, poles[members], background, 10, window_tau_s,
-                                 force_window_s)
+        s_a = vp_fit(f, Y, poles[members], background, 10).noise_std
         for side in (1.0, -1.0):
             start = np.append(poles[members], poles[r] + side * 1j * abs(poles[r].real))
-            lam, Finv, s_b, _ = vp_solve(f, Y, start, background, 20, window_tau_s,
-                                          force_window_s)
-            fits.append((float(np.mean(s_b**2) / np.mean(s_a**2)), lam, Finv))
+            fit = vp_fit(f, Y, start, background, 20)
+            fits.append((float(np.mean(fit.noise_std**2) / np.mean(s_a**2)), fit))
+        ratio, best = min(fits, key=lambda fit: fit[0])
+        lam, Finv = best.lam, vp_covariance(best, window_tau_s, force_window_s)
     except (np.linalg.LinAlgError, ValueError):
         return None
-    ratio, lam, Finv = min(fits, key=lambda fit: fit[0])
     j = lam.size - 1
     cov = np.stack([Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2], Finv[2 * j :, 2 * j :]])
     return SplitFit(pole=lam[[k, j]], cov=cov, residual_ratio=ratio)

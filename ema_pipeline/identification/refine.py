@@ -39,6 +39,7 @@ from ema_pipeline.identification.local_band import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.identification.uncertainty import (
+    ToeplitzKernel,
     correlated_information,
     correlated_leverage,
     exponential_window_correlation,
@@ -212,7 +213,8 @@ def vp_covariance(
         # it spans about 1/(pi tau df) lines, as wide as a resonance that the
         # window dominates: the fit takes up more of that noise than lev
         # says. The part proportional to |H| (with a force window) keeps lev.
-        lev_w = correlated_leverage(Qm, Jp, Finv, rho_w)
+        kernel_w = ToeplitzKernel(rho_w, n)  # one spectrum for the three products
+        lev_w = correlated_leverage(Qm, Jp, Finv, rho_w, kernel_w)
         if force_window_s:
             _, frac_b = noise_model(Rw / u[:, None], Y, n_lin, with_fraction=True, leverage=lev)
             beta = np.concatenate([frac_b, frac_b], axis=0)
@@ -231,7 +233,7 @@ def vp_covariance(
         # the exponential window; the part proportional to |H| (force noise,
         # dH = -H dF/F) that of the force window
         beta = frac_b if force_window_s else np.zeros_like(frac_b)
-        G = correlated_information(Jc * np.sqrt(1 - beta)[:, None, :], rho_w)
+        G = correlated_information(Jc * np.sqrt(1 - beta)[:, None, :], rho_w, kernel_w)
         if force_window_s:
             Hm = Y - Rw / sq[None, :] / u[:, None]  # the fitted model
             h = Hm[:n] + 1j * Hm[n:]
@@ -317,6 +319,27 @@ def refine_poles(
     """
     th = thresholds or SelectionThresholds()
     half_width = th.local_half_width if half_width is None else half_width
+    return _refine(freq_hz, H, poles, half_width, max_iter, quantity, window_tau_s,
+                   force_window_s, th, covariance=True)
+
+
+def _refine(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    poles: np.ndarray,
+    half_width: float,
+    max_iter: int,
+    quantity: str | None,
+    window_tau_s: float | None,
+    force_window_s: float | None,
+    th: SelectionThresholds,
+    covariance: bool,
+) -> RefinedPoles:
+    """:func:`refine_poles`; without ``covariance`` the poles only (cov NaN):
+    :func:`band_sensitivity` needs no covariance of its narrower fits, which
+    saves the sandwich of :func:`vp_covariance` on every mode. A refinement
+    that wanders off gets the covariance of its start pole only, not also
+    that of the discarded fit."""
     min_lines, max_shift = th.local_min_lines, th.refine_max_shift
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
@@ -335,18 +358,18 @@ def refine_poles(
             continue
         f, Y, members, background, k, band = local
         bands[r] = band
-        lam, Finv, s, it = vp_solve(f, Y, poles[members], background, max_iter,
-                                     window_tau_s, force_window_s)
-        lam_r = lam[k]
+        fit = vp_fit(f, Y, poles[members], background, max_iter)
+        lam_r = fit.lam[k]
         if abs(lam_r - poles[r]) > max_shift * abs(poles[r].real) + 2 * np.pi * df:
             # refinement wandered off: keep the start pole, covariance there
-            lam, Finv, s, it = vp_solve(f, Y, poles[members], background, 0, window_tau_s,
-                                         force_window_s)
+            fit = vp_fit(f, Y, poles[members], background, 0)
             lam_r = poles[r]
         out[r] = lam_r
-        cov[r] = Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
-        noise[r] = np.sqrt(np.mean(s**2, axis=0))
-        iters[r] = it
+        if covariance:
+            Finv = vp_covariance(fit, window_tau_s, force_window_s)
+            cov[r] = Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
+        noise[r] = np.sqrt(np.mean(fit.noise_std**2, axis=0))
+        iters[r] = fit.n_iter
     return RefinedPoles(pole=out, cov=cov, noise_std=noise, band_hz=bands, n_iter=iters)
 
 
@@ -388,9 +411,9 @@ def band_sensitivity(
     """
     th = thresholds or SelectionThresholds()
     half_width = th.local_half_width / 2 if half_width is None else half_width
-    other = refine_poles(freq_hz, H, poles, half_width=half_width, quantity=quantity,
-                         window_tau_s=window_tau_s, force_window_s=force_window_s,
-                         thresholds=th)
+    # the poles only: the narrower fit's covariance is not used
+    other = _refine(freq_hz, H, poles, half_width, 10, quantity, window_tau_s, force_window_s,
+                    th, covariance=False)
     d = np.stack([other.pole.real - poles.real, poles.imag - other.pole.imag], axis=1)
     d = np.nan_to_num(d)
     return d[:, :, None] * d[:, None, :] / 4.0

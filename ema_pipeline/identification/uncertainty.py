@@ -198,7 +198,8 @@ def rect_window_correlation(length_df: float, n_lags: int) -> np.ndarray:
     return np.asarray(np.exp(1j * np.pi * x) * np.sinc(x))
 
 
-def correlated_information(Jc: np.ndarray, rho: np.ndarray) -> np.ndarray:
+def correlated_information(Jc: np.ndarray, rho: np.ndarray,
+                           kernel: ToeplitzKernel | None = None) -> np.ndarray:
     """G = Re(Jc^H P Jc) summed over channels, P[k, k+l] = rho_l (Hermitian Toeplitz).
 
     ``Jc`` (n, n_par, n_ch) is the complex form (real part rows + 1j imaginary
@@ -206,7 +207,8 @@ def correlated_information(Jc: np.ndarray, rho: np.ndarray) -> np.ndarray:
     least-squares estimate has the sandwich covariance F^-1 G F^-1 with
     F = Re(Jc^H Jc) when the complex noise is circular with line correlation
     ``rho`` (for rho = [1] G = F). G = F + sum_l (Re(rho_l S_l) + Re(rho_l S_l)^T),
-    S_l = sum_k Jc_k^H Jc_(k+l).
+    S_l = sum_k Jc_k^H Jc_(k+l). ``kernel``: the :class:`ToeplitzKernel` of
+    ``rho`` for n lines, when the caller has it.
 
     Examples
     --------
@@ -216,33 +218,82 @@ def correlated_information(Jc: np.ndarray, rho: np.ndarray) -> np.ndarray:
     """
     n, n_par, n_ch = Jc.shape
     X = Jc.reshape(n, n_par * n_ch)
-    PX = toeplitz_apply(X, rho)
+    PX = toeplitz_apply(X, rho if kernel is None else kernel)
     G = np.real(np.conj(X).reshape(n, n_par, n_ch).transpose(1, 0, 2).reshape(n_par, -1)
                 @ PX.reshape(n, n_par, n_ch).transpose(0, 2, 1).reshape(-1, n_par))
     return np.asarray(0.5 * (G + G.T))
 
 
-def toeplitz_apply(X: np.ndarray, rho: np.ndarray) -> np.ndarray:
+def toeplitz_apply(X: np.ndarray, rho: np.ndarray | ToeplitzKernel) -> np.ndarray:
     """P X for the Hermitian Toeplitz P[k, k+l] = rho_l (conj(rho_l) below the
     diagonal; lags beyond ``rho`` are zero), X (n, p) complex, by FFT.
+    ``rho`` may be a :class:`ToeplitzKernel` of it for n lines (its spectrum
+    computed once for several products).
 
     Examples
     --------
-    >>> toeplitz_apply(np.ones((3, 1), complex), np.array([1.0, 0.5j]))[:, 0].tolist()
+    >>> toeplitz_apply(np.ones((3, 1), complex), np.array([1.0, 0.5j]))[:, 0].round(12).tolist()
     [(1+0.5j), (1+0j), (1-0.5j)]
     """
-    n = X.shape[0]
-    L = min(rho.size, n)
-    # (P X)_k = sum_d h_d X_(k+d), h_d = rho_d (d >= 0), conj(rho_-d) (d < 0):
-    # a convolution with the reversed kernel (O(n log n) for any L)
-    from scipy.signal import fftconvolve  # here, not at the top: see the module docstring
+    kernel = rho if isinstance(rho, ToeplitzKernel) else ToeplitzKernel(rho, X.shape[0])
+    return kernel.apply(X)
 
-    g = np.concatenate([rho[L - 1 : 0 : -1], np.conj(rho[:L])])
-    return np.asarray(fftconvolve(X, g[:, None], mode="full", axes=0)[L - 1 : L - 1 + n])
+
+class ToeplitzKernel:
+    """The FFT of the convolution kernel of :func:`toeplitz_apply` for ``n``
+    lines, computed once for all the products with one correlation ``rho``.
+
+    (P X)_k = sum_d h_d X_(k+d), h_d = rho_d (d >= 0), conj(rho_-d) (d < 0):
+    a convolution with the reversed kernel, O(n log n) for any number of
+    lags. The arithmetic is that of ``scipy.signal.fftconvolve`` (the same
+    FFT length and the same products, so the same numbers) without
+    importing ``scipy.signal`` (0.7 s of start-up through ``scipy.stats``)
+    and without transforming the kernel again for every product (the
+    correlated leverage and information of one local fit apply one
+    correlation three times).
+
+    Examples
+    --------
+    >>> k = ToeplitzKernel(np.array([1.0, 0.5j]), 3)
+    >>> k.apply(np.ones((3, 1), complex))[:, 0].round(12).tolist()
+    [(1+0.5j), (1+0j), (1-0.5j)]
+    """
+
+    def __init__(self, rho: np.ndarray, n: int) -> None:
+        self.n = int(n)
+        self.lags = min(rho.size, self.n)
+        L = self.lags
+        self.g = np.concatenate([rho[L - 1 : 0 : -1], np.conj(rho[:L])])
+        self._spectra: dict[bool, tuple[int, np.ndarray]] = {}
+
+    def _spectrum(self, complex_result: bool) -> tuple[int, np.ndarray]:
+        """FFT length and the kernel's spectrum for a complex or real product."""
+        if complex_result not in self._spectra:
+            from scipy import fft  # here, not at the top: see the module docstring
+
+            size = fft.next_fast_len(self.n + self.g.size - 1, not complex_result)
+            spec = fft.fft(self.g, size) if complex_result else fft.rfft(self.g, size)
+            self._spectra[complex_result] = (size, spec)
+        return self._spectra[complex_result]
+
+    def apply(self, X: np.ndarray) -> np.ndarray:
+        """P X, X (n, p)."""
+        from scipy import fft  # here, not at the top: see the module docstring
+
+        if X.shape[0] != self.n:
+            raise ValueError(f"ToeplitzKernel for {self.n} lines applied to {X.shape[0]}")
+        complex_result = bool(np.iscomplexobj(self.g) or np.iscomplexobj(X))
+        size, spec = self._spectrum(complex_result)
+        if complex_result:
+            out = fft.ifft(fft.fft(X, size, axis=0) * spec[:, None], size, axis=0)
+        else:
+            out = fft.irfft(fft.rfft(X, size, axis=0) * spec[:, None], size, axis=0)
+        L = self.lags
+        return np.asarray(out[L - 1 : L - 1 + self.n])
 
 
 def correlated_leverage(Q: np.ndarray, J: np.ndarray, Finv: np.ndarray,
-                        rho: np.ndarray) -> np.ndarray:
+                        rho: np.ndarray, kernel: ToeplitzKernel | None = None) -> np.ndarray:
     """Share of the noise variance that a least-squares fit takes up at each
     line when the noise of lines l apart correlates as ``rho``.
 
@@ -253,7 +304,7 @@ def correlated_leverage(Q: np.ndarray, J: np.ndarray, Finv: np.ndarray,
     J_c)^-1. Its residual of channel c is e_c = (I - Q Q^T) u_c - J_c Finv
     sum_c' J_c'^T u_c'. For circular complex noise u_c of covariance S (the
     Hermitian Toeplitz matrix of ``rho``, halved onto the real and imaginary
-    parts), independent between channels,
+    parts), independent between channels::
 
         diag Cov(e_c) = diag((I - QQ^T) S (I - QQ^T))
                         - 2 diag((I - QQ^T) S J_c Finv J_c^T)
@@ -263,7 +314,10 @@ def correlated_leverage(Q: np.ndarray, J: np.ndarray, Finv: np.ndarray,
     :func:`noise_model` takes as ``leverage``. For independent lines
     (rho = [1]) it is the leverage diag(Q Q^T + J_c Finv J_c^T). Noise that is
     correlated over a resonance's width looks like a change of that
-    resonance, and the fit takes up more of it.
+    resonance, and the fit takes up more of it. ``kernel``: the
+    :class:`ToeplitzKernel` of ``rho`` for n lines, when the caller has it;
+    S Q and S J are one FFT product (one kernel spectrum, one transform of
+    all their columns).
 
     Examples
     --------
@@ -275,13 +329,12 @@ def correlated_leverage(Q: np.ndarray, J: np.ndarray, Finv: np.ndarray,
     [1.0, 1.0, 1.0, 1.0]
     """
     n = Q.shape[0] // 2
-
-    def apply_s(X: np.ndarray) -> np.ndarray:  # S X for real-stacked columns
-        PX = 0.5 * toeplitz_apply(X[:n] + 1j * X[n:], rho)
-        return np.concatenate([PX.real, PX.imag], axis=0)
-
-    SQ = apply_s(Q)
-    SJ = apply_s(J.reshape(2 * n, -1)).reshape(J.shape)
+    # S [Q, J] for real-stacked columns, in one product
+    QJ = np.concatenate([Q, J.reshape(2 * n, -1)], axis=1)
+    PX = 0.5 * toeplitz_apply(QJ[:n] + 1j * QJ[n:], rho if kernel is None else kernel)
+    SX = np.concatenate([PX.real, PX.imag], axis=0)
+    SQ = SX[:, : Q.shape[1]]
+    SJ = SX[:, Q.shape[1] :].reshape(J.shape)
     JF = np.einsum("kic,ij->kjc", J, Finv)
     d = 0.5 * float(np.real(rho[0]))
     linear = d - 2 * np.sum(Q * SQ, axis=1) + np.sum((Q @ (Q.T @ SQ)) * Q, axis=1)

@@ -32,6 +32,12 @@ from ema_pipeline.io.files import (
     write_csv,
     write_text,
 )
+from ema_pipeline.io.geometry import (
+    geometry_from_table,
+    read_geometry,
+    read_geometry_uff,
+    write_geometry_uff,
+)
 from ema_pipeline.io.hdf5 import (
     FORK_SAFE_THREAD_NAME,
     HDF5_SUFFIXES,
@@ -217,6 +223,7 @@ __all__ = [
     "find_frf_files",
     "frf_format",
     "frf_format_for_writing",
+    "geometry_from_table",
     "open_regular",
     "parse_unit_label",
     "read_csv",
@@ -226,6 +233,8 @@ __all__ = [
     "read_frf_group",
     "read_frf_h5",
     "read_frf_uff",
+    "read_geometry",
+    "read_geometry_uff",
     "read_results_h5",
     "read_recording",
     "read_time_uff",
@@ -240,6 +249,7 @@ __all__ = [
     "write_frf_group",
     "write_frf_h5",
     "write_frf_uff",
+    "write_geometry_uff",
     "write_modes_uff",
     "write_results_h5",
     "write_text",

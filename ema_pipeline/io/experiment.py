@@ -32,6 +32,7 @@ from typing import TYPE_CHECKING, Any
 from ema_pipeline.data import Beam, DataError
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.io.files import check_readable
+from ema_pipeline.io.geometry import geometry_from_table
 
 if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.options import IdentificationOptions
@@ -341,7 +342,7 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
         raise DataError(f"{path}: not valid TOML ({exc})") from exc
     except OSError as exc:
         raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from exc
-    known = [*SCHEMA, "configurations"]
+    known = [*SCHEMA, "configurations", "geometry"]
     for key in doc:
         if key not in known:
             raise DataError(f"{path}: [{key}]: unknown table{_hint(key, known)}")
@@ -405,7 +406,13 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
                 )
     if len(set(response_nodes)) != len(response_nodes):
         raise DataError(f"{path}: [sensors] response_nodes: nodes repeat: {list(response_nodes)}")
+    geometry = None
+    if "geometry" in doc:  # nodes, trace lines, surfaces (io.geometry.geometry_from_table)
+        if not isinstance(doc["geometry"], dict):
+            raise DataError(f"{path}: [geometry] must be a table")
+        geometry = geometry_from_table(doc["geometry"], str(path), path.parent)
     experiment = Experiment(
+        geometry=geometry,
         name=t["experiment"].get("name", path.stem),
         beam=beam,
         configurations=tuple(specs),

@@ -166,19 +166,19 @@ def _record_dofs(rec: Record58) -> tuple[DOF, DOF, int]:
     return rsp, ref, s1 * s2
 
 
-def _negative_directions(records: Sequence[Record58]) -> dict[str, str]:
-    """``response_negative`` / ``reference_negative`` of the AcquisitionInfo: the
+def _negative_directions(records: Sequence[Record58]) -> tuple[str, str]:
+    """``response_negative``, ``reference_negative`` of the AcquisitionInfo: the
     labels (``3-Z``) of the DOFs the records store with a negative direction."""
-    out = {}
-    for role, key in (("rsp", "response_negative"), ("ref", "reference_negative")):
+    out = []
+    for role in ("rsp", "ref"):
         labels: dict[str, None] = {}
         for rec in records:
             dof, sign = _dof(getattr(rec, f"{role}_node"), getattr(rec, f"{role}_dir"),
                              getattr(rec, f"{role}_name"))
             if sign < 0:
                 labels[DOF(dof.node, -dof.direction).label()] = None
-        out[key] = " ".join(labels)
-    return out
+        out.append(" ".join(labels))
+    return out[0], out[1]
 
 
 def _label_unit(path: Path, rec: Record58, label: str, what: str) -> Unit:
@@ -379,7 +379,9 @@ def read_frf_uff(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
             response_window="exponential" if meta.get("tau", "none") != "none" else "none",
             estimator=meta.get("est", "H1"),
         )
-    info = replace(info, **_negative_directions(frf_recs))
+    response_negative, reference_negative = _negative_directions(frf_recs)
+    info = replace(info, response_negative=response_negative,
+                   reference_negative=reference_negative)
     return FRFSet(
         freq_hz=freq,
         H=H,

@@ -15,11 +15,13 @@ import numpy as np
 import pandas as pd
 
 from ema_pipeline import __version__, io
-from ema_pipeline.data import DataError
+from ema_pipeline.data import DataError, Geometry
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.pipeline.single import FileOutcome
 
 __all__ = [
+    "file_geometry",
+    "geometry_warnings",
     "identify_report_path",
     "options_text",
     "report_date",
@@ -48,15 +50,42 @@ def identify_report_path(path: str | Path, out_dir: str | Path) -> Path:
     return Path(out_dir) / f"{Path(path).stem}_report.html"
 
 
+def file_geometry(path: str | Path, geometry: Geometry | None = None) -> Geometry | None:
+    """The geometry to draw a file's modes on: ``geometry`` (``--geometry``) when
+    given, else the nodes and trace lines of the FRF file itself (UFF datasets
+    15/2411 and 82), else None."""
+    if geometry is not None:
+        return geometry
+    if io.frf_format(path) != "uff":
+        return None
+    return io.read_geometry_uff(path)
+
+
+def geometry_warnings(outcome: FileOutcome, geometry: Geometry | None) -> list[str]:
+    """One warning naming the measured DOFs of ``outcome`` that have no node in
+    ``geometry`` (drawn nowhere; the report lists them too), or none."""
+    if geometry is None or outcome.result is None:
+        return []
+    missing = geometry.map_dofs(outcome.result.modes.dofs).missing
+    if not missing:
+        return []
+    return [f"{outcome.path}: DOF(s) {', '.join(d.label() for d in missing)} have no node in "
+            f"the geometry ({geometry.source or 'given'}); their shape values are not drawn"]
+
+
 def write_identify_report(
     outcome: FileOutcome, out_dir: str | Path, options: IdentificationOptions, *,
-    figures: bool = True,
+    figures: bool = True, geometry: Geometry | None = None,
 ) -> Path:
-    """Write the report page of one identified file (``identify_file(..., keep=True)``)."""
+    """Write the report page of one identified file (``identify_file(..., keep=True)``),
+    its modes animated on ``geometry`` or on the file's own (:func:`file_geometry`);
+    DOFs without a node are added to ``outcome.warnings``."""
     from ema_pipeline.report import render_identify_html
 
     if outcome.frf is None or outcome.result is None:
         raise DataError(f"{outcome.path}: no identification result to report")
+    geometry = file_geometry(outcome.path, geometry)
+    outcome.warnings.extend(geometry_warnings(outcome, geometry))
     settings = options_text(options)
     settings["identification.resolved"] = (
         f"method {outcome.result.settings.method}, band {outcome.result.settings.band_hz} Hz, "
@@ -64,7 +93,7 @@ def write_identify_report(
     )
     page = render_identify_html(
         outcome.frf, outcome.result, settings=settings, version=__version__,
-        generated=report_date(), figures=figures,
+        generated=report_date(), figures=figures, geometry=geometry,
     )
     return io.write_text(page, identify_report_path(outcome.path, out_dir))
 

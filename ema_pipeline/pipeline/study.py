@@ -373,10 +373,48 @@ def report_input(result: StudyResult, experiment_file: str | os.PathLike[str] | 
         ),
         inputs=inputs,
         hits=result.hits,
+        test_geometry=exp.geometry or exp.beam.measurement_geometry(),
+        shape_sets=_expanded_shapes(result, fe_x, fe_shapes),
         settings=_settings_text(exp),
         version=__version__,
         generated=report_date(),
     )
+
+
+def _expanded_shapes(
+    result: StudyResult, fe_x: np.ndarray | None, fe_shapes: np.ndarray | None
+) -> dict[str, Any]:
+    """The report's animated shapes on the beam's measurement mesh when the
+    experiment gives no ``[geometry]``: each measured mode is the updated FE mode
+    paired with it (``added_mass.modal.pair_modes``, by frequency) scaled by least
+    squares to the measured values, which replace it at the sensors. With a
+    few sensors on a cantilever this draws the whole beam instead of a tip at
+    rest; the sensors are drawn as measured, the other nodes as not measured."""
+    from ema_pipeline.added_mass.modal import pair_modes
+    from ema_pipeline.report.shape_views import ModeSet
+
+    exp = result.experiment
+    if exp.geometry is not None or fe_x is None or fe_shapes is None or result.fe is None:
+        return {}
+    n_meas = exp.beam.n_measurement_elements
+    at_nodes = fe_shapes[np.searchsorted(fe_x, np.arange(n_meas + 1) / n_meas - 1e-9)]
+    fe_fn = np.asarray(result.fe.fn_updated_hz, dtype=float)[: at_nodes.shape[1]]
+    dofs = tuple(DOF(n, exp.direction) for n in range(1, n_meas + 2))
+    out = {}
+    for name, r in result.identification.items():
+        m = r.modes
+        rows = [d.node - 1 for d in m.dofs]
+        if m.shapes is None or any(not 0 <= k <= n_meas for k in rows):
+            continue
+        partner, _ = pair_modes(m.fn_hz, fe_fn)
+        full = np.zeros((n_meas + 1, m.n_modes), dtype=complex)
+        for k, j in enumerate(partner):
+            if j >= 0:
+                psi = at_nodes[:, j]
+                full[:, k] = psi * (psi[rows] @ m.shapes[:, k]) / (psi[rows] @ psi[rows])
+            full[rows, k] = m.shapes[:, k]
+        out[name] = ModeSet(m.fn_hz, m.zeta, full, dofs, measured=tuple(m.dofs))
+    return out
 
 
 def _settings_text(exp: Experiment) -> dict[str, str]:

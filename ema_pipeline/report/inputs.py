@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from ema_pipeline.data import FRFSet
+from ema_pipeline.data import FRFSet, Geometry
 
 __all__ = ["BatchReportInput", "BeamSetup", "ReportInput"]
 
@@ -72,6 +72,11 @@ class ReportInput:
     version: str = ""
     generated: str = ""
     hits: dict[str, pd.DataFrame] = field(default_factory=dict)
+    #: The wireframe the modes are animated on, and per configuration the shapes
+    #: to animate (:class:`~ema_pipeline.report.shape_views.ModeSet`; default: the
+    #: identified shapes at the measured DOFs).
+    test_geometry: Geometry | None = None
+    shape_sets: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass

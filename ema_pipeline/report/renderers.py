@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from ema_pipeline.added_mass.modal import pair_modes as pair_configurations
 from ema_pipeline.data import FRFSet, Geometry
 from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.report import figures as figs
@@ -28,6 +29,7 @@ from ema_pipeline.report.inputs import BatchReportInput, ReportInput
 from ema_pipeline.report.page_figures import identification_figures, safe_name
 from ema_pipeline.report.result_tables import (
     COLUMN_TITLES,
+    cross_mac_html,
     fit_table,
     mac_section,
     mode_table,
@@ -35,7 +37,11 @@ from ema_pipeline.report.result_tables import (
     report_tables,
     setup_table,
 )
-from ema_pipeline.report.shape_views import ModeSet, shape_views_html
+from ema_pipeline.report.shape_views import (
+    ModeSet,
+    paired_shape_views_html,
+    shape_views_html,
+)
 from ema_pipeline.report.tables import TABLE_TITLES, html_table, markdown_table
 from ema_pipeline.report.trends import PAIRING, pair_modes
 from ema_pipeline.report.wording import fit_grade, fit_limits_text, fit_verdict, plural
@@ -132,6 +138,45 @@ def _doubtful_note(results: Iterable[Any]) -> str:
             "Identification).</p>")
 
 
+def _mode_set(report: ReportInput, result: Any) -> ModeSet:
+    """The shapes to animate of one configuration: the pipeline's (expanded) set
+    when given, else the identified shapes at the measured DOFs."""
+    for name, r in report.identification.items():
+        if r is result and name in report.shape_sets:
+            return report.shape_sets[name]
+    m = result.modes
+    return ModeSet(m.fn_hz, m.zeta, m.shapes, m.dofs)
+
+
+def _across(report: ReportInput, *, shapes: bool = True) -> str:
+    """The MAC of every configuration against the reference one, and the animated
+    shapes paired by frequency and MAC (``added_mass.modal.pair_modes``, as Table 2)."""
+    ref = report.identification[report.genuine]
+    out = [
+        f'<p>Each configuration\'s modes against those of the reference configuration '
+        f"<b>{esc(report.genuine)}</b>: MAC (<code>ema_pipeline.modal.mac</code>; "
+        "rows: reference modes) and, below, the shapes side by side, paired by frequency "
+        "and MAC as in Table 2.</p>",
+        cross_mac_html(report.identification, report.genuine),
+    ]
+    if report.test_geometry is None or not shapes:
+        return "".join(out)
+    order = [report.genuine, *[n for n in report.identification if n != report.genuine]]
+    pairs: dict[str, list[int]] = {}
+    for name in order[1:]:
+        r = report.identification[name]
+        same = r.modes.dofs == ref.modes.dofs
+        partner, _ = pair_configurations(
+            ref.modes.fn_hz, r.modes.fn_hz,
+            shapes_a=ref.modes.shapes if same else None,
+            shapes_b=r.modes.shapes if same else None,
+        )
+        pairs[name] = [int(j) for j in partner]
+    sets = {name: _mode_set(report, report.identification[name]) for name in order}
+    out.append(paired_shape_views_html(report.test_geometry, sets, pairs, report.genuine))
+    return "".join(out)
+
+
 def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
     """The self-contained HTML study report; ``figures`` from :func:`make_figures`
     (``None``: drawn without figures)."""
@@ -177,9 +222,17 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
             sec.append(f"<h3>{esc(name)}</h3>" + mode_table_html(r))
         sec.append(_doubtful_note(report.identification.values()))
         page.section("mac", "AutoMAC").append(
-            mac_section(report.identification, report.genuine)
+            mac_section(report.identification, report.genuine, cross=False)
         )
+        if len(report.identification) > 1 and report.genuine in report.identification:
+            page.section("across", "Modes across configurations").append(
+                _across(report, shapes=figures is not None)
+            )
         sec = page.section("shapes", "Mode shapes")
+        if (figures is not None and report.test_geometry is not None
+                and len(report.identification) <= 1):
+            for r in report.identification.values():
+                sec.append(shape_views_html(report.test_geometry, _mode_set(report, r)))
         sec.append(no_figures(figures))
         if "mode_shapes" in fg:
             sec.append(figure("mode_shapes", fg, "Measured mode shapes at the sensors vs "
@@ -292,7 +345,7 @@ def render_identify_html(
     )
     page.section("mac", "AutoMAC").append(mac_section({name: result}, name))
     sec = page.section("shapes", "Mode shapes")
-    if geometry is not None and m.shapes is not None:
+    if figures and geometry is not None and m.shapes is not None:
         sec.append(shape_views_html(geometry, ModeSet(m.fn_hz, m.zeta, m.shapes, m.dofs)))
     sec.append(no + figure("shapes_one", fg, "Real-normalised mode shapes at the measured DOFs"))
     sec = page.section("fit", "Measured vs synthesised FRFs")

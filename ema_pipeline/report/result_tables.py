@@ -14,8 +14,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from ema_pipeline.data import FRFSet
+from ema_pipeline.data import DOF, FRFSet
 from ema_pipeline.modal import mac
+from ema_pipeline.report.htmlparts import esc
 from ema_pipeline.report.inputs import BeamSetup, ReportInput
 from ema_pipeline.report.tables import (
     TABLE_TITLES,
@@ -24,11 +25,15 @@ from ema_pipeline.report.tables import (
     html_table,
 )
 
+#: What the test setup table says of a field the FRF file does not hold.
+NOT_IN_FILE = "not in the file"
+
 if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.result import IdentificationResult
 
 __all__ = [
     "COLUMN_TITLES",
+    "cross_mac_html",
     "fit_table",
     "mac_section",
     "mode_table",
@@ -130,25 +135,40 @@ def setup_table(frfs: Mapping[str, FRFSet], geometry: BeamSetup | None) -> pd.Da
     """Test setup, one column per configuration (rows: what an engineer checks)."""
 
     def fmt(v: Any, unit: str = "", spec: str = "g") -> str:
-        return "" if v is None else f"{v:{spec}}{unit}"
+        return NOT_IN_FILE if v is None else f"{v:{spec}}{unit}"
 
-    def positions(dofs: Sequence[Any]) -> str:
-        if geometry is None:
-            return ", ".join(d.label() for d in dofs)
-        return ", ".join(
-            f"{d.label()} (x = {geometry.node_x_m(d.node):.4g} m)"
-            if 1 <= d.node <= geometry.n_elements + 1 else d.label()
-            for d in dofs
-        )
+    def positions(dofs: Sequence[Any], negative: str) -> str:
+        flipped = set(negative.split())
+        labels = []
+        for d in dofs:  # the direction as tested (the file's sign), not as read
+            tested = DOF(d.node, -d.direction)
+            label = tested.label() if tested.label() in flipped else d.label()
+            if geometry is not None and 1 <= d.node <= geometry.n_elements + 1:
+                label += f" (x = {geometry.node_x_m(d.node):.4g} m)"
+            labels.append(label)
+        return ", ".join(labels)
 
-    rows: dict[str, list[str]] = {}
+    columns: list[dict[str, str]] = []
     for frf in frfs.values():
         a = frf.acquisition
+        responses = positions(frf.response_dofs, a.response_negative)
+        references = positions(frf.reference_dofs, a.reference_negative)
+        if a.layout == "reciprocal":  # a roving-hammer set, identified by reciprocity
+            roles = {
+                "test": f"roving hammer ({len(frf.response_dofs)} points), "
+                f"{len(frf.reference_dofs)} fixed sensor(s); identified by reciprocity "
+                "(hammer points as responses, so the shapes are at the hammer points)",
+                "sensors (fixed)": references,
+                "hammer (roving points)": responses,
+            }
+        else:
+            roles = {"hammer (reference)": references, "sensors (responses)": responses}
         col = {
             "file": frf.source.path or "(in memory)",
             "sample rate": fmt(a.sample_rate_hz, " Hz"),
             "record length": (
-                f"{a.duration_s:.4g} s ({a.n_samples} samples)" if a.duration_s else ""
+                f"{a.duration_s:.4g} s ({a.n_samples} samples)" if a.duration_s
+                else NOT_IN_FILE
             ),
             "frequency lines": f"{frf.freq_hz.size}, df = {frf.df_hz:.5g} Hz, "
             f"{frf.freq_hz[0]:.4g}-{frf.freq_hz[-1]:.5g} Hz",
@@ -161,40 +181,53 @@ def setup_table(frfs: Mapping[str, FRFSet], geometry: BeamSetup | None) -> pd.Da
                 if a.exp_window_tau_s else "none"
             ),
             "quantity": f"{frf.quantity} ({frf.units})",
-            "hammer (reference)": positions(frf.reference_dofs),
-            "sensors (responses)": positions(frf.response_dofs),
-            "coherence": "in the file" if frf.coherence is not None else "not in the file",
+            **roles,
+            "coherence": "in the file" if frf.coherence is not None else NOT_IN_FILE,
         }
-        for key, value in col.items():
-            rows.setdefault(key, []).append(value)
+        columns.append(col)
+    keys = list(dict.fromkeys(k for col in columns for k in col))  # roles may differ
     return pd.DataFrame(
-        [[k, *v] for k, v in rows.items()], columns=["", *[str(n) for n in frfs]]
+        [[k, *(col.get(k, "") for col in columns)] for k in keys],
+        columns=["", *[str(n) for n in frfs]],
     )
 
 
-def mac_section(identification: Mapping[str, Any], genuine: str) -> str:
-    """The AutoMAC of each identification as HTML matrices, then the MAC of the
-    ``genuine`` configuration against each other one with as many DOFs."""
+def mac_section(identification: Mapping[str, Any], genuine: str, *, cross: bool = True) -> str:
+    """The AutoMAC of each identification as HTML matrices, then (``cross``) the
+    MAC of the ``genuine`` configuration against each other one
+    (:func:`cross_mac_html`)."""
     parts = []
     for name, r in identification.items():
         labels = [f"{f:.2f} Hz" for f in r.modes.fn_hz]
         parts.append(html_matrix(r.mac, labels, labels, caption=f"AutoMAC - {name}"))
-    ref = identification.get(genuine)
-    if ref is not None and ref.modes.shapes is not None:
-        for name, r in identification.items():
-            if name == genuine or r.modes.shapes is None:
-                continue
-            if r.modes.shapes.shape[0] != ref.modes.shapes.shape[0]:
-                continue
-            m = mac(ref.modes.shapes, r.modes.shapes)
-            parts.append(html_matrix(
-                m, [f"{f:.2f} Hz" for f in ref.modes.fn_hz],
-                [f"{f:.2f} Hz" for f in r.modes.fn_hz],
-                caption=f"MAC {genuine} (rows) vs {name} (columns)",
-            ))
+    if cross:
+        parts.append(cross_mac_html(identification, genuine))
     note = (
         '<p class="muted">With few sensors the AutoMAC cannot separate all modes: '
         "off-diagonal values near 1 say the sensors do not tell those shapes apart, "
         "not that the modes are the same.</p>"
     )
     return "".join(parts) + note
+
+
+def cross_mac_html(identification: Mapping[str, Any], genuine: str) -> str:
+    """The MAC (:func:`ema_pipeline.modal.mac`) of the ``genuine`` (reference)
+    configuration's modes (rows) against each other configuration's (columns),
+    where both have shapes at the same DOFs."""
+    parts = []
+    ref = identification.get(genuine)
+    if ref is not None and ref.modes.shapes is not None:
+        for name, r in identification.items():
+            if name == genuine or r.modes.shapes is None:
+                continue
+            if r.modes.dofs != ref.modes.dofs:
+                parts.append(f'<p class="muted">{esc(name)}: not measured at the DOFs of '
+                             f"{esc(genuine)}, no MAC.</p>")
+                continue
+            m = mac(ref.modes.shapes, r.modes.shapes)
+            parts.append(html_matrix(
+                m, [f"{k + 1}: {f:.2f} Hz" for k, f in enumerate(ref.modes.fn_hz)],
+                [f"{k + 1}: {f:.2f} Hz" for k, f in enumerate(r.modes.fn_hz)],
+                caption=f"MAC {genuine} (rows) vs {name} (columns)",
+            ))
+    return "".join(parts)

@@ -1,0 +1,73 @@
+"""The animated mode shapes move in a real browser (headless Chromium through
+Selenium, as tests/test_report_browser.py): two screenshots of a shape view
+0.3 s apart differ, in the identify report and in the run report. Skipped
+without chromium / chromium-driver / selenium."""
+
+from __future__ import annotations
+
+import shutil
+import time
+from pathlib import Path
+
+import pytest
+
+from ema_pipeline import io
+from ema_pipeline.cli import main
+from ema_pipeline.data import Beam
+
+webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+CHROMEDRIVER = shutil.which("chromedriver")
+
+pytestmark = pytest.mark.skipif(
+    CHROMIUM is None or CHROMEDRIVER is None,
+    reason="no headless browser: install the system packages chromium and chromium-driver",
+)
+
+
+@pytest.fixture(scope="module")
+def browser(tmp_path_factory):
+    from selenium.webdriver.chrome.options import Options
+    from selenium.webdriver.chrome.service import Service
+
+    options = Options()
+    options.binary_location = CHROMIUM
+    profile = tmp_path_factory.mktemp("chromium-profile")
+    for arg in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                "--disable-component-update", "--disable-sync", "--no-first-run",
+                f"--user-data-dir={profile}", "--window-size=1000,1000"):
+        options.add_argument(arg)
+    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
+    driver.set_page_load_timeout(60)
+    yield driver
+    driver.quit()
+
+
+def _moves(driver, page: Path) -> None:
+    from selenium.webdriver.common.by import By
+
+    driver.get(page.as_uri())
+    views = driver.find_elements(By.CSS_SELECTOR, "[data-mode-shape]")
+    assert views
+    view = views[0]
+    driver.execute_script("arguments[0].scrollIntoView()", view)
+    time.sleep(0.2)
+    first = view.screenshot_as_png
+    time.sleep(0.3)
+    assert view.screenshot_as_png != first, f"{page}: the shape does not move"
+    # nothing was requested from outside the file
+    urls = driver.execute_script(
+        "return performance.getEntriesByType('resource').map(e => e.name)")
+    assert [u for u in urls if not u.startswith("file:")] == []
+
+
+def test_shapes_move_in_the_identify_report(browser, tmp_path, example_dir):
+    geometry = io.write_geometry_uff(Beam().measurement_geometry(), tmp_path / "beam.uff")
+    assert main(["identify", str(example_dir / "genuine.uff"), "--out", str(tmp_path),
+                 "--report", "--quiet", "--geometry", str(geometry)]) == 0
+    _moves(browser, tmp_path / "genuine_report.html")
+
+
+def test_shapes_move_in_the_run_report(browser, example_study):
+    _moves(browser, example_study / "report.html")
