@@ -8,6 +8,7 @@ import pytest
 
 from ema_pipeline.identification.not_kept import (
     not_kept_message,
+    prominent_peaks,
     resonances_not_kept,
     visible_peaks,
 )
@@ -79,3 +80,17 @@ def test_message_names_each_resonance() -> None:
     assert "42.1 Hz (a peak in 9 of 30 FRFs)" in text
     assert "274.7 Hz (a peak in 16 of 30 FRFs)" in text
     assert not_kept_message(np.zeros(0), np.zeros(0, int), 30) == ""
+
+
+def test_prominent_peaks_are_scipy_find_peaks():
+    """The numpy peak finder returns scipy.signal.find_peaks' indices (flat
+    tops, ends, far and near higher ground, several prominence thresholds)."""
+    from scipy.signal import find_peaks
+
+    rng = np.random.default_rng(3)
+    for t in range(600):
+        n = int(rng.integers(1, 300))
+        # quantised samples give flat tops; a random walk gives far higher ground
+        x = rng.integers(0, 5, n).astype(float) if t % 2 else rng.standard_normal(n).cumsum()
+        for p_min in (0.0, 0.4, 2.0):
+            assert np.array_equal(prominent_peaks(x, p_min), find_peaks(x, prominence=p_min)[0])

@@ -144,7 +144,7 @@ class _Collector(HTMLParser):
             self.images.append(a.get("src", ""))
         if tag == "table":
             self.tables += 1
-        if tag == "svg":
+        if tag == "svg" and a.get("class") != "shape":  # the figures, not the shape views
             self.svgs += 1
         for key in ("src", "href"):
             if key in a and not str(a[key]).startswith(("data:", "#")):

@@ -25,6 +25,7 @@ from ema_pipeline.identification.common import (
 )
 from ema_pipeline.identification.expect import match_expected, not_found_message
 from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.picks import Picks, identify_picks
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult
 from ema_pipeline.identification.sdypy_backend import identify_sdypy
@@ -41,7 +42,8 @@ WEIGHTINGS = ("none", "coherence")
 
 
 def identify(
-    frf: FRFSet, options: IdentificationOptions | None = None, **overrides: Any
+    frf: FRFSet, options: IdentificationOptions | None = None, *, picks: Picks | None = None,
+    **overrides: Any,
 ) -> IdentificationResult:
     """Identify modal parameters from an FRF set (pLSCF + automatic selection + LSFD).
 
@@ -53,6 +55,10 @@ def identify(
     options : IdentificationOptions (default: all defaults); see its
         attributes for band, order, method, expected frequencies, window,
         weighting, tolerances, refinement and residual terms.
+    picks : :class:`~ema_pipeline.identification.picks.Picks` (a picks file,
+        :func:`ema_pipeline.io.read_picks`): fit exactly these poles, with the
+        file's band, orders and weighting, and run no automatic selection
+        (:func:`~ema_pipeline.identification.picks.identify_picks`).
     **overrides : fields of :class:`IdentificationOptions` replacing those of
         ``options``, e.g. ``identify(frf, band_hz=(5, 790), max_order=40)``.
 
@@ -92,6 +98,11 @@ def identify(
     if overrides:
         options = replace(options, **overrides)
     where = source_prefix(frf)
+    if picks is not None:
+        if options.method != "plscf" or options.expect_hz:
+            raise DataError(f"{where}picks are poles of the 'plscf' diagram; they go with "
+                            "neither another method nor expected frequencies")
+        options = picks.options(options)
     backend = METHODS.get(options.method)
     if backend is None:
         known = " or ".join(repr(name) for name in METHODS)
@@ -116,6 +127,8 @@ def identify(
             f"expected frequencies {expect_hz} must lie inside the band [{lo:g}, {hi:g}] Hz"
         )
     checked = replace(options, band_hz=(lo, hi), expect_hz=tuple(expect_hz))
+    if picks is not None:
+        return identify_picks(frf, checked, picks)
     result = backend(frf, checked)
     if expect_hz.size:  # a guess no mode answers: say so (UserWarning)
         message = not_found_message(expect_hz, match_expected(result.fn_hz, expect_hz))

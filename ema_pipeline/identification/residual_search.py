@@ -35,7 +35,6 @@ Why written here: sdypy-EMA and scipy have no residual check of a modal fit.
 from __future__ import annotations
 
 import numpy as np
-from scipy.ndimage import uniform_filter1d
 
 from ema_pipeline.identification.lsfd import lsfd
 from ema_pipeline.identification.thresholds import SelectionThresholds
@@ -56,6 +55,9 @@ def residual_ratio(R: np.ndarray) -> np.ndarray:
     """
     p = np.abs(R) ** 2
     floor = np.maximum(np.median(p, axis=1, keepdims=True), np.finfo(float).tiny)
+    # here, not at the top: scipy.ndimage is 0.1-0.3 s of every command's start-up
+    from scipy.ndimage import uniform_filter1d
+
     return np.asarray(uniform_filter1d(np.mean(p / floor, axis=0), 3, mode="nearest"))
 
 

@@ -5,7 +5,7 @@ The diagram is drawn by :func:`ema_pipeline.plots.plot_stabilization`.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -53,6 +53,11 @@ class StabilizationData:
     cluster : (n,) int        cluster of the automatic selection, -1 = none
     tol_freq, tol_zeta, tol_mac : the tolerances used (NaN: no diagram, e.g.
                               the sdypy backend).
+    mode_pole : (n_modes,) complex  the start pole of each kept mode (result
+                              order, before window correction): a trajectory's
+                              median or a pole found outside the diagram; what
+                              the report's diagram and ``--picks`` use
+                              (:mod:`ema_pipeline.identification.picks`).
     """
 
     order: np.ndarray
@@ -64,6 +69,7 @@ class StabilizationData:
     tol_freq: float = float("nan")
     tol_zeta: float = float("nan")
     tol_mac: float = float("nan")
+    mode_pole: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
 
     @property
     def stable(self) -> np.ndarray:

@@ -1,0 +1,407 @@
+"""Modes picked by hand: the poles a user chose in the stabilization diagram.
+
+A *picks file* (TOML, written by the interactive diagram of the identify
+report, :mod:`ema_pipeline.report.stab_diagram`, read by
+:func:`ema_pipeline.io.read_picks`) records the settings that reproduce the
+diagram (band, orders, weighting) and one ``[[pick]]`` table per mode:
+
+* a pole of the diagram, by its model ``order``, natural frequency
+  ``freq_hz`` and damping ratio ``zeta``: it is looked up in the diagram
+  recomputed with the recorded settings, the pole of that order nearest in
+  frequency within :data:`PICK_TOL_REL` (a pick that matches no pole is an
+  error naming it);
+* or the start pole of a mode that the automatic selection kept, given by its
+  value ``pole = [re, im]`` (rad/s, before the window correction): the
+  trajectory's median pole, or a pole found by the searches outside the
+  diagram (windows of a dense band, close partners, residual peaks). The
+  stored diagram holds these poles (:attr:`StabilizationData.mode_pole`), the
+  report draws them in its top row, and the untouched page lists them, so
+  that ``--picks`` with that page's text reproduces the automatic result.
+
+:func:`identify_picks` fits exactly the picked poles with the chain of the
+automatic modes -- refinement with covariance, the band-sensitivity term,
+LSFD, window correction, indicators -- and runs no automatic selection (no
+trajectory selection, no final tests, no searches).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ema_pipeline.data import DataError, FRFSet
+from ema_pipeline.identification.common import finish_identification, resolve_band
+from ema_pipeline.identification.lsfd import mpc
+from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.order_search import diagram_orders
+from ema_pipeline.identification.plscf import plscf
+from ema_pipeline.identification.refine import band_sensitivity, refine_poles
+from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
+from ema_pipeline.identification.selection import SelectedPoles, link_fragments, track_poles
+from ema_pipeline.identification.stabilization import (
+    StabilizationData,
+    pole_to_modal,
+    stabilization,
+)
+
+#: A diagram pick matches the pole of its order whose natural frequency is
+#: within this relative distance (nearest first).
+PICK_TOL_REL: float = 1e-3
+
+#: ``IdentificationResult.extras`` key set on a result of :func:`identify_picks`
+#: (its value: the number of picked modes).
+PICKED = "picked_modes"
+
+
+@dataclass(frozen=True)
+class Pick:
+    """One picked pole.
+
+    freq_hz, zeta : natural frequency (Hz) and damping ratio of the pole
+        (window-corrected, as the diagram shows them).
+    order : model order of a diagram pole; ``None`` for a pole given by value.
+    pole : the pole itself (rad/s, before the window correction) for the
+        start pole of an automatically kept mode; ``None`` for a diagram pole.
+    """
+
+    freq_hz: float
+    zeta: float = float("nan")
+    order: int | None = None
+    pole: complex | None = None
+
+    def label(self) -> str:
+        """``"274.6 Hz at order 40"`` / ``"18.1 Hz (mode pole)"`` for messages."""
+        where = f"at order {self.order}" if self.order is not None else "(mode pole)"
+        return f"{self.freq_hz:.6g} Hz {where}"
+
+
+@dataclass(frozen=True)
+class Picks:
+    """The content of a picks file: the diagram's settings and the picks.
+
+    band_hz : the identification band (Hz).   orders : the model orders of
+    the diagram (its highest is the pLSCF order p).   weighting : "none" or
+    "coherence".   picks : one :class:`Pick` per mode.   source : the file
+    (for messages).
+    """
+
+    band_hz: tuple[float, float]
+    orders: tuple[int, ...]
+    picks: tuple[Pick, ...]
+    weighting: str = "none"
+    source: str = ""
+
+    @property
+    def max_order(self) -> int:
+        return int(max(self.orders))
+
+    def options(self, options: IdentificationOptions) -> IdentificationOptions:
+        """``options`` with the picks file's band, order and weighting."""
+        return replace(options, band_hz=self.band_hz, max_order=self.max_order,
+                       weighting=self.weighting)  # type: ignore[arg-type]
+
+    def toml(self) -> str:
+        """The picks file's text (see :func:`picks_from_mapping` for reading it back).
+
+        Examples
+        --------
+        >>> p = Picks((5.0, 100.0), (2, 4, 6), (Pick(30.0, 0.01, order=6),))
+        >>> picks_from_mapping(tomllib_loads(p.toml())) == p
+        True
+        """
+        lines = [
+            "# ema-pipeline picks: `ema-pipeline identify FILE --picks THIS_FILE` fits exactly",
+            "# these poles (refinement, LSFD and uncertainty as for automatic modes).",
+            "# A pick with `order` is the pole of that model order nearest to freq_hz",
+            "# (within 0.1 %); a pick with `pole` (rad/s) is the start pole of a mode the",
+            "# automatic selection kept, taken as given.",
+            "",
+            "[diagram]  # the settings that reproduce the stabilization diagram",
+            f"band_hz = [{_num(self.band_hz[0])}, {_num(self.band_hz[1])}]",
+            f"orders = [{', '.join(str(int(o)) for o in self.orders)}]",
+            f'weighting = "{self.weighting}"',
+        ]
+        for pk in self.picks:
+            lines += ["", "[[pick]]", f"freq_hz = {_num(pk.freq_hz)}",
+                      f"zeta = {_num(pk.zeta)}"]
+            if pk.order is not None:
+                lines.append(f"order = {int(pk.order)}")
+            if pk.pole is not None:
+                lines.append(f"pole = [{_num(pk.pole.real)}, {_num(pk.pole.imag)}]")
+        return "\n".join(lines) + "\n"
+
+
+def tomllib_loads(text: str) -> dict[str, Any]:
+    """``tomllib.loads`` (for the doctest; the file is read by :mod:`ema_pipeline.io`)."""
+    import tomllib
+
+    return tomllib.loads(text)
+
+
+def _num(x: float) -> str:
+    """A float as TOML (``nan`` for NaN, full precision)."""
+    return "nan" if not math.isfinite(x) else repr(float(x))
+
+
+def picks_from_mapping(data: Mapping[str, Any], source: str = "") -> Picks:
+    """Picks from the parsed TOML of a picks file; a missing or wrong key is a
+    :class:`DataError` naming ``source`` and the key.
+
+    Examples
+    --------
+    >>> picks_from_mapping({"diagram": {"band_hz": [5, 100], "orders": [2, 4]},
+    ...                     "pick": [{"freq_hz": 30, "order": 4}]}).picks
+    (Pick(freq_hz=30.0, zeta=nan, order=4, pole=None),)
+    >>> picks_from_mapping({"diagram": {"band_hz": [5, 100], "orders": [2, 4]}}, "p.toml")
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: p.toml: no [[pick]] table: pick at least one pole
+    """
+    where = f"{source}: " if source else ""
+    diagram = data.get("diagram")
+    if not isinstance(diagram, Mapping):
+        raise DataError(f"{where}no [diagram] table (band_hz, orders)")
+    try:
+        band = tuple(float(b) for b in diagram["band_hz"])
+        orders = tuple(int(o) for o in diagram["orders"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise DataError(f"{where}[diagram] needs band_hz = [LO, HI] and orders = [...] "
+                        f"({exc})") from None
+    if len(band) != 2 or not band[0] < band[1] or not orders or min(orders) < 1:
+        raise DataError(f"{where}[diagram] band_hz must be [LO, HI] with LO < HI and "
+                        "orders positive integers")
+    weighting = str(diagram.get("weighting", "none"))
+    rows = data.get("pick")
+    if not rows:
+        raise DataError(f"{where}no [[pick]] table: pick at least one pole")
+    picks = []
+    for k, row in enumerate(rows, start=1):
+        try:
+            f = float(row["freq_hz"])
+            zeta = float(row.get("zeta", float("nan")))
+            order = None if row.get("order") is None else int(row["order"])
+            pole = None if row.get("pole") is None else complex(*(float(v) for v in row["pole"]))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise DataError(f"{where}pick {k}: needs freq_hz and order, or freq_hz and "
+                            f"pole = [RE, IM] ({exc!r})") from None
+        if (order is None) == (pole is None):
+            raise DataError(f"{where}pick {k} ({f:g} Hz): give either order (a pole of the "
+                            "diagram) or pole = [RE, IM] (a mode pole), not both nor neither")
+        picks.append(Pick(freq_hz=f, zeta=zeta, order=order, pole=pole))
+    return Picks(band_hz=(band[0], band[1]), orders=orders, picks=tuple(picks),
+                 weighting=weighting, source=source)
+
+
+def picks_from_result(result: IdentificationResult) -> Picks:
+    """The picks of an automatic result: every kept mode by its start pole
+    (``result.stabilization.mode_pole``), with the result's band, orders and
+    weighting. ``identify(frf, picks=picks_from_result(r))`` gives ``r``'s
+    modes again (see :func:`identify_picks`)."""
+    stab, s = result.stabilization, result.settings
+    start = stab.mode_pole if stab.mode_pole.size == result.pole.size else (
+        result.pole - s.window_decay_rate)
+    fn, _, zeta = pole_to_modal(start, s.window_decay_rate)
+    picks = tuple(Pick(freq_hz=float(f), zeta=float(z), pole=complex(p))
+                  for f, z, p in zip(fn, zeta, start, strict=True))
+    return Picks(band_hz=s.band_hz, orders=tuple(int(o) for o in s.orders), picks=picks,
+                 weighting=s.weighting)
+
+
+def diagram_poles(frf: FRFSet, picks: Picks, window_decay_rate: float,
+                  options: IdentificationOptions) -> tuple[Any, StabilizationData]:
+    """The pLSCF poles of the picks file's diagram (the band's FRFs scaled by
+    each output's RMS, as the automatic search does) and its stabilization
+    data with trajectory labels."""
+    lo, hi = picks.band_hz
+    sub = frf.band(lo, hi)
+    rms = np.sqrt(np.mean(np.abs(sub.H) ** 2, axis=(1, 2)))
+    Hn = sub.H / np.where(rms > 0, rms, 1.0)[:, None, None]
+    weights = None
+    if picks.weighting == "coherence":
+        if sub.coherence is None:
+            raise DataError(f"{picks.source}: coherence weighting but the FRFs have no "
+                            "coherence")
+        weights = np.sqrt(np.clip(np.mean(sub.coherence, axis=1), 0.0, 1.0))
+    orders = np.array(sorted(set(picks.orders)), dtype=int)
+    poles = plscf(sub.freq_hz, Hn, max_order=int(orders[-1]), orders=orders, weights=weights)
+    th = options.thresholds
+    traj = link_fragments(poles, track_poles(poles, options.link_tolerances(), th),
+                          window_decay_rate, min_fraction=options.min_fraction,
+                          min_members=th.min_members, thresholds=th)
+    f_tol, z_tol, m_tol = options.diagram_tolerances()
+    stab = stabilization(poles, window_decay_rate, tol_freq=f_tol, tol_zeta=z_tol,
+                         tol_mac=m_tol)
+    return poles, replace(stab, cluster=traj)
+
+
+def match_picks(picks: Picks, stab: StabilizationData) -> tuple[np.ndarray, np.ndarray]:
+    """The start pole of every pick (rad/s, before window correction) and the
+    trajectory label of the diagram pole it matched (-1 for a pole given by
+    value). A diagram pick matches the pole of its order nearest in frequency
+    within :data:`PICK_TOL_REL`; a pick that matches none, or two picks of one
+    pole, is a :class:`DataError` naming the pick.
+
+    Examples
+    --------
+    >>> stab = StabilizationData(order=np.array([2, 2]), freq_hz=np.array([30.0, 70.0]),
+    ...     zeta=np.array([0.01, 0.02]), flags=np.zeros(2, np.uint8),
+    ...     pole=np.array([-1.9 + 188.5j, -8.8 + 439.7j]), cluster=np.array([0, 1]))
+    >>> match_picks(Picks((5, 100), (2,), (Pick(70.02, order=2),)), stab)[1].tolist()
+    [1]
+    >>> match_picks(Picks((5, 100), (2,), (Pick(50.0, order=2),), source="p.toml"), stab)
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: p.toml: pick 50 Hz at order 2 matches no pole of the \
+diagram (nearest at that order: 30 Hz; band 5-100 Hz, orders 2-2)
+    """
+    where = f"{picks.source}: " if picks.source else ""
+    start = np.zeros(len(picks.picks), dtype=complex)
+    cluster = np.full(len(picks.picks), -1, dtype=int)
+    used: dict[int, str] = {}
+    lo, hi = picks.band_hz
+    span = f"band {lo:g}-{hi:g} Hz, orders {min(picks.orders)}-{max(picks.orders)}"
+    for k, pk in enumerate(picks.picks):
+        if pk.pole is not None:
+            if not (pk.pole.real < 0 and lo * 2 * np.pi < pk.pole.imag < hi * 2 * np.pi):
+                raise DataError(f"{where}pick {pk.label()}: pole {pk.pole} is not a decaying "
+                                f"pole inside the band ({span})")
+            start[k] = pk.pole
+            continue
+        at = np.flatnonzero(stab.order == pk.order)
+        if at.size == 0:
+            raise DataError(f"{where}pick {pk.label()} matches no pole of the diagram: "
+                            f"order {pk.order} is not one of its orders ({span})")
+        rel = np.abs(stab.freq_hz[at] - pk.freq_hz) / pk.freq_hz
+        j = int(at[np.argmin(rel)])
+        if rel.min() > PICK_TOL_REL:
+            raise DataError(f"{where}pick {pk.label()} matches no pole of the diagram "
+                            f"(nearest at that order: {stab.freq_hz[j]:.6g} Hz; {span})")
+        if j in used:
+            raise DataError(f"{where}picks {used[j]} and {pk.label()} are the same pole")
+        used[j] = pk.label()
+        start[k], cluster[k] = stab.pole[j], stab.cluster[j]
+    return start, cluster
+
+
+def identify_picks(frf: FRFSet, options: IdentificationOptions,
+                   picks: Picks) -> IdentificationResult:
+    """Fit exactly the picked poles (see the module's description).
+
+    ``frf`` has the window applied and ``options`` are checked, as
+    :func:`ema_pipeline.identification.identify` (which calls this with
+    ``picks=``) does. The diagram is recomputed with the picks file's band,
+    orders and weighting; each pick is matched (:func:`match_picks`); the
+    start poles are refined together (``options.refine``), their covariance
+    gets the band-sensitivity term, and LSFD, window correction and
+    indicators follow as for automatic modes. ``result.extras[PICKED]`` is the
+    number of picked modes; ``result.not_kept_hz`` is empty (no candidate
+    was rejected).
+
+    Examples
+    --------
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import ModalParameters
+    >>> from ema_pipeline.identification import identify
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> frf = FRFSet(freq_hz=f, H=H)
+    >>> auto = identify(frf)
+    >>> only_70 = replace(picks_from_result(auto), picks=picks_from_result(auto).picks[1:])
+    >>> identify(frf, picks=only_70).fn_hz.round(4)
+    array([70.])
+    """
+    decay = float(frf.acquisition.window_decay_rate)
+    lo, hi = resolve_band(frf, picks.band_hz)
+    sub = frf.band(lo, hi)
+    n_out, n_in, n_freq = sub.H.shape
+    poles, stab = diagram_poles(frf, picks, decay, options)
+    start, cluster = match_picks(picks, stab)
+    order = np.argsort(start.imag, kind="stable")
+    start, cluster = start[order], cluster[order]
+    th = options.thresholds
+    n_members = np.array([np.unique(stab.order[stab.cluster == c]).size if c >= 0 else 0
+                          for c in cluster], dtype=int)
+    first = np.array([stab.order[stab.cluster == c].min() if c >= 0 else 0
+                      for c in cluster], dtype=int)
+    nan = np.full(start.size, np.nan)
+    sel = SelectedPoles(pole=start, cluster=cluster, n_members=n_members,
+                        scatter_fn_hz=nan, scatter_zeta=nan.copy(), first_order=first)
+    freq = sub.freq_hz
+    Hc = sub.H.reshape(n_out * n_in, n_freq)
+    cov = None
+    tau, force_s = frf.acquisition.exp_window_tau_s, frf.acquisition.force_window_s
+    if options.refine and start.size:
+        ref = refine_poles(freq, Hc, start, quantity=sub.quantity, window_tau_s=tau,
+                           force_window_s=force_s, thresholds=th)
+        order_s = np.argsort(ref.pole.imag, kind="stable")
+        sel = replace(sel.subset(order_s), pole=ref.pole[order_s])
+        start = start[order_s]
+        cov = ref.cov[order_s] + band_sensitivity(
+            freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
+            force_window_s=force_s, thresholds=th)
+    link = options.link_tolerances()
+    stab = replace(stab, mode_pole=start)
+    result = finish_identification(
+        sub, sel.pole, decay=decay, lower_residual=options.lower_residual,
+        upper_residual=options.upper_residual, stab=stab, selected=sel, pole_cov=cov,
+        settings=ResolvedSettings(
+            method="plscf", band_hz=(lo, hi), max_order=int(poles.orders[-1]),
+            orders=poles.orders, dt_s=poles.dt, weighting=picks.weighting,
+            window_decay_rate=decay, tol_freq=link[0], tol_zeta=link[1], tol_mac=link[2],
+            min_fraction=options.min_fraction, refine=options.refine,
+            lower_residual=options.lower_residual, upper_residual=options.upper_residual,
+            expect_hz=None,
+            uncertainty=("least-squares covariance of the refined poles" if options.refine
+                         else "none (picked poles, not refined)"),
+            thresholds=th,
+        ),
+    )
+    return replace(result, extras={**result.extras, PICKED: float(start.size)})
+
+
+def is_picked(result: IdentificationResult) -> bool:
+    """True for a result of :func:`identify_picks` (every mode picked by hand)."""
+    return PICKED in result.extras
+
+
+def pole_mpc(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray,
+             n_lines: int = 16) -> np.ndarray:
+    """MPC of each pole's shape in a one-pole local fit (for the diagram's tooltips).
+
+    For every pole the ``n_lines`` lines nearest its damped frequency are
+    fitted per channel by ``r / (j w - lambda) + c0 + c1 j w`` (complex linear
+    least squares); the MPC (:func:`ema_pipeline.identification.lsfd.mpc`) of
+    the residues r over the channels is returned. A cheap indicator for every
+    pole of a diagram, not the MPC of an identified mode (that is ``result.mpc``).
+
+    Parameters
+    ----------
+    freq_hz : (n_freq,) Hz.   H : (n_ch, n_freq) complex.   poles : (n,) rad/s.
+
+    Examples
+    --------
+    >>> f = np.linspace(50.0, 150.0, 201)
+    >>> lam = -3.0 + 2j * np.pi * 100.0
+    >>> H = np.array([[1.0], [-2.0]]) / (2j * np.pi * f - lam)
+    >>> pole_mpc(f, H, np.array([lam])).round(6)
+    array([1.])
+    """
+    poles = np.asarray(poles, dtype=complex)
+    H = np.atleast_2d(np.asarray(H))
+    if poles.size == 0 or freq_hz.size < 3:
+        return np.zeros(poles.size)
+    L = min(n_lines, freq_hz.size)
+    k0 = np.searchsorted(freq_hz, poles.imag / (2 * np.pi))
+    start = np.clip(k0 - L // 2, 0, freq_hz.size - L)
+    idx = start[:, None] + np.arange(L)[None, :]  # (n, L)
+    jw = 2j * np.pi * freq_hz[idx]
+    A = np.stack([1.0 / (jw - poles[:, None]), np.ones_like(jw), jw / jw.std(axis=1,
+                 keepdims=True).clip(1e-30)], axis=2)  # (n, L, 3)
+    Y = np.transpose(H[:, idx], (1, 2, 0))  # (n, L, n_ch)
+    coef = np.linalg.pinv(A) @ Y  # (n, 3, n_ch)
+    return np.asarray(mpc(coef[:, 0, :].T))
