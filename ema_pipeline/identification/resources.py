@@ -122,7 +122,9 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
     :data:`MIN_BAND_LINES` lines), ``max_order`` against :data:`MIN_ORDER` and
     :func:`order_cap` (pLSCF),
     ``expect_hz`` inside the band, the window time constant (> 0), and the
-    memory estimate against the limit. Raises ConfigError naming ``source``.
+    memory estimate against the limit (at ``max_order``, or with the adaptive
+    order search at the highest order it may reach, :func:`order_cap`). Raises
+    ConfigError naming ``source``.
 
     Examples
     --------
@@ -157,31 +159,35 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
     tau = options.exp_window_tau_s
     if tau is not None and not (math.isfinite(tau) and tau > 0):
         raise ConfigError(f"{where}exp_window_tau_s must be a positive time in s, got {tau!r}")
-    p = options.max_order
-    if p is None:
-        return
     method = str(options.method)
-    low = MIN_ORDER.get(method, 2)
-    if p < low:
-        raise ConfigError(
-            f"{where}max order {p} is too low for {method}: a stabilization diagram needs at "
-            f"least {low}"
-        )
     n_in = 1 if frf.n_out == 1 and frf.n_in > 1 else frf.n_in  # roving hammer: reciprocity
     n_out = frf.n_in if n_in != frf.n_in else frf.n_out
     cap = order_cap(n_lines, n_in)
-    if method == "plscf" and p > cap:
-        raise ConfigError(
-            f"{where}max order {p} is more than the {n_lines} lines in the band support "
-            f"(at most {cap} for {n_in} reference(s)); lower --max-order / max_order or widen "
-            "the band"
-        )
+    p = options.max_order
+    if p is not None:
+        low = MIN_ORDER.get(method, 2)
+        if p < low:
+            raise ConfigError(
+                f"{where}max order {p} is too low for {method}: a stabilization diagram needs "
+                f"at least {low}"
+            )
+        if method == "plscf" and p > cap:
+            raise ConfigError(
+                f"{where}max order {p} is more than the {n_lines} lines in the band support "
+                f"(at most {cap} for {n_in} reference(s)); lower --max-order / max_order or "
+                "widen the band"
+            )
+    else:
+        # the adaptive order search may raise the order up to the cap: the memory
+        # check holds for the highest order it can reach
+        p = cap
     need = estimate_memory_bytes(n_lines, n_in, n_out, p, method)
     limit = memory_limit_bytes(memory_limit_gb)
     if need > limit:
+        what = "max order" if options.max_order else "the adaptive order search up to order"
         raise ConfigError(
-            f"{where}max order {p} on {n_lines} lines x {n_out} outputs x {n_in} inputs needs "
-            f"about {need / _GIB:.1f} GiB, more than the limit of {limit / _GIB:.1f} GiB; "
+            f"{where}{what} {p} on {n_lines} lines x {n_out} outputs x {n_in} inputs needs "
+            f"about {need / _GIB:.1f} GiB, more than the limit of {limit / _GIB:.3g} GiB; "
             f"lower the order or narrow the band, or raise the limit (--memory-limit-gb or "
             f"{MEMORY_LIMIT_ENV})"
         )

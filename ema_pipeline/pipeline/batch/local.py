@@ -18,10 +18,12 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import logging
 import multiprocessing
 import os
 import select
 import signal
+import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -44,12 +46,19 @@ THREAD_VARIABLES = (
 )
 
 
-def _init_worker(parent_pid: int, environ: dict[str, str]) -> None:
-    """Worker start-up: take the parent's environment, leave SIGINT to the
-    parent, and exit if the parent dies."""
+def _init_worker(parent_pid: int, environ: dict[str, str], log_level: int) -> None:
+    """Worker start-up: take the parent's environment and the level of the
+    package's log (``--verbose``: INFO messages on stderr, as in the parent),
+    leave SIGINT to the parent, and exit if the parent dies."""
     if os.environ != environ:  # a fork server started by an earlier batch
         os.environ.clear()
         os.environ.update(environ)
+    log = logging.getLogger("ema_pipeline")
+    log.setLevel(log_level)
+    if log_level and log_level <= logging.INFO and not log.handlers:
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter("ema-pipeline: %(message)s"))
+        log.addHandler(handler)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     # named fork-safe: it only polls and sleeps, so the worker can still check
     # HDF5 inputs in a forked child (65 ms) rather than a fresh interpreter (~2 s)
@@ -129,7 +138,7 @@ class LocalBackend:
             max_workers=self.concurrency,
             mp_context=_worker_context(),
             initializer=_init_worker,
-            initargs=(os.getpid(), dict(os.environ)),
+            initargs=(os.getpid(), dict(os.environ), logging.getLogger("ema_pipeline").level),
         )
 
     def submit(self, task: FileTask) -> cf.Future[FileRecord]:
