@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ema_pipeline.data import Beam, DataError, Geometry
+from ema_pipeline.data import DOF, Beam, DataError, Geometry
 
 if TYPE_CHECKING:  # pragma: no cover
     # type only: reading the experiment file (io) must not import the
@@ -84,6 +84,20 @@ class Experiment:
     #: The test geometry of the ``[geometry]`` table (the report's animated shapes);
     #: None: the report draws the FE beam's measurement mesh.
     geometry: Geometry | None = None
+    #: Whether the file describes a beam (a ``[beam]`` table, or no ``[geometry]``:
+    #: the paper's cantilever by default): only then do the FE model, its update
+    #: and the added-mass stages run; else ``run`` identifies every configuration
+    #: and reports geometry, shapes and the cross-configuration MAC.
+    has_beam: bool = True
+    #: The ``[test]`` table: (key, text) pairs (object, date, operator, equipment, ...).
+    test: tuple[tuple[str, str], ...] = ()
+    #: ``[dofs] roving``: "hammer" (roving hammer, fixed sensors), "sensor" (roving
+    #: sensors, fixed hammer), "none", or "" (not said).
+    roving: str = ""
+    #: ``[dofs] fixed``: the DOFs that stayed put during the test.
+    fixed_dofs: tuple[DOF, ...] = ()
+    #: ``[dofs] map``: (file DOF, geometry DOF) pairs, applied to the FRFs when read.
+    dof_map: tuple[tuple[DOF, DOF], ...] = ()
 
     @property
     def genuine_name(self) -> str:

@@ -13,6 +13,8 @@ the simulated paper test, a two-configuration simulated study.
 from __future__ import annotations
 
 import argparse
+import html
+import json
 import re
 import subprocess
 import sys
@@ -583,3 +585,133 @@ def test_verbose_reaches_the_batch_workers(two_mode_folder: Path, tmp_path: Path
                             "--quiet", *extra)) is verbose
         assert (said in run("batch", folder, "--out", tmp_path / f"b{verbose}", "--workers", "2",
                             *extra)) is verbose
+
+
+# ------------------------------------------------------------------ run (a simulated study)
+#: A study simulated on the paper's FE beam, band 5-200 Hz (its first two modes,
+#: Table 3's 19.84 and 124.33 Hz), two simulated configurations and one given as
+#: the raw hammer records of the paper's genuine beam (Table 1: 18.14, 112.07 Hz).
+STUDY_A = """
+[experiment]
+name = "Option effects: two masses"
+[test]
+object = "steel cantilever"
+date = 2024-05-06
+operator = "A. Tester"
+equipment = ["PCB 086C03 hammer", "PCB 352C23 accelerometer"]
+description = "a three-configuration check"
+[identification]
+band_hz = [5.0, 200.0]
+[fe]
+n_modes = 2
+update_repeats = 1
+[[configurations]]
+name = "as_built"
+added_mass = {}
+description = "the beam as built"
+zeta_pct = [1.0, 0.8]
+snr_db = 0
+[[configurations]]
+name = "tip_mass"
+added_mass = {10 = 0.3}
+description = "thirty per cent at the tip"
+[[configurations]]
+name = "recorded"
+recording = "hits.uff"
+description = "hammer records of the paper's beam"
+"""
+#: RAW/experiment.toml beside it: no name (the file's stem), one noise-free
+#: configuration, the FE stage on the first mode only.
+STUDY_B = """
+[identification]
+band_hz = [5.0, 200.0]
+[fe]
+n_modes = 1
+update_repeats = 1
+[[configurations]]
+name = "as_built"
+added_mass = {}
+snr_db = 0
+"""
+
+
+@pytest.fixture(scope="module")
+def study_raw(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """RAW with experiment.toml (:data:`STUDY_B`), a.toml (:data:`STUDY_A`) and the
+    paper genuine beam's hammer records ``hits.uff`` (UFF-58 time records)."""
+    from ema_pipeline import acquisition
+    from ema_pipeline.pipeline.simulate import paper_modes
+
+    raw = tmp_path_factory.mktemp("study")
+    setup = acquisition.TestSetup()
+    records = acquisition.simulate_time_records(paper_modes("genuine", setup), setup,
+                                                snr_db=50, seed=3, configuration="genuine")
+    io.write_time_uff(records, raw / "hits.uff", binary=True)
+    _write_experiment(raw / "a.toml", STUDY_A)
+    _write_experiment(raw / "experiment.toml", STUDY_B)
+    return raw
+
+
+def _cells(page: str) -> dict[str, str]:
+    """The report's two-cell rows ``<tr><th>key</th><td>value</td></tr>`` as a dict."""
+    return {m.group(1): html.unescape(m.group(2)) for m in re.finditer(
+        r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>", page)}
+
+
+def test_run_options_and_experiment_keys(study_raw: Path, tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """run --experiment a.toml replaces RAW/experiment.toml; --json prints the
+    summary as JSON only; --quiet prints nothing; the default prints the progress
+    (stderr) and the summary (stdout).
+
+    The keys, against the values given and the paper: [experiment] name is the
+    report's title and the summary's name (default: the file's stem); the
+    configurations' names are Table 1's; zeta_pct is the identified damping
+    (noise-free, 1e-3), the paper's genuine damping where not given; [fe] n_modes
+    is the number of modes of Tables 3 and 5 (Table 3 = the paper's, 1e-3);
+    descriptions and [test] appear in the report as given; the recorded
+    configuration's frequencies are the paper's Table 1 (1e-3)."""
+    code, said, err = _run(["run", "--raw", study_raw, "--experiment", study_raw / "a.toml",
+                            "--results", tmp_path / "a", "--no-figures", "--json"], capsys)
+    assert code == 0, err
+    payload = json.loads(said)  # nothing but the JSON on stdout
+    assert payload["experiment"] == "Option effects: two masses"
+    assert payload["results"] == str(tmp_path / "a")
+    modes = payload["modes"]
+    assert list(modes) == ["as_built", "tip_mass", "recorded"]
+    np.testing.assert_allclose(modes["as_built"]["fn_hz"], paper.TABLE3_FN_HZ[:2], rtol=1e-3)
+    np.testing.assert_allclose(modes["as_built"]["zeta_pct"], [1.0, 0.8], rtol=1e-3)
+    np.testing.assert_allclose(modes["tip_mass"]["zeta_pct"],
+                               100 * paper.TABLE1_ZETA["genuine"][:2], rtol=0.01)
+    np.testing.assert_allclose(modes["recorded"]["fd_hz"], paper.TABLE1_FD_HZ["genuine"][:2],
+                               rtol=1e-3)
+    tables = tmp_path / "a" / "tables"
+    np.testing.assert_allclose(pd.read_csv(tables / "table3_fe_initial.csv")["fn_hz"],
+                               paper.TABLE3_FN_HZ[:2], rtol=1e-3)
+    assert len(pd.read_csv(tables / "table5_fe_updated.csv")) == 2
+    page = (tmp_path / "a" / "report.html").read_text()
+    assert "<title>Option effects: two masses" in page
+    cells = _cells(page)
+    for key, value in (("object", "steel cantilever"), ("date", "2024-05-06"),
+                       ("operator", "A. Tester"),
+                       ("equipment", "PCB 086C03 hammer; PCB 352C23 accelerometer"),
+                       ("description", "a three-configuration check")):
+        assert cells[key] == value, key
+    for name, text in (("as_built", "the beam as built"),
+                       ("tip_mass", "thirty per cent at the tip"),
+                       ("recorded", "hammer records of the paper&#x27;s beam")):
+        assert f"<tr><td>{name}</td><td>{text}</td>" in page, name
+
+    # RAW/experiment.toml (no --experiment), --quiet: nothing printed
+    code, said, err = _run(["run", "--raw", study_raw, "--results", tmp_path / "b",
+                            "--no-figures", "--quiet"], capsys)
+    assert (code, said, err) == (0, "", "")
+    summary = json.loads((tmp_path / "b" / "summary.json").read_text())
+    assert summary["experiment"] == "experiment" and list(summary["modes"]) == ["as_built"]
+    np.testing.assert_allclose(pd.read_csv(tmp_path / "b" / "tables" / "table3_fe_initial.csv")
+                               ["fn_hz"], paper.TABLE3_FN_HZ[:1], rtol=1e-3)
+    # neither: progress on stderr, the summary on stdout
+    code, said, err = _run(["run", "--raw", study_raw, "--results", tmp_path / "c",
+                            "--no-figures"], capsys)
+    assert code == 0
+    assert said.startswith("ema-pipeline run: experiment") and "[identify 1/1] as_built" in err

@@ -11,7 +11,12 @@ from ema_pipeline.identification.local_band import background_columns, pole_colu
 from ema_pipeline.identification.lsfd import real_stack
 from ema_pipeline.identification.refine import refine_poles
 from ema_pipeline.identification.stabilization import pole_to_modal
-from ema_pipeline.identification.uncertainty import modal_std, noise_model
+from ema_pipeline.identification.uncertainty import (
+    ToeplitzKernel,
+    modal_std,
+    noise_model,
+    toeplitz_apply,
+)
 
 # one mode at 100 Hz on 0.1 Hz lines, half-power band 0.3 Hz = 3 lines
 FREQ = np.linspace(97.0, 103.0, 61)
@@ -168,3 +173,22 @@ def test_coherence_overstates_the_error_of_windowed_impact_h1() -> None:
             h1_var = np.abs(h) ** 2 * (1 - g2) / (g2 * frf.acquisition.n_averages)
             var += float(np.sum(h1_var[near]))
     assert err2 / var < 0.5, err2 / var
+
+
+def test_toeplitz_kernel_is_the_dense_toeplitz_product():
+    """ToeplitzKernel (one spectrum, several products) against the dense
+    Hermitian Toeplitz matrix, for complex and real correlations and columns,
+    lags shorter and longer than the lines."""
+    from scipy.linalg import toeplitz
+
+    rng = np.random.default_rng(5)
+    for n, n_lags, cplx in ((7, 3, True), (12, 12, True), (9, 20, False), (1, 4, True)):
+        rho = rng.standard_normal(n_lags) + (1j * rng.standard_normal(n_lags) if cplx else 0)
+        r = np.zeros(n, dtype=rho.dtype)
+        r[: min(n, n_lags)] = rho[:n]
+        P = toeplitz(np.conj(r), r)  # P[k, k+l] = rho_l, conj below the diagonal
+        kernel = ToeplitzKernel(rho, n)
+        for X in (rng.standard_normal((n, 3)) + 1j * rng.standard_normal((n, 3)),
+                  rng.standard_normal((n, 2))):
+            assert np.allclose(kernel.apply(X), P @ X, rtol=0, atol=1e-12)
+            assert np.allclose(toeplitz_apply(X, rho), P @ X, rtol=0, atol=1e-12)

@@ -32,6 +32,7 @@ __all__ = [
     "cmd_batch",
     "cmd_fe",
     "cmd_identify",
+    "cmd_init",
     "cmd_run",
     "cmd_simulate",
 ]
@@ -238,9 +239,15 @@ def cmd_identify(args: argparse.Namespace) -> int:
     options = _identify_options(args)
     check_output_dir(args.out, "--out")
     geometry = _geometry(args)
+    picks = None
+    if args.picks is not None:
+        from ema_pipeline import io
+
+        picks = io.read_picks(args.picks)
     failed = runtime = 0
     for path in args.files:
-        outcome = identify_file(path, args.out, options, keep=args.report, uff=args.uff)
+        outcome = identify_file(path, args.out, options, keep=args.report, uff=args.uff,
+                                picks=picks)
         if outcome.status == "failed":
             failed += 1
             runtime += outcome.runtime
@@ -293,7 +300,8 @@ def cmd_batch(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         uff=args.uff,
     )
-    print(report.summary_line(), file=sys.stderr if report.n_failed else sys.stdout)
+    if report.n_failed or not args.quiet:  # --quiet: print only errors
+        print(report.summary_line(), file=sys.stderr if report.n_failed else sys.stdout)
     if args.report:
         from ema_pipeline.pipeline.reports import write_batch_report
 
@@ -357,6 +365,16 @@ def cmd_run(args: argparse.Namespace) -> int:
     return EXIT_OK if result.ok else EXIT_INPUT
 
 
+def cmd_init(args: argparse.Namespace) -> int:
+    """``init``: a commented experiment-file template in a folder."""
+    from ema_pipeline.io.template import write_experiment_template
+
+    path = write_experiment_template(args.folder, force=args.force)
+    print(f"wrote {path}: edit it, put the FRF and geometry files beside it, then "
+          f"`ema-pipeline run --raw {args.folder}`")
+    return EXIT_OK
+
+
 def cmd_fe(args: argparse.Namespace) -> int:
     """``fe``: Tables 2-6 from a measured modal table in the Table 1 form."""
     import numpy as np
@@ -382,6 +400,7 @@ def cmd_fe(args: argparse.Namespace) -> int:
         n_repeats=experiment.update_repeats if experiment else 5,
         seed=experiment.seed if experiment else 0,
         progress=not args.quiet,
+        n_modes=experiment.n_modes if experiment else None,  # [fe] n_modes, as run uses it
     )
     for name, frame in fe_stage.fe_stage_tables(stage).items():
         path = io.write_csv(frame, args.out / f"{name}.csv")

@@ -16,7 +16,14 @@ from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
-from ema_pipeline.cli.commands import cmd_batch, cmd_fe, cmd_identify, cmd_run, cmd_simulate
+from ema_pipeline.cli.commands import (
+    cmd_batch,
+    cmd_fe,
+    cmd_identify,
+    cmd_init,
+    cmd_run,
+    cmd_simulate,
+)
 from ema_pipeline.cli.frf_command import add_frf_parser
 from ema_pipeline.cli.support import EXIT_USAGE
 
@@ -301,6 +308,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_no_figures(p)
     _add_geometry(p, "the report")
+    p.add_argument(
+        "--picks",
+        type=Path,
+        default=None,
+        metavar="PICKS.toml",
+        help="fit exactly the poles of this picks file (written by the report's interactive "
+        "stabilization diagram; it sets the band and the orders) instead of the automatic "
+        "selection; a pick that matches no pole is an error",
+    )
     _add_identify_options(p)
     _add_uff_and_verbose(p, "DIR/<stem>_modes.uff")
     p.set_defaults(func=cmd_identify)
@@ -378,6 +394,20 @@ def build_parser() -> argparse.ArgumentParser:
     _add_memory_limit(p)
     _add_uff_and_verbose(p, "RESULTS/modes/<configuration>.uff (with the beam's node coordinates)")
     p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser(
+        "init",
+        help="write a commented experiment-file template for your own test",
+        description="Write DIR/experiment.toml, a commented template of an experiment file "
+        "for any structure: test metadata (object, date, operator, equipment), geometry, "
+        "roving and fixed DOFs, identification settings and two configurations. Put the FRF "
+        "and geometry files beside it (or edit the names), then `ema-pipeline run --raw DIR`. "
+        "The FE, update and added-mass stages run only where the file has a [beam] table.",
+    )
+    p.add_argument("folder", type=Path, metavar="DIR", help="folder for experiment.toml "
+                   "(created if needed)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing experiment.toml")
+    p.set_defaults(func=cmd_init)
 
     p = sub.add_parser(
         "fe",

@@ -55,6 +55,8 @@ def design_matrix(
     cols = np.empty((jw.shape[0], 2 * poles.size), dtype=complex)
     cols[:, 0::2] = g + gc
     cols[:, 1::2] = 1j * (g - gc)
+    if not (lower or upper):  # the local fits' modal columns: no residual basis to build
+        return cols
     res = residual_basis(freq_hz, quantity)[:, [k for k, on in enumerate((lower, upper)) if on]]
     res_cols = np.empty((jw.shape[0], 2 * res.shape[1]), dtype=complex)
     res_cols[:, 0::2] = res

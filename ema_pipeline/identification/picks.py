@@ -37,7 +37,6 @@ from ema_pipeline.data import DataError, FRFSet
 from ema_pipeline.identification.common import finish_identification, resolve_band
 from ema_pipeline.identification.lsfd import mpc
 from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.order_search import diagram_orders
 from ema_pipeline.identification.plscf import plscf
 from ema_pipeline.identification.refine import band_sensitivity, refine_poles
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
@@ -61,11 +60,16 @@ PICKED = "picked_modes"
 class Pick:
     """One picked pole.
 
-    freq_hz, zeta : natural frequency (Hz) and damping ratio of the pole
-        (window-corrected, as the diagram shows them).
-    order : model order of a diagram pole; ``None`` for a pole given by value.
-    pole : the pole itself (rad/s, before the window correction) for the
-        start pole of an automatically kept mode; ``None`` for a diagram pole.
+    Attributes
+    ----------
+    freq_hz, zeta : float
+        Natural frequency (Hz) and damping ratio of the pole (window-corrected,
+        as the diagram shows them).
+    order : int or None
+        Model order of a diagram pole; ``None`` for a pole given by value.
+    pole : complex or None
+        The pole itself (rad/s, before the window correction) for the start
+        pole of an automatically kept mode; ``None`` for a diagram pole.
     """
 
     freq_hz: float
@@ -83,10 +87,18 @@ class Pick:
 class Picks:
     """The content of a picks file: the diagram's settings and the picks.
 
-    band_hz : the identification band (Hz).   orders : the model orders of
-    the diagram (its highest is the pLSCF order p).   weighting : "none" or
-    "coherence".   picks : one :class:`Pick` per mode.   source : the file
-    (for messages).
+    Attributes
+    ----------
+    band_hz : (float, float)
+        The identification band (Hz).
+    orders : tuple of int
+        The model orders of the diagram (its highest is the pLSCF order p).
+    picks : tuple of Pick
+        One :class:`Pick` per mode.
+    weighting : str
+        "none" or "coherence".
+    source : str
+        The file (for messages).
     """
 
     band_hz: tuple[float, float]
@@ -366,7 +378,7 @@ def identify_picks(frf: FRFSet, options: IdentificationOptions,
 
 def is_picked(result: IdentificationResult) -> bool:
     """True for a result of :func:`identify_picks` (every mode picked by hand)."""
-    return PICKED in result.extras
+    return PICKED in getattr(result, "extras", {})
 
 
 def pole_mpc(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray,

@@ -118,10 +118,12 @@ def vp_fit(
     bg_r = background_columns(background)
     n_lin = 2 * m + bg_r.shape[1]
 
-    def fit(lam: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
+    def fit(lam: np.ndarray, u: np.ndarray, Yw: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
         """Projection with row weights u (2n,) shared by all channels; the
-        residual is row-weighted (2n, n_ch)."""
-        return scaled_solve(pole_columns(freq_hz, lam, bg_r) * u[:, None], Y * u[:, None])
+        residual is row-weighted (2n, n_ch). ``Yw``: Y * u, when formed once
+        for all the fits of a round (the same numbers)."""
+        Yw = Y * u[:, None] if Yw is None else Yw
+        return scaled_solve(pole_columns(freq_hz, lam, bg_r) * u[:, None], Yw)
 
     def cost_of(Rw: np.ndarray, inv_s2: np.ndarray) -> float:
         return float(np.sum(Rw**2 * inv_s2[None, :]))
@@ -155,7 +157,8 @@ def vp_fit(
         s2 = np.mean(std**2, axis=0)
         inv_s2 = 1.0 / np.maximum(s2, np.finfo(float).tiny)
         u = 1.0 / np.sqrt(np.mean(std**2 * inv_s2[None, :], axis=1))
-        F, g, cost = normal(lam_of(theta), u, inv_s2)
+        Yw = Y * u[:, None]
+        F, g, cost = normal(lam_of(theta), u, inv_s2, fit(lam_of(theta), u, Yw))
         damping = MarquardtDamping(mu=1e-3, mu_min=1e-9, mu_max=1e6)
         for _it in range(max_iter):
             it_total += 1
@@ -164,7 +167,7 @@ def vp_fit(
             except np.linalg.LinAlgError:
                 break
             trial = theta + step
-            fitted = fit(lam_of(trial), u) if np.all(trial[0::2] > 0) else None
+            fitted = fit(lam_of(trial), u, Yw) if np.all(trial[0::2] > 0) else None
             cost_t = np.inf if fitted is None else cost_of(fitted[1], inv_s2)
             if cost_t < cost:
                 theta = trial

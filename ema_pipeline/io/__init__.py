@@ -58,6 +58,7 @@ from ema_pipeline.io.hdf5 import (
     write_frf_h5,
     write_results_h5,
 )
+from ema_pipeline.io.picks import read_picks, write_picks
 from ema_pipeline.io.recording import RECORDING_SUFFIXES, read_recording
 from ema_pipeline.io.uff import (
     UFF_SUFFIXES,
@@ -235,6 +236,7 @@ __all__ = [
     "read_frf_uff",
     "read_geometry",
     "read_geometry_uff",
+    "read_picks",
     "read_results_h5",
     "read_recording",
     "read_time_uff",
@@ -251,6 +253,7 @@ __all__ = [
     "write_frf_uff",
     "write_geometry_uff",
     "write_modes_uff",
+    "write_picks",
     "write_results_h5",
     "write_text",
     "write_time_uff",

@@ -29,7 +29,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ema_pipeline.data import Beam, DataError
+from ema_pipeline.data import DOF, Beam, DataError
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.io.files import check_readable
 from ema_pipeline.io.geometry import geometry_from_table
@@ -151,9 +151,59 @@ def _direction(v: Any) -> int:
     return v
 
 
+_AXES = {"X": 1, "Y": 2, "Z": 3, "1": 1, "2": 2, "3": 3}
+_DOF_LABEL = re.compile(r"\s*(\d+)\s*([+-]?)\s*([XYZxyz123])\s*")
+
+
+def dof_from_label(v: Any) -> DOF:
+    """A DOF from its label: node, sign, axis (``"3-Z"``, ``"12+X"``, ``"7Y"``).
+
+    Examples
+    --------
+    >>> dof_from_label("3-Z").label(), dof_from_label("12x").label()
+    ('3-Z', '12+X')
+    """
+    match = _DOF_LABEL.fullmatch(_text(v))
+    if not match:
+        raise ValueError(f"must be a DOF label NODE+AXIS such as '3-Z' or '12+X', got {v!r}")
+    node, sign, axis = match.groups()
+    return DOF(int(node), (-1 if sign == "-" else 1) * _AXES[axis.upper()])
+
+
+def _text_or_list(v: Any) -> str:
+    if isinstance(v, list):
+        return "; ".join(_list(_text)(v))
+    return _text(v)
+
+
+def _dof_map(v: Any) -> tuple[tuple[DOF, DOF], ...]:
+    if not isinstance(v, dict):
+        raise ValueError(f"must be a table {{\"FILE_DOF\" = \"GEOMETRY_DOF\", ...}}, got {v!r}")
+    out = []
+    for key, x in v.items():
+        try:
+            out.append((dof_from_label(key), dof_from_label(x)))
+        except ValueError as exc:
+            raise ValueError(f"{key}: {exc}") from None
+    return tuple(out)
+
+
 #: table -> key -> checker. ``configurations`` entries are checked per entry.
 SCHEMA: dict[str, dict[str, Check]] = {
     "experiment": {"name": _text, "genuine": _text},
+    "test": {
+        "object": _text,
+        "date": lambda v: str(v) if not isinstance(v, bool | int | float | list | dict)
+        else _text(v),
+        "operator": _text,
+        "equipment": _text_or_list,
+        "description": _text,
+    },
+    "dofs": {
+        "roving": _choice("hammer", "sensor", "none"),
+        "fixed": _list(dof_from_label, min_len=1, max_len=1000),
+        "map": _dof_map,
+    },
     "beam": {
         "length_m": _number(0.0, 1e3),
         "width_m": _number(0.0, 1e2),
@@ -386,6 +436,18 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
         raise DataError(
             f"{path}: [experiment] genuine: genuine configuration {genuine!r} is not among {names}"
         )
+    # a file with a [geometry] and no [beam] describes some other structure: no
+    # FE model, update or added mass (beam defaults stay for the types only)
+    has_beam = "beam" in doc or "geometry" not in doc
+    if not has_beam:
+        for table in ("fe", "sensors"):
+            if table in doc:
+                raise DataError(f"{path}: [{table}] describes the beam's test: it needs a "
+                                "[beam] table (this file has a [geometry] and no [beam])")
+        for spec in specs:
+            if spec.added_mass is not None:
+                raise DataError(f"{path}: configuration {spec.name!r} is simulated on the FE "
+                                "beam (added_mass): it needs a [beam] table")
     n_nodes = beam.n_measurement_elements + 1
     fe = t["fe"]
     immersed = fe.get("immersed_elements", (beam.n_measurement_elements,))
@@ -426,6 +488,11 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
         n_modes=fe.get("n_modes", 4),
         update_repeats=fe.get("update_repeats", 5),
         seed=fe.get("seed", 0),
+        has_beam=has_beam,
+        test=tuple((k, str(v)) for k, v in t["test"].items()),
+        roving=t["dofs"].get("roving", ""),
+        fixed_dofs=tuple(t["dofs"].get("fixed", ())),
+        dof_map=tuple(t["dofs"].get("map", ())),
     )
     if check_files:
         for k, spec in enumerate(specs, start=1):

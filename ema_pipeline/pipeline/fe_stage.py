@@ -41,6 +41,7 @@ __all__ = [
     "TABLE6_METHODS",
     "FEStageResult",
     "fe_stage_tables",
+    "lowest_modes",
     "run_fe_stage",
     "update_progress_bar",
     "update_statement",
@@ -121,6 +122,7 @@ def run_fe_stage(
     n_repeats: int = 5,
     seed: int = 0,
     progress: bool = True,
+    n_modes: int | None = None,
 ) -> FEStageResult:
     """Modal added mass, FE model, model update, SEREP and local added mass.
 
@@ -138,9 +140,19 @@ def run_fe_stage(
 
     ``measured`` maps configuration names to modal parameters (see
     :func:`modal_parameters_from_table`); ``measured[genuine]`` must have every
-    mode (it defines the FE mode numbers 1..p).
+    mode (it defines the FE mode numbers 1..p). ``n_modes`` (the experiment
+    file's ``[fe] n_modes``): use only the lowest ``n_modes`` modes of every
+    configuration (all of them where it has fewer; a note says what was left
+    out); ``None`` uses every mode given.
     """
     require_genuine(measured, genuine)
+    cut: list[str] = []
+    if n_modes is not None:
+        if n_modes < 1:
+            raise DataError(f"n_modes must be at least 1, got {n_modes}")
+        cut = [f"{name}: {m.n_modes} modes given, the lowest {n_modes} are used ([fe] n_modes)"
+               for name, m in measured.items() if m.n_modes > n_modes]
+        measured = {name: lowest_modes(m, n_modes) for name, m in measured.items()}
     for m in methods:
         if m not in TABLE6_METHODS:
             raise DataError(f"unknown local added mass method {m!r}; use {TABLE6_METHODS}")
@@ -174,7 +186,7 @@ def run_fe_stage(
                              pairing=modal)
         if EXACT_METHOD in methods else {}
     )
-    msgs = tuple(msg for res in modal.values() for msg in res.messages) + tuple(
+    msgs = tuple(cut) + tuple(msg for res in modal.values() for msg in res.messages) + tuple(
         exact_method_notes(local_added_mass_table(local, exact))
     )
     return FEStageResult(
@@ -190,6 +202,26 @@ def run_fe_stage(
         local_added_mass=tuple(local),
         messages=msgs,
         exact_added_mass=exact,
+    )
+
+
+def lowest_modes(modes: ModalParameters, n_modes: int) -> ModalParameters:
+    """Modes 1..``n_modes`` of ``modes`` (the lowest: modes are in ascending
+    order; all of them when it has fewer), with their std, shapes and
+    configuration name.
+
+    Examples
+    --------
+    >>> m = ModalParameters(fn_hz=[18.1, 112.1, 327.6], zeta=[0.005, 0.0067, 0.0029])
+    >>> lowest_modes(m, 2).fn_hz.tolist(), lowest_modes(m, 5).n_modes
+    ([18.1, 112.1], 3)
+    """
+    keep = slice(0, n_modes)
+    return ModalParameters(
+        fn_hz=modes.fn_hz[keep], zeta=modes.zeta[keep], fn_std_hz=modes.fn_std_hz[keep],
+        zeta_std=modes.zeta_std[keep],
+        shapes=None if modes.shapes is None else modes.shapes[:, keep], dofs=modes.dofs,
+        configuration=modes.configuration,
     )
 
 

@@ -31,6 +31,7 @@ from ema_pipeline.identification.expect import (
     with_expected_rows,
 )
 from ema_pipeline.identification.not_kept import not_kept_message
+from ema_pipeline.identification.picks import Picks
 from ema_pipeline.identification.resources import check_identification
 
 
@@ -129,13 +130,13 @@ def load_frf(path: Path, options: IdentificationOptions) -> FRFSet:
 
 
 def identify_frf(
-    frf: FRFSet, options: IdentificationOptions | None = None
+    frf: FRFSet, options: IdentificationOptions | None = None, *, picks: Picks | None = None
 ) -> IdentificationResult:
     """:func:`ema_pipeline.identification.identify` with these options, on
     :func:`single_reference` of ``frf``: a roving-hammer set (one response,
     several references) is identified in its reciprocal form, as the command
     line does, so ``result.modes.shapes`` has one row per hammer point."""
-    return identify(single_reference(frf), options)
+    return identify(single_reference(frf), options, picks=picks)
 
 
 def identify_file(
@@ -147,13 +148,16 @@ def identify_file(
     sha256: str | None = None,
     keep: bool = False,
     uff: bool = False,
+    picks: Picks | None = None,
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
     With ``force=False`` a file whose content hash already has a complete result
     in ``out_dir`` is skipped. With ``keep=True`` the outcome keeps the FRFs and
     the identification result (for a report). Problems with the file (unreadable, NaN, no modes)
-    are returned as ``status="failed"`` with the reason, never raised.
+    are returned as ``status="failed"`` with the reason, never raised. With
+    ``picks`` (a picks file, :func:`ema_pipeline.io.read_picks`) exactly those
+    poles are fitted (:func:`ema_pipeline.identification.picks.identify_picks`).
     """
     options = IdentificationOptions() if options is None else options
     path, out_dir = Path(path), Path(out_dir)
@@ -171,7 +175,7 @@ def identify_file(
         frf = load_frf(path, options)
         outcome.configuration = frf.configuration
         check_identification(frf, options, source=str(path))
-        result = identify_frf(frf, options)
+        result = identify_frf(frf, options, picks=picks)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_table(result)

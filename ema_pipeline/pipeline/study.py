@@ -155,6 +155,36 @@ def recorded_frf(exp: Experiment, spec: ConfigurationSpec) -> tuple[FRFSet, pd.D
     return single_reference(frf), result.hits_table()
 
 
+def map_dofs(exp: Experiment, frf: FRFSet, path: Path | str = "") -> FRFSet:
+    """``frf`` with the experiment's ``[dofs] map`` applied (file DOF -> geometry
+    DOF) and its ``[dofs] fixed`` DOFs checked: each must be one of the FRFs'
+    DOFs (a :class:`DataError` naming the file otherwise).
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import Beam
+    >>> from ema_pipeline.identification import IdentificationOptions
+    >>> exp = Experiment(name="x", beam=Beam(), configurations=(),
+    ...                  identification=IdentificationOptions(),
+    ...                  dof_map=((DOF(101, 3), DOF(1, 3)),), fixed_dofs=(DOF(2, -3),))
+    >>> frf = FRFSet(freq_hz=np.arange(3.0), H=np.ones((1, 1, 3), complex),
+    ...              response_dofs=(DOF(101, 3),), reference_dofs=(DOF(2, -3),))
+    >>> [d.label() for d in map_dofs(exp, frf).response_dofs]
+    ['1+Z']
+    """
+    if exp.dof_map:
+        table = dict(exp.dof_map)
+        frf = replace(frf, response_dofs=tuple(table.get(d, d) for d in frf.response_dofs),
+                      reference_dofs=tuple(table.get(d, d) for d in frf.reference_dofs))
+    dofs = set(frf.response_dofs) | set(frf.reference_dofs)
+    missing = [d.label() for d in exp.fixed_dofs if d not in dofs]
+    if missing:
+        where = f"{path}: " if path else ""
+        raise DataError(f"{where}[dofs] fixed {', '.join(missing)}: not among the file's DOFs "
+                        f"({', '.join(sorted({d.label() for d in dofs}))})")
+    return frf
+
+
 def prepare_study(
     experiment: Experiment, experiment_file: str | os.PathLike[str] = "experiment.toml",
     *, hits: dict[str, pd.DataFrame] | None = None,
@@ -182,7 +212,9 @@ def prepare_study(
                 hits[spec.name] = table
         else:
             frf = replace(load_frf(path, options), configuration=spec.name)
-        _check_sensors(experiment, frf, path, str(experiment_file))
+        frf = map_dofs(experiment, frf, path)
+        if experiment.has_beam:  # the beam's [sensors]; any other structure: its own DOFs
+            _check_sensors(experiment, frf, path, str(experiment_file))
         check_identification(frf, options, source=f"{path} ({spec.name})")
         frfs[spec.name] = frf
     return frfs
@@ -204,8 +236,8 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
             elif spec.recording:
                 frf, result.hits[spec.name] = recorded_frf(exp, spec)
             else:
-                frf = simulate_configuration(exp, spec) if path is None else replace(
-                    load_frf(path, options), configuration=spec.name)
+                frf = simulate_configuration(exp, spec) if path is None else map_dofs(
+                    exp, replace(load_frf(path, options), configuration=spec.name), path)
             ident = identify_frf(frf, options)
         except DataError as exc:
             result.problems.append(f"configuration {spec.name!r}: {exc}")
@@ -214,8 +246,10 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
         result.frfs[spec.name] = frf
         result.identification[spec.name] = ident
         modes = ident.modes
-        n_use = min(exp.n_modes, modes.n_modes)
-        if modes.n_modes < exp.n_modes:
+        n_use = min(exp.n_modes, modes.n_modes) if exp.has_beam else modes.n_modes
+        if not exp.has_beam:
+            pass  # no FE stage: every mode is used
+        elif modes.n_modes < exp.n_modes:
             result.problems.append(
                 f"configuration {spec.name!r}: only {plural(modes.n_modes, 'mode')} identified, "
                 f"the FE stage needs {exp.n_modes}"
@@ -304,7 +338,11 @@ def run_study(
     start = time.perf_counter()
     _identify_all(experiment, result, say, frfs)
     result.tables["table1_modal_parameters"] = table1(result.measured)
-    _fe_stage(experiment, result, say, progress_bars)
+    if experiment.has_beam:
+        _fe_stage(experiment, result, say, progress_bars)
+    else:
+        result.notes.append("the experiment file describes no beam ([geometry], no [beam]): "
+                            "the FE model, its update and the added mass are not computed")
     result.seconds["total"] = time.perf_counter() - start
     return result
 
@@ -370,10 +408,12 @@ def report_input(result: StudyResult, experiment_file: str | os.PathLike[str] | 
             hammer_node=exp.hammer_node,
             immersed_elements=tuple(exp.immersed_elements),
             direction=exp.direction,
-        ),
+        ) if exp.has_beam else None,
+        test_info=_test_info(exp),
         inputs=inputs,
         hits=result.hits,
-        test_geometry=exp.geometry or exp.beam.measurement_geometry(),
+        test_geometry=exp.geometry or (exp.beam.measurement_geometry() if exp.has_beam
+                                       else None),
         shape_sets=_expanded_shapes(result, fe_x, fe_shapes),
         settings=_settings_text(exp),
         version=__version__,
@@ -414,6 +454,22 @@ def _expanded_shapes(
                 full[:, k] = psi * (psi[rows] @ m.shapes[:, k]) / (psi[rows] @ psi[rows])
             full[rows, k] = m.shapes[:, k]
         out[name] = ModeSet(m.fn_hz, m.zeta, full, dofs, measured=tuple(m.dofs))
+    return out
+
+
+def _test_info(exp: Experiment) -> dict[str, str]:
+    """The report's rows of the ``[test]`` and ``[dofs]`` tables."""
+    out = {key.replace("_", " "): value for key, value in exp.test}
+    if exp.roving in ("hammer", "sensor"):
+        fixed = ", ".join(d.label() for d in exp.fixed_dofs)
+        what = ("roving hammer, fixed accelerometer(s)" if exp.roving == "hammer"
+                else "roving accelerometer(s), fixed hammer")
+        out["test"] = what + (f" at {fixed}" if fixed else "")
+    elif exp.fixed_dofs:
+        out["fixed DOFs"] = ", ".join(d.label() for d in exp.fixed_dofs)
+    if exp.dof_map:
+        out["DOF map (file -> geometry)"] = ", ".join(f"{a.label()} -> {b.label()}"
+                                                      for a, b in exp.dof_map)
     return out
 
 
@@ -547,17 +603,23 @@ def write_modes_uff_files(result: StudyResult, folder: Path) -> list[Path]:
     """``folder/<configuration>.uff`` for every identified configuration, with
     the measurement nodes' coordinates along the beam (x in m, y = z = 0)."""
     beam = result.experiment.beam
+    geometry = result.experiment.geometry
     written = []
     for name, ident in result.identification.items():
         frf = result.frfs.get(name)
         if frf is None or ident is None:
             continue
         nodes = sorted({abs(d.node) for d in ident.modes.dofs})
-        coords = {
-            n: (beam.node_x_m(n), 0.0, 0.0)
-            for n in nodes
-            if 1 <= n <= beam.n_measurement_elements + 1
-        }
+        if result.experiment.has_beam:
+            coords = {
+                n: (beam.node_x_m(n), 0.0, 0.0)
+                for n in nodes
+                if 1 <= n <= beam.n_measurement_elements + 1
+            }
+        else:  # the nodes of the [geometry]
+            xyz = {} if geometry is None else dict(zip(geometry.node_ids.tolist(),
+                                                       geometry.xyz_m.tolist(), strict=True))
+            coords = {n: tuple(xyz[n]) for n in nodes if n in xyz}
         written.append(
             write_result_uff(ident, frf, folder / f"{name}.uff", node_coordinates=coords or None)
         )

@@ -77,6 +77,9 @@ class ReportInput:
     #: identified shapes at the measured DOFs).
     test_geometry: Geometry | None = None
     shape_sets: dict[str, Any] = field(default_factory=dict)
+    #: What the experiment file says of the test (object, date, operator,
+    #: equipment, roving and fixed DOFs), shown first in the setup section.
+    test_info: dict[str, str] = field(default_factory=dict)
 
 
 @dataclass

@@ -22,6 +22,7 @@ from ema_pipeline.report.htmlparts import (
     esc,
     figure,
     item_list,
+    kv_table,
     no_figures,
     provenance,
 )
@@ -42,6 +43,7 @@ from ema_pipeline.report.shape_views import (
     paired_shape_views_html,
     shape_views_html,
 )
+from ema_pipeline.report.stab_diagram import stab_diagram_html
 from ema_pipeline.report.tables import TABLE_TITLES, html_table, markdown_table
 from ema_pipeline.report.trends import PAIRING, pair_modes
 from ema_pipeline.report.wording import fit_grade, fit_limits_text, fit_verdict, plural
@@ -183,10 +185,12 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
     fg = figures or {}
     page = Page(report.title)
     page.section("summary", "Summary").append(_summary_study(report))
-    if report.frfs:
-        page.section("setup", "Test setup").append(
-            html_table(setup_table(report.frfs, report.geometry), split=False)
-        )
+    if report.frfs or report.test_info:
+        sec = page.section("setup", "Test setup")
+        if report.test_info:
+            sec.append(kv_table(report.test_info, caption="The test"))
+        if report.frfs:
+            sec.append(html_table(setup_table(report.frfs, report.geometry), split=False))
     if report.hits:
         sec = page.section("hits", "Impact hits (configurations measured as recordings)")
         for name, table in report.hits.items():
@@ -214,7 +218,11 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
     if report.identification:
         sec = page.section("stabilization", "Stabilization diagrams")
         sec.append(no_figures(figures))
-        for name in report.identification:
+        for k, (name, r) in enumerate(report.identification.items()):
+            if name in report.frfs:  # interactive: pick poles, get a picks file
+                sec.append(f"<h3>{esc(name)}</h3>" + stab_diagram_html(
+                    report.frfs[name], r, picks_id="picks" if k == 0 else
+                    f"picks-{safe_name(name)}", file_name=f"{safe_name(name)}_picks.toml"))
             sec.append(figure(f"stabilization_{safe_name(name)}", fg,
                                f"Stabilization diagram: {name}"))
         sec = page.section("modes", "Modes (MPC, MPD, stable orders)")
@@ -336,7 +344,8 @@ def render_identify_html(
         no + figure("frf_one", fg, f"|H| and coherence: {name}")
     )
     page.section("stabilization", "Stabilization diagram").append(
-        no + figure("stabilization_one", fg, "Stabilization diagram")
+        stab_diagram_html(frf, result)
+        + no + figure("stabilization_one", fg, "Stabilization diagram")
     )
     not_kept = not_kept_message(result.not_kept_hz, result.not_kept_frfs, frf.n_out * frf.n_in)
     page.section("modes", "Modes (MPC, MPD, stable orders)").append(

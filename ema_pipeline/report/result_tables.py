@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from ema_pipeline.data import DOF, FRFSet
+from ema_pipeline.identification.picks import is_picked
 from ema_pipeline.modal import mac
 from ema_pipeline.report.htmlparts import esc
 from ema_pipeline.report.inputs import BeamSetup, ReportInput
@@ -85,6 +86,9 @@ def mode_table(result: IdentificationResult) -> pd.DataFrame:
                "mpc", "stable_orders", "mpd_deg", "doubtful"]
     if "doubtful_reason" in table:  # which rule fired
         columns.append("doubtful_reason")
+    if is_picked(result):  # fitted from a picks file (identify --picks)
+        table["selection"] = "picked"
+        columns.append("selection")
     return table[columns]
 
 
@@ -104,6 +108,8 @@ COLUMN_TITLES = {
     "doubtful": "marked for a second look: few stable orders, loose damping, complex shape "
     "or damping not resolved by the lines",
     "doubtful_reason": "the rule that marked the mode doubtful",
+    "selection": "picked: the pole was picked by hand (identify --picks), not selected "
+    "automatically",
     "stable_orders": "model orders at which the pole is stable (count of orders computed)",
     "frac": "FRF assurance criterion of the synthesis",
     "error_pct": "normalised fit error ||H - H_fit|| / ||H||, per cent",
