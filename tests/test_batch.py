@@ -7,7 +7,9 @@ second; the batch identifies in 5-395 Hz.
 
 from __future__ import annotations
 
+import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -22,10 +24,11 @@ import pytest
 
 from ema_pipeline import io, paper
 from ema_pipeline.cli import main
-from ema_pipeline.data import ConfigError
+from ema_pipeline.data import Beam, ConfigError, Geometry
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.pipeline import batch
 from ema_pipeline.pipeline.batch import BatchReport, run_batch
+from ema_pipeline.pipeline.reports import batch_file_report_path
 from ema_pipeline.pipeline.simulate import simulate_paper_test
 
 FILE_BAND_HZ = (2.0, 400.0)
@@ -383,6 +386,7 @@ def test_bad_arguments_and_lock(good_folder: Path, tmp_path: Path) -> None:
     out.mkdir()
     with batch.batch_lock(out), pytest.raises(ConfigError, match="another batch"):
         run_batch(good_folder, out, progress=False)
+    assert not (out / batch.LOCK_NAME).exists()  # a batch that ends leaves no lock
 
 
 def test_empty_folder(tmp_path: Path) -> None:
@@ -472,3 +476,106 @@ def test_worker_crash_is_isolated(good_folder: Path, tmp_path: Path) -> None:
     assert list(failures["file"]) == ["crash.uff"]
     assert "worker process died" in failures["reason"][0] and "crash.uff" in failures["reason"][0]
     assert list(_read_summary(out)["status"]) == ["ok", "ok", "ok", "failed"]
+
+
+# ------------------------------------------------------------------ report page per file
+def _json_blocks(html: str, cls: str) -> list:
+    """The JSON of every ``<script type="application/json" class="cls">`` of a page."""
+    return [json.loads(b) for b in re.findall(
+        rf'<script type="application/json" class="{cls}">(.*?)</script>', html, re.S)]
+
+
+def _mode_diamonds(html: str) -> list[float]:
+    """f (Hz) of the diagram's kept-mode start poles, which open ``selected``."""
+    return [float(f) for f in re.findall(
+        r'<polygon class="pole mode selected"[^>]*data-freq-hz="([^"]+)"', html)]
+
+
+def _loads_from_outside(html: str) -> list[str]:
+    """Anything a browser would fetch from elsewhere (scripts, styles, images, links)."""
+    return (re.findall(r'(?:src|href)\s*=\s*["\']?\s*(?:[a-z]+:)?//|<link\b|<script[^>]*\bsrc=|'
+                       r"@import", html, re.I)
+            + re.findall(r"\burl\(", html))  # CSS (not the script's URL.createObjectURL)
+
+
+def test_batch_report_writes_the_identify_page_of_every_file(
+    good_folder: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``batch --report`` writes, beside each file's result and linked from the
+    batch page, the page ``identify --report`` writes for that file (same
+    diagram poles, same kept modes, same animated shapes), rebuilt from the
+    stored result: a rerun that skips every file rewrites them. Shapes are
+    animated on the geometry in a UFF file (none in an HDF5 file); with
+    ``--geometry FILE`` on that file's nodes for every file. Nothing is loaded
+    from outside the pages."""
+    folder = tmp_path / "raw"
+    folder.mkdir()
+    ids = np.arange(1, 12)  # the beam's measurement nodes; a.uff's own are bent in y
+    own_xyz = np.column_stack([0.065 * (ids - 1), 0.02 * (ids - 1), np.zeros(ids.size)])
+    own = io.write_geometry_uff(Geometry(node_ids=ids, xyz_m=own_xyz, lines=(tuple(ids),)),
+                                tmp_path / "own.uff")
+    (folder / "a.uff").write_bytes(own.read_bytes() + (good_folder / "a.uff").read_bytes())
+    shutil.copy(good_folder / "genuine_1.h5", folder / "genuine_1.h5")
+    configurations = {"a.uff": "larger_tank", "genuine_1.h5": "genuine"}
+    given = io.write_geometry_uff(Beam().measurement_geometry(), tmp_path / "given.uff")
+    out = tmp_path / "out"
+    cli = ["batch", str(folder), "--out", str(out), "--workers", "1", "--quiet", "--report",
+           *CLI_BAND]
+
+    def pages(status: str) -> dict[str, str]:
+        summary = _read_summary(out).set_index("file")
+        assert list(summary["status"]) == [status, status]
+        batch_html = (out / "report.html").read_text(encoding="utf-8")
+        links = re.findall(r'<a class="file-page" href="([^"]+)">([^<]+)</a>', batch_html)
+        expected = [(batch_file_report_path(summary.loc[f, "result_h5"]).as_posix(), f)
+                    for f in summary.index]
+        assert links == expected
+        assert not _loads_from_outside(batch_html)
+        return {f: (out / href).read_text(encoding="utf-8") for href, f in links}
+
+    start = time.perf_counter()
+    assert main(cli) == 0
+    first = pages("ok")
+    for name, html in first.items():
+        assert not _loads_from_outside(html)
+        assert 'href="report.html">Back to the batch report</a>' in html  # both in OUT itself
+        modes = io.read_csv(out / f"{Path(name).stem}_modes.csv", required=("fn_hz", "fd_hz"))
+        truth = paper.TABLE1_FD_HZ[configurations[name]][:N_MODES]
+        np.testing.assert_allclose(modes["fd_hz"], truth, rtol=1e-3)
+        # the diagram: its poles (JSON the script draws) and the kept modes' start
+        # poles, selected, one per mode at the mode's frequency (start poles are
+        # the trajectories' medians, before refinement: within 0.1 %)
+        np.testing.assert_allclose(_mode_diamonds(html), modes["fn_hz"], rtol=1e-3)
+        (poles,) = _json_blocks(html, "stab-poles")
+        f, stable = np.array(poles["f"]), np.array(poles["s"]) == 3
+        assert len({len(poles[k]) for k in "fzomgs"}) == 1 and f.size > 100
+        assert np.all((f >= 5.0) & (f <= 395.0))
+        for fn in modes["fn_hz"]:  # every kept mode stands on a column of stable poles
+            assert np.count_nonzero(stable & (np.abs(f - fn) < 2e-3 * fn)) >= 5, fn
+        assert '<pre class="picks" id="picks">' in html
+    # a.uff: animated on its own nodes; genuine_1.h5 holds no geometry: no views
+    assert first["a.uff"].count("data-mode-shape=") == N_MODES
+    (shape,) = _json_blocks(first["a.uff"], "shape-data")
+    np.testing.assert_allclose(shape["nodes"], own_xyz, atol=1e-6)
+    assert "data-mode-shape=" not in first["genuine_1.h5"]
+    # the same content as identify --report of the file
+    assert main(["identify", str(folder / "a.uff"), "--out", str(tmp_path / "id"), "--report",
+                 "--quiet", *CLI_BAND]) == 0
+    alone = (tmp_path / "id" / "a_report.html").read_text(encoding="utf-8")
+    for cls in ("stab-poles", "shape-data"):
+        assert _json_blocks(alone, cls) == _json_blocks(first["a.uff"], cls), cls
+    assert _mode_diamonds(alone) == _mode_diamonds(first["a.uff"])
+    capsys.readouterr()
+
+    assert main([*cli, "--geometry", str(given)]) == 0  # skipped: pages from the results
+    assert capsys.readouterr().err == ""  # every measured DOF has a node
+    second = pages("skipped")
+    beam_xyz = Beam().measurement_geometry().xyz_m
+    for name, html in second.items():
+        assert html.count("data-mode-shape=") == N_MODES, name
+        (shape,) = _json_blocks(html, "shape-data")
+        np.testing.assert_allclose(shape["nodes"], beam_xyz, atol=1e-6)
+        assert _json_blocks(html, "stab-poles") == _json_blocks(first[name], "stab-poles")
+        assert _mode_diamonds(html) == _mode_diamonds(first[name])
+    assert time.perf_counter() - start < 60
+

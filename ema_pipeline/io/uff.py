@@ -101,9 +101,9 @@ def read_uff(path: str | os.PathLike[str]) -> UffContents:
     >>> import tempfile, pathlib
     >>> p = pathlib.Path(tempfile.mkdtemp()) / "nodes.unv"
     >>> node = "         1         0         0         0 0.0 0.0 0.0"
-    >>> _ = p.write_text(f"    -1\\n    15\\n{node}\\n    -1\\n")
-    >>> read_uff(p).skipped
-    {15: 1}
+    >>> _ = p.write_text(f"    -1\\n    15\\n{node}\\n    -1\\n    -1\\n    18\\n    -1\\n")
+    >>> read_uff(p).skipped  # 15 (nodes) is kept for the geometry reader
+    {18: 1}
     """
     path = Path(path)
     check_readable(path, "a Universal File (dataset 58)")

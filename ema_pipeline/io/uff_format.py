@@ -114,8 +114,9 @@ class UffContents:
 
     @property
     def skipped(self) -> dict[int, int]:
-        """{dataset number: count} of the datasets not read (not 58, 164, 151)."""
-        return dict(Counter(n for n in self.dataset_numbers if n not in (58, 151, 164)))
+        """{dataset number: count} of the datasets not read (not 58, 164, 151, geometry)."""
+        return dict(Counter(n for n in self.dataset_numbers
+                           if n not in (58, 151, 164, *GEOMETRY_DATASETS)))
 
 
 #: Datasets whose text :func:`read_uff_file` keeps for the geometry reader.

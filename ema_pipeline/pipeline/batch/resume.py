@@ -45,7 +45,9 @@ def completed_details(result_h5: Path) -> dict[str, Any]:
 def batch_lock(out: Path) -> Iterator[None]:
     """Hold ``OUT/.batch.lock`` (flock) so two batches do not share one OUT.
 
-    The lock goes with the process, so a killed batch never leaves it stale.
+    The lock goes with the process, so a killed batch never leaves it stale;
+    a batch that ends removes the file (while it still holds the lock, so no
+    other batch can have taken it).
     """
     try:
         import fcntl
@@ -62,6 +64,7 @@ def batch_lock(out: Path) -> Iterator[None]:
         try:
             yield
         finally:
+            (out / LOCK_NAME).unlink(missing_ok=True)
             fcntl.flock(fh.fileno(), fcntl.LOCK_UN)
 
 
