@@ -50,6 +50,7 @@ from ema_pipeline.io.hdf5 import (
     read_frf_from_results,
     read_frf_group,
     read_frf_h5,
+    read_identification_result,
     read_results_h5,
     result_details,
     results_complete,
@@ -70,6 +71,7 @@ from ema_pipeline.io.uff import (
     write_time_uff,
 )
 from ema_pipeline.io.uff_units import parse_unit_label
+from ema_pipeline.paths import FRF_FILE_KIND
 
 #: Suffixes whose format is told by the file's first bytes (UFF or HDF5).
 SNIFFED_SUFFIXES = {".frf"}
@@ -112,7 +114,7 @@ def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     symlink loop) is refused before it is opened, whatever its name.
     """
     path = Path(path)
-    check_readable(path, "an FRF file (UFF or HDF5)")
+    check_readable(path, FRF_FILE_KIND)
     if frf_format(path) == "uff":
         frf = read_frf_uff(path, min_lines=min_lines)
     else:
@@ -236,6 +238,7 @@ __all__ = [
     "read_frf_uff",
     "read_geometry",
     "read_geometry_uff",
+    "read_identification_result",
     "read_picks",
     "read_results_h5",
     "read_recording",

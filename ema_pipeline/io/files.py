@@ -26,7 +26,6 @@ import errno
 import fcntl
 import hashlib
 import os
-import stat
 import tempfile
 from collections.abc import Iterator
 from pathlib import Path
@@ -35,57 +34,10 @@ from typing import BinaryIO
 import pandas as pd
 
 from ema_pipeline.data import DataError
+from ema_pipeline.paths import check_readable, not_regular
 
 #: errno values that mean "the disk (or the allowed file size) is full".
 DISK_FULL_ERRNOS = frozenset({errno.ENOSPC, errno.EFBIG, errno.EDQUOT})
-
-
-def _not_regular(mode: int) -> str | None:
-    """What a non-regular file is, for messages (None for a regular file)."""
-    if stat.S_ISREG(mode):
-        return None
-    if stat.S_ISDIR(mode):
-        return "a folder"
-    if stat.S_ISFIFO(mode):
-        return "a named pipe (FIFO)"
-    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
-        return "a device"
-    if stat.S_ISSOCK(mode):
-        return "a socket"
-    return "not a regular file"
-
-
-def check_readable(path: str | os.PathLike[str], kind: str) -> os.stat_result:
-    """Raise a DataError naming ``path`` unless it is a non-empty regular file.
-
-    Nothing is opened: a FIFO, a device, a folder, a symlink loop or a dangling
-    symlink is refused from its ``stat`` alone. ``kind`` says what the file
-    should be, for the message. Returns the ``stat`` result.
-
-    Examples
-    --------
-    >>> check_readable("/dev/zero", "an FRF file")
-    Traceback (most recent call last):
-    ...
-    ema_pipeline.data.DataError: /dev/zero: is a device, expected an FRF file
-    """
-    path = Path(path)
-    try:
-        st = os.stat(path)
-    except FileNotFoundError:
-        if os.path.islink(path):
-            raise DataError(f"{path}: broken symbolic link (its target does not exist)") from None
-        raise DataError(f"{path}: no such file") from None
-    except OSError as exc:
-        if exc.errno == errno.ELOOP:
-            raise DataError(f"{path}: symbolic link loop, expected {kind}") from None
-        raise DataError(f"{path}: cannot access ({exc.strerror})") from None
-    what = _not_regular(st.st_mode)
-    if what is not None:
-        raise DataError(f"{path}: is {what}, expected {kind}")
-    if st.st_size == 0:
-        raise DataError(f"{path}: empty file, expected {kind}")
-    return st
 
 
 def open_regular(path: str | os.PathLike[str], kind: str = "a regular file") -> BinaryIO:
@@ -110,7 +62,7 @@ def open_regular(path: str | os.PathLike[str], kind: str = "a regular file") -> 
         check_readable(path, kind)  # the precise message for a missing file, a loop, ...
         raise DataError(f"{path}: cannot open ({exc.strerror})") from exc
     try:
-        what = _not_regular(os.fstat(fd).st_mode)
+        what = not_regular(os.fstat(fd).st_mode)
         if what is not None:
             raise DataError(f"{path}: is {what}, expected {kind}")
         flags = fcntl.fcntl(fd, fcntl.F_GETFL)
