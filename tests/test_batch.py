@@ -28,7 +28,7 @@ from ema_pipeline.data import Beam, ConfigError, Geometry
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.pipeline import batch
 from ema_pipeline.pipeline.batch import BatchReport, run_batch
-from ema_pipeline.pipeline.reports import batch_file_report_path
+from ema_pipeline.pipeline.reports import batch_file_report_path, write_batch_report
 from ema_pipeline.pipeline.simulate import simulate_paper_test
 
 FILE_BAND_HZ = (2.0, 400.0)
@@ -577,5 +577,16 @@ def test_batch_report_writes_the_identify_page_of_every_file(
         np.testing.assert_allclose(shape["nodes"], beam_xyz, atol=1e-6)
         assert _json_blocks(html, "stab-poles") == _json_blocks(first[name], "stab-poles")
         assert _mode_diamonds(html) == _mode_diamonds(first[name])
+    # a result without its identification section (an older or foreign file): no
+    # page, no link, a warning naming the file; the other file's page is still there
+    stored = out / "genuine_1_result.h5"
+    io.write_results_h5({"frf": io.read_frf(folder / "genuine_1.h5")}, stored)
+    warnings: list[str] = []
+    write_batch_report(out, folder, OPTIONS, warnings=warnings)
+    assert len(warnings) == 1 and warnings[0].startswith("genuine_1.h5: no report page: ")
+    assert "/identification is missing" in warnings[0]
+    links = re.findall(r'class="file-page" href="([^"]+)"', (out / "report.html").read_text())
+    assert links == ["a_report.html"]
+    assert not (out / "genuine_1_report.html").exists()  # not left from the earlier result
     assert time.perf_counter() - start < 60
 

@@ -13,11 +13,15 @@ the simulated paper test, a two-configuration simulated study.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import html
 import json
+import logging
 import re
 import subprocess
 import sys
+import tomllib
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +40,15 @@ TESTS = Path(__file__).resolve().parent
 HERE = "test_option_effects.py"
 
 # ------------------------------------------------------------------ inventory
+# the tests of this file that several entries name
+RUN_SIMULATED = f"{HERE}::test_run_options_and_experiment_keys"
+RUN_FILES = f"{HERE}::test_run_file_configurations_geometry_and_verbose"
+FRF_READER = f"{HERE}::test_frf_reader_options_and_quiet"
+FRF_KEYS = f"{HERE}::test_recorded_configuration_frf_keys"
+SIMULATED_NOISE = f"{HERE}::test_simulated_configuration_snr_and_seed"
+INIT = f"{HERE}::test_init_writes_the_template_and_force_overwrites"
+# batch --report's page per file, on each file's own geometry or --geometry's
+BATCH_PAGES = "test_batch.py::test_batch_report_writes_the_identify_page_of_every_file"
 #: "COMMAND --option" (or "COMMAND positional") and "[table] key" -> the tests
 #: ("file.py::test_name") that show the option or key changes the result.
 INVENTORY: dict[str, tuple[str, ...]] = {
@@ -82,7 +95,8 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "batch --scheduler": ("test_batch.py::test_scheduler_matches_local_processes",),
     "batch --force": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --report": (
-        "test_report.py::test_batch_report_lists_failures_with_reason_and_the_trend",),
+        "test_report.py::test_batch_report_lists_failures_with_reason_and_the_trend",
+        BATCH_PAGES),
     "batch --no-figures": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --band": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --max-order": (f"{HERE}::test_batch_options_change_the_result",),
@@ -93,17 +107,18 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "batch --memory-limit-gb": (f"{HERE}::test_memory_limit_refuses_before_any_work",),
     "batch --uff": ("test_uff_export_cli.py::test_batch_uff_writes_one_file_per_input",),
     "batch --verbose": (f"{HERE}::test_verbose_reaches_the_batch_workers",),
+    "batch --geometry": (f"{HERE}::test_batch_geometry", BATCH_PAGES),
     # run
     "run --raw": ("test_study.py::test_table1_reproduces_the_paper",),
     "run --results": ("test_study.py::test_rerun_is_reproducible_and_replaces_the_folder",),
-    "run --experiment": (),  # PENDING
-    "run --quiet": (),  # PENDING
-    "run --json": (),  # PENDING
+    "run --experiment": (RUN_SIMULATED,),
+    "run --quiet": (RUN_SIMULATED,),
+    "run --json": (RUN_SIMULATED,),
     "run --no-figures": ("test_report.py::test_no_figures",),
-    "run --geometry": (),  # PENDING
+    "run --geometry": (RUN_FILES,),
     "run --memory-limit-gb": (f"{HERE}::test_memory_limit_refuses_before_any_work",),
     "run --uff": ("test_uff_export_cli.py::test_run_uff_carries_the_beam_geometry",),
-    "run --verbose": (),  # PENDING
+    "run --verbose": (RUN_FILES,),
     # fe
     "fe table1": ("test_cli_fe.py::test_fe_command_writes_tables_2_to_6_matching_the_paper",),
     "fe --out": ("test_cli_fe.py::test_fe_command_writes_tables_2_to_6_matching_the_paper",),
@@ -119,18 +134,25 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "frf --exp-window-tau": ("test_hits.py::test_each_option_changes_the_result",),
     "frf --estimator": ("test_hits.py::test_each_option_changes_the_result",),
     "frf --keep-all": ("test_hits.py::test_each_option_changes_the_result",),
-    "frf --force-channel": (),  # PENDING
-    "frf --scale": (),  # PENDING
-    "frf --unit": (),  # PENDING
+    "frf --force-channel": (FRF_READER,),
+    "frf --scale": (FRF_READER,),
+    "frf --unit": (FRF_READER,),
     "frf --report": ("test_frf_report.py::test_no_page_without_report",),
-    "frf --quiet": (),  # PENDING
-    # init (added by another helper while this file was written: tests to be mapped)
-    "init folder": (),  # PENDING
-    "init --force": (),  # PENDING
+    "frf --quiet": (FRF_READER,),
+    # init
+    "init folder": (INIT,
+                    "test_init_run.py::test_run_on_a_plate_identifies_both_configurations"),
+    "init --force": (INIT, "test_init_run.py::test_init_refuses_to_overwrite"),
     # the experiment file
-    "[experiment] name": (),  # PENDING
-    **{f"[test] {k}": () for k in ("date", "description", "equipment", "object", "operator")},
-    **{f"[dofs] {k}": () for k in ("fixed", "map", "roving")},
+    "[experiment] name": (RUN_SIMULATED,),
+    **{f"[test] {k}": (RUN_SIMULATED,)
+       for k in ("date", "description", "equipment", "object", "operator")},
+    "[dofs] fixed": (RUN_FILES,
+                     "test_init_run.py::test_dofs_map_puts_the_file_points_on_the_geometry"),
+    "[dofs] map": (RUN_FILES,
+                   "test_init_run.py::test_dofs_map_puts_the_file_points_on_the_geometry"),
+    "[dofs] roving": (RUN_FILES,
+                      "test_init_run.py::test_plate_report_has_animated_shapes_and_cross_mac"),
     "[experiment] genuine": (f"{HERE}::test_fe_experiment_keys",),
     **{f"[beam] {k}": (f"{HERE}::test_fe_experiment_keys",) for k in (
         "length_m", "width_m", "thickness_m", "youngs_modulus_pa", "density_kg_m3")},
@@ -158,51 +180,32 @@ INVENTORY: dict[str, tuple[str, ...]] = {
         "test_identification_options.py::test_residual_terms_stand_for_the_modes_outside_the_"
         "band",) for k in ("lower_residual", "upper_residual")},
     "[fe] immersed_elements": (f"{HERE}::test_fe_experiment_keys",),
-    "[fe] n_modes": (),  # PENDING
+    "[fe] n_modes": (f"{HERE}::test_fe_n_modes", RUN_SIMULATED),
     "[fe] update_repeats": (f"{HERE}::test_fe_experiment_keys",),
     "[fe] seed": (f"{HERE}::test_fe_mesh_and_seed_keys",),
     # [[configurations]] read from an FRF file
-    "[[configurations]] file: name": (),
+    "[[configurations]] file: name": (RUN_FILES,),
     "[[configurations]] file: file": ("test_study.py::test_table1_reproduces_the_paper",),
-    "[[configurations]] file: description": (),
-    "[[configurations]] file: exp_window_tau_s": (),
+    "[[configurations]] file: description": (RUN_FILES,),
+    "[[configurations]] file: exp_window_tau_s": (RUN_FILES,),
     # simulated on the FE beam
-    "[[configurations]] simulated: name": (),
+    "[[configurations]] simulated: name": (RUN_SIMULATED,),
     "[[configurations]] simulated: added_mass": (
         "test_closed_loop.py::test_run_checks_itself_against_the_truth",),
-    "[[configurations]] simulated: description": (),
-    "[[configurations]] simulated: zeta_pct": (),
-    "[[configurations]] simulated: snr_db": (),
-    "[[configurations]] simulated: seed": (),
+    "[[configurations]] simulated: description": (RUN_SIMULATED,),
+    "[[configurations]] simulated: zeta_pct": (RUN_SIMULATED,),
+    "[[configurations]] simulated: snr_db": (SIMULATED_NOISE,),
+    "[[configurations]] simulated: seed": (SIMULATED_NOISE,),
     # raw impact recordings
     "[[configurations]] recording: name": (
         "test_frf_pipeline.py::test_experiment_with_a_recorded_configuration_runs",),
     "[[configurations]] recording: recording": (
         "test_frf_pipeline.py::test_experiment_with_a_recorded_configuration_runs",),
-    "[[configurations]] recording: description": (),
-    "[[configurations]] recording: frf": (),
-    **{f"[[configurations]] frf: {k}": ()
-       for k in schema.FRF_SETTINGS},
-    **{f"[geometry] {k}": ()
-       for k in ("file", "nodes", "lines", "surfaces")},
+    "[[configurations]] recording: description": (RUN_SIMULATED,),
+    "[[configurations]] recording: frf": (FRF_KEYS,),
+    **{f"[[configurations]] frf: {k}": (FRF_KEYS,) for k in schema.FRF_SETTINGS},
+    **{f"[geometry] {k}": (RUN_FILES,) for k in ("file", "nodes", "lines", "surfaces")},
 }
-
-
-#: options and keys with no effect test yet (to be written; see the issue 30 report)
-PENDING = frozenset({
-    "identify --verbose", "batch --verbose", "run --experiment", "run --quiet", "run --json",
-    "run --geometry", "run --verbose", "frf --force-channel", "frf --scale", "frf --unit",
-    "frf --quiet", "[experiment] name", "[fe] n_modes", "init folder", "init --force",
-    *(f"[test] {k}" for k in ("date", "description", "equipment", "object", "operator")),
-    *(f"[dofs] {k}" for k in ("fixed", "map", "roving")),
-    "[[configurations]] file: name", "[[configurations]] file: description",
-    "[[configurations]] file: exp_window_tau_s", "[[configurations]] simulated: name",
-    "[[configurations]] simulated: description", "[[configurations]] simulated: zeta_pct",
-    "[[configurations]] simulated: snr_db", "[[configurations]] simulated: seed",
-    "[[configurations]] recording: description", "[[configurations]] recording: frf",
-    *(f"[[configurations]] frf: {k}" for k in schema.FRF_SETTINGS),
-    *(f"[geometry] {k}" for k in ("file", "nodes", "lines", "surfaces")),
-})
 
 
 def _cli_options() -> set[str]:
@@ -244,10 +247,8 @@ def test_inventory_is_complete() -> None:
     assert not missing, f"options/keys without a test in INVENTORY: {missing}"
     stale = sorted(set(INVENTORY) - wanted)
     assert not stale, f"INVENTORY names options/keys that no longer exist: {stale}"
-    pending = sorted(k for k, tests in INVENTORY.items() if not tests)
-    # options/keys whose effect test is still to be written (issue 30): this list
-    # may only shrink; a new option needs a test, not an entry here
-    assert set(pending) <= PENDING, f"new options/keys without a test: {set(pending) - PENDING}"
+    untested = sorted(k for k, tests in INVENTORY.items() if not tests)
+    assert not untested, f"options/keys listed without a test: {untested}"
     for option, tests in INVENTORY.items():
         for test in tests:
             file, name = test.split("::")
@@ -654,7 +655,7 @@ def study_raw(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def _cells(page: str) -> dict[str, str]:
     """The report's two-cell rows ``<tr><th>key</th><td>value</td></tr>`` as a dict."""
-    return {m.group(1): html.unescape(m.group(2)) for m in re.finditer(
+    return {html.unescape(m.group(1)): html.unescape(m.group(2)) for m in re.finditer(
         r"<tr><th>([^<]*)</th><td>([^<]*)</td></tr>", page)}
 
 
@@ -715,3 +716,301 @@ def test_run_options_and_experiment_keys(study_raw: Path, tmp_path: Path,
                             "--no-figures"], capsys)
     assert code == 0
     assert said.startswith("ema-pipeline run: experiment") and "[identify 1/1] as_built" in err
+
+
+# ------------------------------------------------------------------ run (FRF files, a geometry)
+#: Any structure (a [geometry], no [beam]: identification only): the noise-free
+#: two-mode FRF twice, once said to carry a 10 s exponential window; its DOFs
+#: 1+Z and 2+Z (hammer at 1+Z) are put on nodes 1 and 3 of the geometry.
+STUDY_FILES = """
+[experiment]
+name = "Two modes"
+[geometry]
+nodes = [[1, 0.0, 0.0, 0.0], [2, 0.3, 0.0, 0.0], [3, 0.3, 0.2, 0.0]]
+lines = [[1, 2]]
+surfaces = [[1, 2, 3]]
+[dofs]
+roving = "sensor"
+fixed = ["1+Z"]
+map = {"2+Z" = "3+Z"}
+[identification]
+band_hz = [5.0, 95.0]
+[[configurations]]
+name = "windowed"
+file = "two.uff"
+description = "said to be windowed, tau 10 s"
+exp_window_tau_s = 10.0
+[[configurations]]
+name = "plain"
+file = "two.uff"
+"""
+
+
+def _shape_data(page: str) -> dict:
+    """The first animated shape view's JSON (nodes, ids, lines, surfaces, modes)."""
+    blob = re.search(r'<script type="application/json" class="shape-data">(.*?)</script>', page)
+    assert blob, "no shape view"
+    return json.loads(blob.group(1))
+
+
+@contextlib.contextmanager
+def _logging_restored() -> Iterator[None]:
+    """--verbose adds a handler to the package's logger (for the process): removed
+    again on leaving."""
+    log = logging.getLogger("ema_pipeline")
+    handlers, level = list(log.handlers), log.level
+    try:
+        yield
+    finally:
+        log.handlers[:] = handlers
+        log.setLevel(level)
+
+
+def test_run_file_configurations_geometry_and_verbose(
+        two_mode_folder: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Configurations read from a file: name and description as given;
+    exp_window_tau_s = 10 s removes 1/tau from the decay rate of the file's
+    30 Hz / 1 % and 70 Hz / 2 % modes (zeta = (sigma - 1/tau) / |lambda|), the
+    other stays at 1 % / 2 % (1e-4). [geometry] nodes, lines and surfaces are
+    the report's animated model; [geometry] file reads the nodes and trace lines
+    of a UFF file, lines and surfaces add to them; run --geometry FILE replaces
+    [geometry]. [dofs] map puts the file's 2+Z on node 3 (measured nodes 1, 3;
+    without it 1, 2), roving and fixed are the report's description of the test.
+    --verbose prints the reader's INFO message about the UFF dataset it skips
+    (2420), without it nothing."""
+    raw = tmp_path / "raw"
+    raw.mkdir()
+    text = (two_mode_folder / "two.uff").read_text()
+    (raw / "two.uff").write_text(text + "    -1\n  2420\n         1\nSI\n    -1\n")
+    _write_experiment(raw / "experiment.toml", STUDY_FILES)
+    with _logging_restored():
+        code, said, err = _run(["run", "--raw", raw, "--results", tmp_path / "a", "--quiet",
+                                "--verbose"], capsys)
+    assert code == 0 and said == ""
+    assert "skipped datasets not needed for FRFs: 2420" in err
+    t1 = pd.read_csv(tmp_path / "a" / "tables" / "table1_modal_parameters.csv")
+    assert t1["configuration"].tolist() == ["windowed"] * 2 + ["plain"] * 2
+    plain = t1[t1["configuration"] == "plain"]
+    np.testing.assert_allclose(plain["fn_hz"], TWO_MODES.fn_hz, rtol=1e-4)
+    np.testing.assert_allclose(plain["zeta_pct"], 100 * TWO_MODES.zeta, rtol=1e-4)
+    wd = 2 * np.pi * TWO_MODES.fn_hz * np.sqrt(1 - TWO_MODES.zeta**2)
+    sigma = TWO_MODES.zeta * 2 * np.pi * TWO_MODES.fn_hz - 1 / 10.0
+    np.testing.assert_allclose(t1.loc[t1["configuration"] == "windowed", "zeta_pct"],
+                               100 * sigma / np.hypot(wd, sigma), rtol=1e-4)  # 0.947, 1.977
+    page = (tmp_path / "a" / "report.html").read_text()
+    assert "<tr><td>windowed</td><td>said to be windowed, tau 10 s</td>" in page
+    cells = _cells(page)
+    assert cells["test"] == "roving accelerometer(s), fixed hammer at 1+Z"
+    assert cells["DOF map (file -> geometry)"] == "2+Z -> 3+Z"
+    data = _shape_data(page)
+    assert data["ids"] == [1, 2, 3]
+    np.testing.assert_allclose(data["nodes"], [[0, 0, 0], [0.3, 0, 0], [0.3, 0.2, 0]])
+    assert data["lines"] == [[0, 1]] and data["surfaces"] == [[0, 1, 2]]
+    assert data["modes"][0]["m"] == [0, 2]  # measured: nodes 1 and 3 (the map)
+
+    # a UFF geometry (nodes 1-3 elsewhere, one trace line 1-2-3)
+    from ema_pipeline.data import Geometry
+    xyz = np.array([[0.0, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.5, 0.25]])
+    io.write_geometry_uff(Geometry(node_ids=np.array([1, 2, 3]), xyz_m=xyz, lines=((1, 2, 3),)),
+                          raw / "geometry.uff")
+    code, said, err = _run(["run", "--raw", raw, "--results", tmp_path / "b", "--quiet",
+                            "--geometry", raw / "geometry.uff"], capsys)
+    assert (code, said, err) == (0, "", "")  # no --verbose: no INFO message
+    data = _shape_data((tmp_path / "b" / "report.html").read_text())
+    np.testing.assert_allclose(data["nodes"], xyz)
+    assert data["lines"] == [[0, 1, 2]] and data["surfaces"] == []
+    _write_experiment(raw / "experiment.toml", STUDY_FILES.replace(
+        "nodes = [[1, 0.0, 0.0, 0.0], [2, 0.3, 0.0, 0.0], [3, 0.3, 0.2, 0.0]]",
+        'file = "geometry.uff"').replace("lines = [[1, 2]]", "lines = [[3, 1]]").replace(
+        'map = {"2+Z" = "3+Z"}\n', "").replace('roving = "sensor"\n', ""))
+    assert _run(["run", "--raw", raw, "--results", tmp_path / "c", "--quiet"], capsys)[0] == 0
+    page = (tmp_path / "c" / "report.html").read_text()
+    data = _shape_data(page)
+    np.testing.assert_allclose(data["nodes"], xyz)
+    assert data["lines"] == [[0, 1, 2], [2, 0]] and data["surfaces"] == [[0, 1, 2]]
+    assert data["modes"][0]["m"] == [0, 1]  # no map: the file's nodes 1 and 2
+    cells = _cells(page)  # fixed without roving: said as such
+    assert cells["fixed DOFs"] == "1+Z" and "test" not in cells
+
+
+# ------------------------------------------------------------------ frf: options and keys
+@pytest.fixture(scope="module")
+def hammer_csv(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, object]:
+    """Six hits (the second a double hit) from tests/impact_recordings.py as CSV:
+    the hammer force (N), the acceleration (m/s^2) and a "load cell" in N that reads
+    twice the hammer's force."""
+    from impact_recordings import make_recording
+
+    rec = make_recording(5, n_resp=1, n_hits=6, n_double=1, last_hit_short=False)
+    time_s = np.arange(rec.force_n.size) / rec.sample_rate_hz
+    path = tmp_path_factory.mktemp("hammer") / "hits.csv"
+    np.savetxt(path, np.c_[time_s, rec.force_n, rec.response[0], 2 * rec.force_n],
+               delimiter=",", header="time [s],hammer force [N],acc [m/s^2],load cell [N]",
+               comments="", fmt="%.17g")  # 17 digits: read back exactly
+    return path, rec
+
+
+def _ratio(a: FRFSet, b: FRFSet) -> np.ndarray:
+    """a.H / b.H on the lines where b is not zero."""
+    assert a.H.shape == b.H.shape
+    keep = np.abs(b.H) > 1e-12 * np.abs(b.H).max()
+    return a.H[keep] / b.H[keep]
+
+
+def test_frf_reader_options_and_quiet(hammer_csv: tuple[Path, object], tmp_path: Path,
+                                      capsys: pytest.CaptureFixture[str]) -> None:
+    """frf --force-channel "load cell" (twice the force) halves H; --scale acc=2
+    doubles it; --unit acc=g (the header says m/s^2) multiplies it by g =
+    9.80665 m/s^2 (H1 is linear in the response, inverse in the force; 1e-9).
+    Without --quiet the console counts the generator's 6 hits, 5 averaged (one
+    double hit); --quiet prints nothing."""
+    src, rec = hammer_csv
+
+    def frf(name: str, *options: str) -> tuple[FRFSet, str]:
+        code, said, _ = _run(["frf", src, "--out", tmp_path / f"{name}.h5", *options], capsys)
+        assert code == 0
+        return io.read_frf(tmp_path / f"{name}.h5"), said
+
+    base, said = frf("base")
+    assert rec.hit_times_s.size == 6
+    assert "6 hits found, 5 averaged" in said and "rejected: double_hit" in said
+    load, quiet = frf("load", "--force-channel", "load cell", "--quiet")
+    assert quiet == ""
+    np.testing.assert_allclose(_ratio(load, base), 0.5, rtol=1e-9)
+    np.testing.assert_allclose(_ratio(frf("scale", "--scale", "acc=2", "--quiet")[0], base),
+                               2.0, rtol=1e-9)
+    np.testing.assert_allclose(_ratio(frf("unit", "--unit", "acc=g", "--quiet")[0], base),
+                               9.80665, rtol=1e-9)
+
+
+def test_recorded_configuration_frf_keys(hammer_csv: tuple[Path, object], tmp_path: Path) -> None:
+    """Each key of a recorded configuration's ``frf`` table changes the FRFs that
+    run uses (:func:`ema_pipeline.pipeline.study.recorded_frf`), as its name says:
+    record_length_s = 0.5 gives lines 1 / 0.5 s = 2 Hz apart (default the
+    generator's 1 s record: 1 Hz); pretrigger_s = 0.03 moves the default force
+    window, the pretrigger + 0.05 s, from 0.06 to 0.08 s (one sample); force_window_s
+    and exp_window_tau are stored as given; estimator H2 gives H1 / H2 = the
+    coherence (single reference, 1e-9); keep_all averages the double hit too (6
+    averages, else 5); force_channel, scale and units as the frf options (0.5, 2,
+    g). The same table without a key gives the default result."""
+    from ema_pipeline.pipeline.study import recorded_frf
+
+    src, rec = hammer_csv
+
+    def frf(table: str) -> FRFSet:
+        path = _write_experiment(tmp_path / "exp.toml", f"""
+[sensors]
+response_nodes = [6]
+[[configurations]]
+name = "hammer"
+recording = "{src}"
+frf = {{{table}}}
+""")
+        exp = io.read_experiment(path)
+        return recorded_frf(exp, exp.configurations[0])[0]
+
+    base = frf("")
+    acq = base.acquisition
+    assert base.df_hz == pytest.approx(1 / rec.record_s) and acq.n_averages == 5
+    dt = 1 / rec.sample_rate_hz
+    assert acq.force_window_s == pytest.approx(0.01 + 0.05, abs=dt)
+    assert frf("record_length_s = 0.5").df_hz == pytest.approx(2.0, rel=1e-12)
+    assert frf("pretrigger_s = 0.03").acquisition.force_window_s == pytest.approx(0.08, abs=dt)
+    assert frf("force_window_s = 0.1").acquisition.force_window_s == pytest.approx(0.1, abs=dt)
+    assert acq.exp_window_tau_s != 0.2
+    assert frf("exp_window_tau = 0.2").acquisition.exp_window_tau_s == 0.2
+    h2 = frf('estimator = "H2"')
+    assert h2.acquisition.estimator == "H2" and acq.estimator == "H1"
+    keep = base.coherence[0, 0] > 1e-3
+    np.testing.assert_allclose((base.H / h2.H)[0, 0, keep].real, base.coherence[0, 0, keep],
+                               rtol=1e-9)
+    assert frf("keep_all = true").acquisition.n_averages == 6
+    np.testing.assert_allclose(_ratio(frf('force_channel = "load cell"'), base), 0.5, rtol=1e-9)
+    np.testing.assert_allclose(_ratio(frf("scale = {acc = 2.0}"), base), 2.0, rtol=1e-9)
+    np.testing.assert_allclose(_ratio(frf('units = {acc = "g"}'), base), 9.80665, rtol=1e-9)
+
+
+# ------------------------------------------------------------------ simulated configurations
+def test_simulated_configuration_snr_and_seed(tmp_path: Path) -> None:
+    """A simulated configuration's FRFs (what run identifies,
+    :func:`ema_pipeline.pipeline.simulate.simulate_configuration`): the same seed
+    gives the same noise, another seed other noise of the same size, the default
+    seed is the entry's position (entry 5 without a seed = seed 5); snr_db = 20 has
+    10x the noise amplitude of 40 dB, so about 10x the FRF error against the
+    noise-free snr_db = 0."""
+    from ema_pipeline.pipeline.simulate import simulate_configuration
+
+    entries = (("free", "snr_db = 0"), ("a", "seed = 5"), ("again", "seed = 5"),
+               ("other", "seed = 6"), ("fifth", ""), ("low", "seed = 5\nsnr_db = 20"))
+    exp = io.read_experiment(_write_experiment(tmp_path / "exp.toml", "".join(
+        f'[[configurations]]\nname = "{name}"\nadded_mass = {{}}\n{keys}\n'
+        for name, keys in entries)))
+    H = {spec.name: simulate_configuration(exp, spec).H for spec in exp.configurations}
+    np.testing.assert_array_equal(H["a"], H["again"])
+    np.testing.assert_array_equal(H["a"], H["fifth"])
+    err = {k: np.median(np.abs(H[k] / H["free"] - 1)) for k in ("a", "other", "low")}
+    assert np.median(np.abs(H["a"] / H["other"] - 1)) > 0.5 * err["a"]
+    assert 0.7 < err["other"] / err["a"] < 1.4
+    assert 7.0 < err["low"] / err["a"] < 13.0, err
+
+
+# ------------------------------------------------------------------ init
+def test_init_writes_the_template_and_force_overwrites(tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    """init DIR creates DIR (nested) with experiment.toml, a TOML template with the
+    [test], [geometry], [dofs] and [[configurations]] tables; an existing file is
+    kept (exit 2) unless --force, which replaces it with the template."""
+    folder = tmp_path / "new" / "test"
+    assert _run(["init", folder], capsys)[0] == 0
+    template = (folder / "experiment.toml").read_text()
+    assert {"test", "geometry", "dofs", "configurations"} <= set(tomllib.loads(template))
+    (folder / "experiment.toml").write_text("# mine\n")
+    code, _, err = _run(["init", folder], capsys)
+    assert code == 2 and "--force" in err
+    assert (folder / "experiment.toml").read_text() == "# mine\n"
+    assert _run(["init", folder, "--force"], capsys)[0] == 0
+    assert (folder / "experiment.toml").read_text() == template
+
+
+# ------------------------------------------------------------------ [fe] n_modes
+def test_fe_n_modes(table1_csv: Path, tmp_path: Path,
+                    capsys: pytest.CaptureFixture[str]) -> None:
+    """[fe] n_modes = 2: fe uses the lowest two modes of the four in Table 1:
+    Tables 3 and 5 have two rows (Table 3 the paper's first two, 1e-3) and
+    Table 2 modes 1 and 2, against four with the default (n_modes = 4); a note
+    says so. (run uses it as well: test_run_options_and_experiment_keys.)"""
+    two = _fe(table1_csv, tmp_path / "two", "[fe]\nn_modes = 2\nupdate_repeats = 1\n", capsys)
+    four = _fe(table1_csv, tmp_path / "four", "[fe]\nupdate_repeats = 1\n", capsys)
+    np.testing.assert_allclose(two["table3"]["fn_hz"], paper.TABLE3_FN_HZ[:2], rtol=1e-3)
+    np.testing.assert_allclose(four["table3"]["fn_hz"], paper.TABLE3_FN_HZ, rtol=1e-3)
+    assert len(two["table5"]) == 2 and len(four["table5"]) == 4
+    assert set(two["table2"]["mode"]) == {1, 2} and set(four["table2"]["mode"]) == {1, 2, 3, 4}
+    exp = _write_experiment(tmp_path / "n2.toml", "[fe]\nn_modes = 2\nupdate_repeats = 1\n"
+                            + FE_CONFIGURATIONS)
+    code, said, _ = _run(["fe", table1_csv, "--out", tmp_path / "said", "--experiment", exp],
+                         capsys)
+    assert code == 0 and "genuine: 4 modes given, the lowest 2 are used ([fe] n_modes)" in said
+
+
+def test_batch_geometry(two_mode_folder: Path, tmp_path: Path,
+                        capsys: pytest.CaptureFixture[str]) -> None:
+    """batch --report --geometry FILE: each file's report page animates its modes on
+    the given nodes (the UFF file two.uff holds none: without --geometry no shape
+    view); --geometry without --report is a usage error (exit 2) before any work."""
+    from ema_pipeline.data import Geometry
+
+    xyz = np.array([[0.0, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.5, 0.25]])
+    geometry = io.write_geometry_uff(Geometry(node_ids=np.array([1, 2, 3]), xyz_m=xyz,
+                                              lines=((1, 2, 3),)), tmp_path / "geometry.uff")
+    out = tmp_path / "out"
+    code, _, err = _run(["batch", two_mode_folder, "--out", out, "--geometry", geometry,
+                         "--workers", "1", "--quiet"], capsys)
+    assert code == 2 and "--report" in err and not out.exists()
+    assert _run(["batch", two_mode_folder, "--out", out, "--report", "--geometry", geometry,
+                 "--workers", "1", "--quiet"], capsys)[0] == 0
+    data = _shape_data((out / "two_report.html").read_text())
+    np.testing.assert_allclose(data["nodes"], xyz)
+    assert data["lines"] == [[0, 1, 2]] and data["modes"][0]["m"] == [0, 1]
+    assert _run(["batch", two_mode_folder, "--out", out, "--report", "--force",
+                 "--workers", "1", "--quiet"], capsys)[0] == 0
+    assert "data-mode-shape" not in (out / "two_report.html").read_text()

@@ -215,7 +215,7 @@ def test_batch_report_lists_failures_with_reason_and_the_trend(tmp_path, example
     assert main(["batch", str(src), "--out", str(out), "--workers", "1", "--report",
                  "--quiet"]) == 1
     page = _parse(out / "report.html")
-    assert page.sections == ["summary", "failures", "files", "trend", "provenance"]
+    assert page.sections == ["summary", "failures", "files", "pages", "trend", "provenance"]
     failures = pd.read_csv(out / "failures.csv")
     reason = failures.loc[failures["file"] == "broken.uff", "reason"].item()
     failed_table = page.tables[0]

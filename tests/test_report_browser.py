@@ -111,7 +111,8 @@ def test_report_fits_the_printed_page(browser, report):
 
 @pytest.fixture(scope="module")
 def other_pages(tmp_path_factory, example_dir) -> list[Path]:
-    """``identify --report`` of one file and ``batch --report`` with a broken file."""
+    """``identify --report`` of one file, ``batch --report`` with a broken file and
+    the batch's page of one file."""
     tmp = tmp_path_factory.mktemp("pages")
     h5 = example_dir / "larger_tank.h5"
     assert main(["identify", str(h5), "--out", str(tmp / "id"), "--report", "--quiet"]) == 0
@@ -122,12 +123,13 @@ def other_pages(tmp_path_factory, example_dir) -> list[Path]:
     (src / "broken.h5").write_bytes(b"not an HDF5 file")
     assert main(["batch", str(src), "--out", str(tmp / "b"), "--workers", "1", "--report",
                  "--quiet"]) == 1
-    return [tmp / "id" / "larger_tank_report.html", tmp / "b" / "report.html"]
+    return [tmp / "id" / "larger_tank_report.html", tmp / "b" / "report.html",
+            tmp / "b" / "genuine_report.html"]
 
 
 @pytest.mark.parametrize(("width", "media"), [(800, "screen"), (PRINT_WIDTH_PX, "print")])
 def test_identify_and_batch_pages_fit(browser, other_pages, width, media):
-    for page, n_figures in zip(other_pages, (4, 1), strict=True):
+    for page, n_figures in zip(other_pages, (4, 1, 4), strict=True):
         layout = _layout(browser, page.as_uri(), width, media)
         assert layout["scroll"] <= layout["page"], page
         too_wide = [t for t in layout["tables"]
@@ -135,3 +137,32 @@ def test_identify_and_batch_pages_fit(browser, other_pages, width, media):
         assert too_wide == [], (page, too_wide)
         assert len(layout["figures"]) == n_figures
         assert all(f["width"] > 100 and f["drawn"] >= 2 for f in layout["figures"])
+
+
+def test_batch_links_each_file_page_whose_diagram_draws_and_picks(browser, other_pages):
+    """From the batch page to each file's page (broken.h5 has none) and back; on the
+    page the script draws one ``circle.pole`` per pole of the diagram's JSON and
+    opens with one selected pole per mode of the file's ``_modes.csv``, all in
+    ``#picks``."""
+    import json
+
+    import pandas as pd
+    from selenium.webdriver.common.by import By
+
+    batch_page = other_pages[1]
+    browser.get(batch_page.as_uri())
+    links = {a.text: a.get_attribute("href")
+             for a in browser.find_elements(By.CSS_SELECTOR, "a.file-page")}
+    assert sorted(links) == ["genuine.uff", "larger_tank.h5"]
+    for name, href in links.items():
+        browser.get(href)
+        n_modes = len(pd.read_csv(batch_page.parent / f"{Path(name).stem}_modes.csv"))
+        poles = json.loads(browser.find_element(By.CSS_SELECTOR, "script.stab-poles")
+                           .get_attribute("textContent"))
+        drawn = browser.find_elements(By.CSS_SELECTOR, "g.diagram-poles circle.pole")
+        assert len(drawn) == len(poles["f"]) > 100
+        assert len(browser.find_elements(By.CSS_SELECTOR, ".pole.selected")) == n_modes
+        picks = browser.find_element(By.ID, "picks").get_attribute("textContent")
+        assert picks.count("[[pick]]") == n_modes  # (hidden in print media: textContent)
+        back = browser.find_element(By.CSS_SELECTOR, "a.batch-page").get_attribute("href")
+        assert back == batch_page.as_uri()

@@ -232,7 +232,21 @@ def _geometry(args: argparse.Namespace) -> Geometry | None:
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
-    """``identify``: modal parameters of each FRF file, one after the other."""
+    """``identify``: modal parameters of each FRF file, one after the other.
+
+    Inputs that are not readable files are reported before the readers and the
+    identification chain are imported, so a mistyped name fails right away."""
+    from ema_pipeline.paths import FRF_FILE_KIND, check_readable
+
+    readable = []
+    for path in args.files:
+        try:
+            check_readable(path, FRF_FILE_KIND)
+            readable.append(path)
+        except DataError as exc:
+            print(f"ema-pipeline identify: error: {exc}", file=sys.stderr)
+    if not readable:
+        return EXIT_USAGE
     from ema_pipeline.pipeline.single import identify_file
     from ema_pipeline.report.wording import plural
 
@@ -244,8 +258,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         from ema_pipeline import io
 
         picks = io.read_picks(args.picks)
-    failed = runtime = 0
-    for path in args.files:
+    failed, runtime = len(args.files) - len(readable), 0
+    for path in readable:
         outcome = identify_file(path, args.out, options, keep=args.report, uff=args.uff,
                                 picks=picks)
         if outcome.status == "failed":
@@ -290,6 +304,9 @@ def cmd_batch(args: argparse.Namespace) -> int:
     check_output_dir(args.out, "--out")
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {args.workers}")
+    if args.geometry is not None and not args.report:
+        raise ConfigError("--geometry draws the modes in the report pages: add --report")
+    geometry = _geometry(args)  # read now: a bad file stops before the batch runs
     report = run_batch(
         args.folder,
         args.out,
@@ -305,10 +322,14 @@ def cmd_batch(args: argparse.Namespace) -> int:
     if args.report:
         from ema_pipeline.pipeline.reports import write_batch_report
 
+        warnings: list[str] = []
         page = write_batch_report(
             report.out, report.folder, options, seconds=report.seconds,
             interrupted=report.interrupted, figures=not args.no_figures,
+            geometry=geometry, warnings=warnings,
         )
+        for warning in warnings:  # shown even with --quiet
+            print(f"ema-pipeline batch: warning: {warning}", file=sys.stderr)
         if not args.quiet:
             print(f"report: {page}")
     return EXIT_INPUT if report.n_failed else EXIT_OK

@@ -349,8 +349,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--report",
         action="store_true",
         help="also write OUT/report.html: status per file with failure reasons, modes per "
-        "file, each mode's frequency across the files",
+        "file, each mode's frequency across the files; and per file its identify report "
+        "page (OUT/.../<stem>_report.html, linked from it)",
     )
+    _add_geometry(p, "the per-file report pages (with --report)")
     _add_no_figures(p)
     _add_identify_options(p)
     _add_uff_and_verbose(p, "OUT/.../<stem>_modes.uff")

@@ -10,16 +10,19 @@ import datetime as dt
 import os
 from dataclasses import fields
 from pathlib import Path
+from urllib.parse import quote
 
 import numpy as np
 import pandas as pd
 
 from ema_pipeline import __version__, io
-from ema_pipeline.data import DataError, Geometry
+from ema_pipeline.data import DataError, FRFSet, Geometry
 from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.result import IdentificationResult
 from ema_pipeline.pipeline.single import FileOutcome
 
 __all__ = [
+    "batch_file_report_path",
     "file_geometry",
     "geometry_warnings",
     "identify_report_path",
@@ -73,6 +76,25 @@ def geometry_warnings(outcome: FileOutcome, geometry: Geometry | None) -> list[s
             f"the geometry ({geometry.source or 'given'}); their shape values are not drawn"]
 
 
+def _identify_page(
+    frf: FRFSet, result: IdentificationResult, settings: dict[str, str], *,
+    figures: bool, geometry: Geometry | None, batch_page: str = "",
+) -> str:
+    """The identify report page (:func:`ema_pipeline.report.render_identify_html`)
+    with the resolved settings of ``result`` added to ``settings``."""
+    from ema_pipeline.report import render_identify_html
+
+    settings = dict(settings)
+    settings["identification.resolved"] = (
+        f"method {result.settings.method}, band {result.settings.band_hz} Hz, "
+        f"max order {result.settings.max_order}"
+    )
+    return render_identify_html(
+        frf, result, settings=settings, version=__version__, generated=report_date(),
+        figures=figures, geometry=geometry, batch_page=batch_page,
+    )
+
+
 def write_identify_report(
     outcome: FileOutcome, out_dir: str | Path, options: IdentificationOptions, *,
     figures: bool = True, geometry: Geometry | None = None,
@@ -80,35 +102,67 @@ def write_identify_report(
     """Write the report page of one identified file (``identify_file(..., keep=True)``),
     its modes animated on ``geometry`` or on the file's own (:func:`file_geometry`);
     DOFs without a node are added to ``outcome.warnings``."""
-    from ema_pipeline.report import render_identify_html
-
     if outcome.frf is None or outcome.result is None:
         raise DataError(f"{outcome.path}: no identification result to report")
     geometry = file_geometry(outcome.path, geometry)
     outcome.warnings.extend(geometry_warnings(outcome, geometry))
-    settings = options_text(options)
-    settings["identification.resolved"] = (
-        f"method {outcome.result.settings.method}, band {outcome.result.settings.band_hz} Hz, "
-        f"max order {outcome.result.settings.max_order}"
-    )
-    page = render_identify_html(
-        outcome.frf, outcome.result, settings=settings, version=__version__,
-        generated=report_date(), figures=figures, geometry=geometry,
-    )
+    page = _identify_page(outcome.frf, outcome.result, options_text(options),
+                          figures=figures, geometry=geometry)
     return io.write_text(page, identify_report_path(outcome.path, out_dir))
 
 
-def _stored_shapes(out: Path, result_h5: object) -> np.ndarray | None:
-    """The mode shapes (n_dofs, n_modes) of one file's ``<stem>_result.h5`` (for
-    pairing modes by MAC in the batch report); None when it cannot be read."""
+def batch_file_report_path(result_h5: str | Path) -> Path:
+    """The report page of one batch file: ``<stem>_report.html`` beside its
+    ``<stem>_result.h5`` (pages of equal stems do not collide, as results do not).
+
+    Examples
+    --------
+    >>> batch_file_report_path("out/day2/a.uff/a_result.h5").as_posix()
+    'out/day2/a.uff/a_report.html'
+    """
+    result_h5 = Path(result_h5)
+    return result_h5.with_name(f"{result_h5.name.removesuffix('_result.h5')}_report.html")
+
+
+def _file_page(
+    out: Path, folder: Path, file: str, result_h5: object, *,
+    figures: bool, geometry: Geometry | None, warnings: list[str],
+) -> tuple[str, np.ndarray | None]:
+    """Write the report page of one batch file from its stored result (no
+    identification); return its path relative to ``out`` ("" when the file has no
+    result or it cannot be read: a warning says why) and its mode shapes."""
     if not isinstance(result_h5, str) or not result_h5:
-        return None
+        return "", None
+    stored = out / result_h5
+    path = batch_file_report_path(stored)
     try:
-        tree = io.read_results_h5(out / result_h5)
-        shapes = tree["identification"]["modes"]["shapes"]
-    except (DataError, OSError, KeyError, TypeError):
-        return None
-    return np.asarray(shapes) if isinstance(shapes, np.ndarray) else None
+        frf, result = io.read_identification_result(stored)
+    except (DataError, OSError) as exc:
+        warnings.append(f"{file}: no report page: {exc}")
+        path.unlink(missing_ok=True)  # not the page of an earlier result
+        return "", None
+    source = folder / file
+    try:  # a .tdms, .wav or .csv recording holds no geometry (a UFF recording may)
+        own = geometry is None and source.suffix.lower() in io.FRF_SUFFIXES
+        geometry = file_geometry(source) if own else geometry
+    except (DataError, OSError) as exc:
+        warnings.append(f"{file}: its geometry is not drawn: {exc}")
+        geometry = None
+    warnings.extend(geometry_warnings(FileOutcome(path=source, result=result), geometry))
+    try:
+        page = _identify_page(
+            frf, result, {"batch.result_file": result_h5}, figures=figures, geometry=geometry,
+            batch_page=Path(os.path.relpath(out / "report.html", path.parent)).as_posix(),
+        )
+    except (ValueError, IndexError, TypeError, KeyError, AttributeError) as exc:
+        warnings.append(f"{file}: no report page: {stored}: malformed result "
+                        f"({type(exc).__name__}: {exc})")
+        path.unlink(missing_ok=True)
+        return "", None
+    io.write_text(page, path)
+    shapes = result.modes.shapes
+    return (Path(os.path.relpath(path, out)).as_posix(),
+            None if shapes is None else np.asarray(shapes))
 
 
 def write_batch_report(
@@ -119,8 +173,16 @@ def write_batch_report(
     seconds: float = float("nan"),
     interrupted: bool = False,
     figures: bool = True,
+    geometry: Geometry | None = None,
+    warnings: list[str] | None = None,
 ) -> Path:
-    """Write ``OUT/report.html`` from ``OUT/summary.csv`` and ``OUT/failures.csv``."""
+    """Write ``OUT/report.html`` from ``OUT/summary.csv`` and ``OUT/failures.csv``,
+    and for every file with a result its identify report page
+    (:func:`batch_file_report_path`, linked from ``report.html``), rebuilt from its
+    ``<stem>_result.h5`` (:func:`ema_pipeline.io.read_identification_result`; no
+    identification), its modes animated on ``geometry`` (``--geometry``), else on
+    the file's own (:func:`file_geometry`). Why a page is missing or drawn without
+    some shape values is appended to ``warnings``."""
     from ema_pipeline.report import BatchReportInput, render_batch_html
 
     out = Path(out)
@@ -134,7 +196,15 @@ def write_batch_report(
         for col in ("file", "reason", "configuration", "sha256", "frequencies_hz"):
             if col in table:
                 table[col] = table[col].astype(object).fillna("").astype(str)
-    shapes = [_stored_shapes(out, rel) for rel in summary.get("result_h5", [""] * len(summary))]
+    warnings = [] if warnings is None else warnings
+    pages: list[str] = []
+    shapes: list[np.ndarray | None] = []
+    for file, rel in zip(summary["file"], summary.get("result_h5", [""] * len(summary)),
+                         strict=True):
+        page, shape = _file_page(out, Path(folder), str(file), rel, figures=figures,
+                                 geometry=geometry, warnings=warnings)
+        pages.append(quote(page))
+        shapes.append(shape)
     page = render_batch_html(
         BatchReportInput(
             title=f"Batch identification: {Path(folder).name or folder}",
@@ -142,6 +212,7 @@ def write_batch_report(
             summary=summary,
             failures=failures,
             shapes=shapes,
+            pages=pages,
             settings=options_text(options),
             seconds=seconds,
             interrupted=interrupted,

@@ -87,13 +87,16 @@ class BatchReportInput:
     """What the batch page shows: ``summary`` and ``failures`` are the rows of
     ``summary.csv`` and ``failures.csv`` (:mod:`ema_pipeline.pipeline.batch`);
     ``shapes`` (optional) one ``(n_dofs, n_modes)`` array per summary row, in the
-    order of its ``frequencies_hz`` (None where unknown), to pair modes by MAC."""
+    order of its ``frequencies_hz`` (None where unknown), to pair modes by MAC;
+    ``pages`` (optional) per summary row the link (URL relative to the batch
+    page) of the file's own report page, "" where it has none."""
 
     title: str
     folder: str
     summary: pd.DataFrame
     failures: pd.DataFrame
     shapes: list[np.ndarray | None] | None = None
+    pages: list[str] | None = None
     settings: dict[str, str] = field(default_factory=dict)
     seconds: float = float("nan")
     interrupted: bool = False

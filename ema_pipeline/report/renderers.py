@@ -311,10 +311,12 @@ def render_identify_html(
     generated: str = "",
     figures: bool = True,
     geometry: Geometry | None = None,
+    batch_page: str = "",
 ) -> str:
     """The report of one identified FRF file: the study report's sections that
     apply to a single file (no FE or paper tables); with ``geometry`` the modes
-    are animated on it (:mod:`.shape_views`)."""
+    are animated on it (:mod:`.shape_views`); ``batch_page``: the link (URL) of
+    the batch page this page belongs to (``batch --report``), shown on top."""
     name = frf.configuration or frf.source.path or "FRF set"
     fg: dict[str, str] = {}
     if figures:
@@ -332,8 +334,10 @@ def render_identify_html(
                       ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)), fit_verdict(error)],
         }
     )
+    up = (f'<p><a class="batch-page" href="{esc(batch_page)}">Back to the batch report</a>'
+          "</p>" if batch_page else "")
     page.section("summary", "Summary").append(
-        html_table(summary, split=False)
+        up + html_table(summary, split=False)
         + _limits_note()
     )
     page.section("setup", "Test setup").append(
@@ -442,6 +446,18 @@ def render_batch_html(batch: BatchReportInput, *, figures: bool = True) -> str:
         f"{esc(fit_limits_text())}.</p>"
         + ('<p class="muted">Failed files and why: see above.</p>' if n_failed else "")
     )
+    pages = batch.pages if batch.pages is not None and len(batch.pages) == len(s) else None
+    if pages is not None and any(pages):
+        links = "".join(
+            f'<li value="{k + 1}"><a class="file-page" href="{esc(href)}">{esc(str(f))}</a></li>'
+            for k, (f, href) in enumerate(zip(s["file"], pages, strict=True)) if href
+        )
+        page.section("pages", "Report page of each file").append(
+            '<p class="muted">Each file\'s modes, animated mode shapes, interactive '
+            "stabilization diagram (pick poles, get a picks file) and fit, as "
+            "<code>identify --report</code> writes them, from its stored result; numbers "
+            f"as in the table above.</p><ol class=\"file-pages\">{links}</ol>"
+        )
     sec = page.section("trend", "Each mode's frequency across the files")
     if figures:
         sec.append(
