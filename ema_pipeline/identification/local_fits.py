@@ -29,7 +29,7 @@ from ema_pipeline.identification.local_band import (
     global_residues,
     local_problem,
     pole_columns,
-    pole_jacobian,
+    pole_jacobian_factors,
     scaled_solve,
 )
 from ema_pipeline.identification.refine import vp_covariance, vp_fit
@@ -92,12 +92,14 @@ def quick_significance(
         dof = max(Y.shape[0] - A.shape[1] - 2 * m / Y.shape[1], 1.0)
         s2 = np.maximum(np.sum(res**2, axis=0) / dof, 1e-300)
         a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]  # (m, n_ch)
-        Jr = pole_jacobian(jw, lam, X) / np.sqrt(s2)[None, None, :]
-        Jf = Jr.reshape(Jr.shape[0], -1)
-        Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jr.shape)
-        Js = np.transpose(Jp, (0, 2, 1)).reshape(-1, 2 * m)
+        # the Fisher matrix sum_c Jp_c^T Jp_c / s2_c with Jp_c = Bp W_c: one
+        # projection of the 2m columns of B for all channels
+        # (local_band.pole_jacobian_factors; 30 channels: ~5x cheaper)
+        B, W = pole_jacobian_factors(jw, lam, X)
+        Bp = B - Qm @ (Qm.T @ B)
+        F = np.tensordot(W / s2[:, None, None], (Bp.T @ Bp) @ W, axes=([0, 1], [0, 1]))
         try:
-            var = np.linalg.inv(Js.T @ Js)[2 * k, 2 * k]
+            var = np.linalg.inv(0.5 * (F + F.T))[2 * k, 2 * k]
         except np.linalg.LinAlgError:
             continue
         sigma_r = abs(lam[k].real)

@@ -34,7 +34,7 @@ from ema_pipeline.identification.local_band import (
     global_residues,
     local_problem,
     pole_columns,
-    pole_jacobian,
+    pole_jacobian_factors,
     scaled_solve,
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
@@ -131,16 +131,20 @@ def vp_fit(
     def normal(
         lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray, fitted: tuple | None = None
     ) -> tuple[np.ndarray, np.ndarray, float]:
-        """Fisher matrix, gradient and cost at ``lam`` (``fitted``: its fit, if known)."""
+        """Fisher matrix, gradient and cost at ``lam`` (``fitted``: its fit, if known).
+
+        With the Jacobian of channel c as B W_c (:func:`pole_jacobian_factors`),
+        F = sum_c W_c^T (Bp^T Bp) W_c / s_c^2 and g = sum_c W_c^T Bp^T r_c / s_c^2,
+        Bp the row-weighted B projected off the linear terms: one projection
+        of 2m columns, not of 2m per channel."""
         Qm, Rw, X = fit(lam, u) if fitted is None else fitted
-        Jw = pole_jacobian(jw, lam, X) * u[:, None, None]
-        Jf = Jw.reshape(Jw.shape[0], -1)
-        Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jw.shape)
-        sq = np.sqrt(inv_s2)
-        Js = np.transpose(Jp * sq[None, None, :], (0, 2, 1)).reshape(-1, Jp.shape[1])
-        F = Js.T @ Js
-        g = Js.T @ (Rw * sq[None, :]).reshape(-1)
-        return F, g, cost_of(Rw, inv_s2)
+        B, W = pole_jacobian_factors(jw, lam, X)
+        Bw = B * u[:, None]
+        Bp = Bw - Qm @ (Qm.T @ Bw)
+        Ws = W * inv_s2[:, None, None]
+        F = np.tensordot(Ws, (Bp.T @ Bp) @ W, axes=([0, 1], [0, 1]))
+        g = np.einsum("cia,ic->a", Ws, Bp.T @ Rw)
+        return 0.5 * (F + F.T), g, cost_of(Rw, inv_s2)
 
     def lam_of(th: np.ndarray) -> np.ndarray:
         return -th[0::2] + 1j * th[1::2]
@@ -201,9 +205,11 @@ def vp_covariance(
         Finv = np.linalg.pinv(fit.F)
     Qm, Rw, X = scaled_solve(pole_columns(freq_hz, lam, fit.bg_r) * u[:, None], Y * u[:, None])
     sq = np.sqrt(inv_s2)
-    Jw = pole_jacobian(jw, lam, X) * u[:, None, None]
-    Jf = Jw.reshape(Jw.shape[0], -1)
-    Jp = (Jf - Qm @ (Qm.T @ Jf)).reshape(Jw.shape) * sq[None, None, :]
+    # the projected, weighted Jacobian from its factors (pole_jacobian_factors):
+    # 2m columns projected instead of 2m per channel
+    B, W = pole_jacobian_factors(jw, lam, X)
+    Bw = B * u[:, None]
+    Jp = np.einsum("ki,cij->kjc", Bw - Qm @ (Qm.T @ Bw), W * sq[:, None, None])
     # the noise level of the covariance (the weights above stay as they are):
     # from this weighted fit's residual, each line's share corrected by its
     # leverage, that of the linear terms plus that of the poles

@@ -1,0 +1,67 @@
+"""The cheaper forms of issue 28's second round give the numbers of the forms
+they replace (independent references: scipy's NNLS, the per-channel Jacobian,
+LAPACK's least squares)."""
+
+import numpy as np
+from scipy.optimize import nnls
+
+from ema_pipeline.identification.local_band import pole_jacobian, pole_jacobian_factors
+from ema_pipeline.identification.lsfd import batched_qr
+from ema_pipeline.identification.uncertainty import nonnegative_line_fit
+
+
+def test_nonnegative_line_fit_is_scipy_nnls():
+    """Closed-form NNLS of y ~ a + b x against scipy.optimize.nnls column by
+    column, with data whose optimum is inside, on a = 0 and on b = 0."""
+    rng = np.random.default_rng(3)
+    faces = set()
+    for _ in range(300):
+        n = int(rng.integers(3, 40))
+        x = rng.random((n, 4)) ** rng.uniform(0.3, 4.0)
+        x /= x.max(axis=0)
+        y = np.abs(rng.uniform(-1, 1) + rng.uniform(-2, 2) * x
+                   + rng.uniform(0, 1) * rng.standard_normal((n, 4)))
+        a, b = nonnegative_line_fit(x, y)
+        for c in range(4):
+            ref, _ = nnls(np.stack([np.ones(n), x[:, c]], axis=1), y[:, c])
+            np.testing.assert_allclose(a[c] + b[c] * x[:, c], ref[0] + ref[1] * x[:, c],
+                                       rtol=0, atol=1e-12 * np.max(np.abs(y[:, c])))
+            faces.add((bool(ref[0] > 0), bool(ref[1] > 0)))
+    assert {(True, True), (True, False), (False, True)} <= faces
+
+
+def test_pole_jacobian_factors_give_the_fisher_matrix():
+    """B W_c equals the per-channel Jacobian, and the Fisher matrix of the
+    projected Jacobian formed from the factors equals the direct one."""
+    rng = np.random.default_rng(5)
+    f = np.linspace(80.0, 120.0, 60)
+    jw = 2j * np.pi * f[:, None]
+    lam = np.array([-3.0 + 2j * np.pi * 95.0, -2.0 + 2j * np.pi * 104.0])
+    X = rng.standard_normal((2 * lam.size + 6, 7))
+    J = pole_jacobian(jw, lam, X)
+    B, W = pole_jacobian_factors(jw, lam, X)
+    np.testing.assert_allclose(np.einsum("ki,cij->kjc", B, W), J, rtol=0,
+                               atol=1e-12 * np.abs(J).max())
+    Q, _ = np.linalg.qr(rng.standard_normal((2 * f.size, 10)))
+    s = rng.uniform(0.5, 2.0, 7)
+    Jf = J.reshape(J.shape[0], -1)
+    Jp = (Jf - Q @ (Q.T @ Jf)).reshape(J.shape) / np.sqrt(s)[None, None, :]
+    F_direct = np.einsum("kic,kjc->ij", Jp, Jp)
+    Bp = B - Q @ (Q.T @ B)
+    F = np.tensordot(W / s[:, None, None], (Bp.T @ Bp) @ W, axes=([0, 1], [0, 1]))
+    np.testing.assert_allclose(F, F_direct, rtol=1e-10, atol=1e-12 * np.abs(F_direct).max())
+
+
+def test_batched_qr_one_matrix_least_squares_and_rank_deficient():
+    """One matrix (Householder path): the least-squares solution of LAPACK's
+    lstsq; two equal columns: the minimum-norm solution, no exception."""
+    rng = np.random.default_rng(7)
+    A = rng.standard_normal((200, 6))
+    Y = rng.standard_normal((200, 3))
+    Q, R = batched_qr(A)
+    np.testing.assert_allclose(np.linalg.solve(R, Q.T @ Y), np.linalg.lstsq(A, Y, rcond=None)[0],
+                               rtol=1e-10, atol=1e-12)
+    A2 = np.column_stack([A[:, 0], A[:, 0], A[:, 1]])
+    Q2, R2 = batched_qr(A2)
+    x = np.linalg.solve(R2, Q2.T @ Y[:, :1])
+    np.testing.assert_allclose(x, np.linalg.pinv(A2) @ Y[:, :1], rtol=1e-8, atol=1e-10)
