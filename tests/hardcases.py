@@ -23,8 +23,17 @@ the band to identify and the true f_n and zeta of every mode inside that band
 generated if it is visible: its own peak over the noise, combined over all
 channels, is at least 20 dB (weaker modes get a smaller modal mass).
 
+Two families of issue 31 (``COMPLEX_FAMILIES``) are built differently:
+``complex_chain`` is a chain of masses and springs with light modal damping
+and 1-3 strong discrete dashpots (non-proportional damping, strongly complex
+modes); its FRFs are the exact inverse of the dynamic stiffness
+K - w^2 M + jw C, and its truth the eigenvalues of the state-space matrix.
+``impact_close`` is the impact family with one or two pairs of close modes
+below 80 Hz.
+
 Use ``make_case(family, seed)`` or ``cases(family, seeds)``; ``FAMILIES`` lists
-the families. The same (family, seed) always gives the same case.
+the families of issue 11, ``ALL_FAMILIES`` those and ``COMPLEX_FAMILIES``.
+The same (family, seed) always gives the same case.
 """
 
 from __future__ import annotations
@@ -48,7 +57,12 @@ FAMILIES: tuple[str, ...] = (
     "impact",
     "quantity",
 )
-_FAMILY_ID = {name: k for k, name in enumerate(FAMILIES)}
+#: Families of issue 31, kept apart from ``FAMILIES`` (whose acceptance tests
+#: run every family): strongly complex modes of a physical chain with discrete
+#: dashpots, and close low-frequency modes in time-domain impact tests.
+COMPLEX_FAMILIES: tuple[str, ...] = ("complex_chain", "impact_close")
+ALL_FAMILIES: tuple[str, ...] = FAMILIES + COMPLEX_FAMILIES
+_FAMILY_ID = {name: k for k, name in enumerate(ALL_FAMILIES)}
 _Q = {"receptance": 0, "mobility": 1, "accelerance": 2}
 #: Peak of a mode's own term over the noise std, combined over channels (20 dB).
 MIN_VISIBILITY = 10.0
@@ -309,6 +323,141 @@ def _freq_case(family: str, seed: int, rng: np.random.Generator,
                     phi[:, :n][:, order], roving)
 
 
+# --------------------------------------------------------------------------- damped chain
+def _chain_matrices(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray,
+                                                          np.ndarray]:
+    """M, K, light modal damping C0 and the pattern D of 1-3 discrete dashpots
+    (to ground or between neighbours, random strengths) of a random chain of
+    4-9 masses (0.05-2 kg) and springs (0.3-3 MN/m, fixed at the first end,
+    fixed or free at the other)."""
+    u = rng.uniform
+    n = int(rng.integers(4, 10))
+    m = np.exp(u(np.log(0.05), np.log(2.0), n))
+    k = np.exp(u(np.log(0.3), np.log(3.0), n + 1)) * 1e6
+    if u() < 0.5:
+        k[-1] = 0.0
+    K = np.zeros((n, n))
+    for i in range(n + 1):  # spring i joins mass i-1 and mass i (-1, n: ground)
+        for a in (i - 1, i):
+            if 0 <= a < n:
+                K[a, a] += k[i]
+        if 0 < i < n:
+            K[i - 1, i] -= k[i]
+            K[i, i - 1] -= k[i]
+    M = np.diag(m)
+    w2, U = np.linalg.eigh(K / np.sqrt(np.outer(m, m)))
+    phi = U / np.sqrt(m)[:, None]  # mass-normalised undamped modes
+    z0 = np.exp(u(np.log(0.003), np.log(0.01), n))
+    C0 = M @ phi @ np.diag(2 * z0 * np.sqrt(w2)) @ phi.T @ M
+    D = np.zeros((n, n))
+    for _ in range(int(rng.integers(1, 4))):
+        i, c = int(rng.integers(0, n)), float(np.exp(u(-1.0, 1.0)))
+        D[i, i] += c
+        if i < n - 1 and u() >= 0.3:  # between masses i and i+1, else to ground
+            D[i + 1, i + 1] += c
+            D[i, i + 1] -= c
+            D[i + 1, i] -= c
+    return M, K, C0, D
+
+
+def _state_modes(M: np.ndarray, K: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Poles (Im > 0, ascending) and complex displacement shapes of M x'' + C x' + K x = 0."""
+    n = M.shape[0]
+    Minv = np.linalg.inv(M)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ K, -Minv @ C]])
+    lam, X = np.linalg.eig(A)
+    up = lam.imag > 0
+    lam, X = lam[up], X[:n, up]
+    order = np.argsort(lam.imag)
+    return lam[order], X[:, order]
+
+
+def shape_mpc(psi: np.ndarray) -> np.ndarray:
+    """Modal phase collinearity of each column of ``psi`` (1: a real shape),
+    ((Sxx - Syy)^2 + 4 Sxy^2) / (Sxx + Syy)^2 of its real and imaginary parts."""
+    x, y = psi.real, psi.imag
+    sxx, syy, sxy = np.sum(x * x, 0), np.sum(y * y, 0), np.sum(x * y, 0)
+    return ((sxx - syy) ** 2 + 4 * sxy**2) / (sxx + syy) ** 2
+
+
+def _chain_case(seed: int, rng: np.random.Generator) -> HardCase:
+    """``complex_chain``: a damped chain (:func:`_chain_matrices`) whose dashpots
+    are scaled so that its least collinear mode has an MPC drawn in 0.3-0.65
+    with no mode above zeta 8 %; drawn again until that holds with a modal
+    overlap <= 1 (neighbours apart by at least the sum of their half-power
+    half-widths, as the close families) and every mode visible. All masses
+    are measured, the reference is the mass that sees the modes best. H is
+    the accelerance -w^2 (K - w^2 M + jw C)^-1, exact, plus noise."""
+    u = rng.uniform
+    for _attempt in range(2000):
+        M, K, C0, D = _chain_matrices(rng)
+        n = M.shape[0]
+        target = u(0.3, 0.65)
+
+        def least_mpc(scale: float, M=M, K=K, C0=C0, D=D, n=n) -> float:
+            lam, psi = _state_modes(M, K, C0 + scale * D)
+            if lam.size < n or np.max(-lam.real / np.abs(lam)) > 0.08:
+                return -1.0  # overdamped or too heavily damped: too strong
+            return float(np.min(shape_mpc(psi)))
+
+        lo, hi = 0.0, 1e7
+        for _ in range(60):  # largest dashpot scale with least MPC >= target
+            scale = np.sqrt(lo * hi) if lo > 0 else hi / 1e4
+            if least_mpc(scale) < target:
+                hi = scale
+            else:
+                lo = scale
+            if lo > 0 and hi / lo < 1.002:
+                break
+        if lo == 0:
+            continue
+        C = C0 + lo * D
+        lam, psi = _state_modes(M, K, C)
+        fn = np.abs(lam) / (2 * np.pi)
+        zeta = -lam.real / np.abs(lam)
+        if lam.size < n or not 0.3 <= np.min(shape_mpc(psi)) <= 0.65 or zeta.max() > 0.08:
+            continue
+        hw = zeta * fn
+        if np.any(hw[:-1] + hw[1:] > np.diff(fn)):
+            continue
+        # lines: half-power band >= 3 lines for every mode
+        hi_hz = fn[-1] * u(1.15, 1.3)
+        f_top = hi_hz / u(0.88, 0.95)
+        lines = [nl for nl in (2049, 4097, 8193, 16385) if np.all(hw >= 1.5 * f_top / (nl - 1))]
+        if not lines:
+            continue
+        n_lines = lines[0]
+        freq = np.linspace(0.0, f_top, n_lines)
+        lo_hz = max(float(freq[4]), fn[0] * u(0.4, 0.7))
+        # residues of the state-space modes: A_r = psi psi^T / (psi^T (2 lam M + C) psi)
+        a_r = np.array([psi[:, r] @ (2 * lam[r] * M + C) @ psi[:, r] for r in range(n)])
+        jw_pk = 1j * np.abs(lam)
+        snr, prop = u(35, 50), u(40, 55)
+        jw = 2j * np.pi * freq
+        Z = K[None] - (2 * np.pi * freq)[:, None, None] ** 2 * M[None] + jw[:, None, None] * C[None]
+        R = np.linalg.inv(Z)  # receptance (n_freq, n, n)
+        best, ref = -1.0, 0
+        for i in range(n):  # the reference that sees every mode best
+            H0 = np.moveaxis(R[:, :, i], 0, -1) * (jw**2)[None, :]
+            std = _noise_std(H0[:, None, :], snr, prop)[:, 0, :]
+            k_pk = np.argmin(np.abs(freq[:, None] - fn[None, :]), axis=0)
+            peak = np.abs(psi * psi[i][None, :] / a_r[None, :] / lam.real[None, :]
+                          * (jw_pk**2)[None, :])
+            vis = np.sqrt(np.sum((peak / std[:, k_pk]) ** 2, axis=0))
+            if vis.min() > best:
+                best, ref = float(vis.min()), i
+        if best < MIN_VISIBILITY:
+            continue
+        H0 = (np.moveaxis(R[:, :, ref], 0, -1) * (jw**2)[None, :])[:, None, :]
+        H = H0 + _cnoise(rng, _noise_std(H0, snr, prop))
+        dofs = [DOF(int(k) + 1, 3) for k in range(n)]
+        frf = FRFSet(freq_hz=freq, H=H, response_dofs=tuple(dofs),
+                     reference_dofs=(dofs[ref],), quantity="accelerance",
+                     configuration=f"complex_chain-{seed}")
+        return HardCase("complex_chain", seed, frf, (float(lo_hz), float(hi_hz)), fn, zeta, psi)
+    raise RuntimeError(f"complex_chain-{seed}: no chain found")  # pragma: no cover
+
+
 # --------------------------------------------------------------------------- time domain
 def _modal_pulse_response(t: np.ndarray, pole: np.ndarray, tp: float, f0: float) -> np.ndarray:
     """y_r(t) = int_0^t exp(lambda_r (t - s)) f(s) ds for the half-sine pulse
@@ -324,9 +473,34 @@ def _modal_pulse_response(t: np.ndarray, pole: np.ndarray, tp: float, f0: float)
     return np.where(t[None, :] >= 0, y, 0.0)
 
 
+def _close_low_modes(rng: np.random.Generator, T: float) -> tuple[np.ndarray, np.ndarray]:
+    """fn, zeta of ``impact_close``: one or two pairs of close modes at 10-80 Hz
+    (2-8 % apart, but at least the sum of their half-power half-widths with
+    the exponential window's decay of about 1/tau = 5.5/T, and 3 lines of
+    1/T) and 2-6 other modes at 90-780 Hz."""
+    u = rng.uniform
+    n_pairs = int(rng.integers(1, 3))
+    lows = _spaced_log(rng, n_pairs, 10.0, 70.0, 1.6, 3.0)
+    fn_list, z_list = [], []
+    for f1 in lows:
+        z = np.exp(u(np.log(0.002), np.log(0.015), 2))
+        hw = z * f1 + 5.5 / T / (2 * np.pi)  # half-power half-widths with the window, Hz
+        sep = max(u(0.02, 0.08), (hw[0] + hw[1]) / f1, 3.0 / T / f1)
+        fn_list += [f1, f1 * (1 + sep)]
+        z_list += list(z)
+    n_hi = int(rng.integers(2, 7))
+    fn_list += list(_spaced_log(rng, n_hi, 90.0, 780.0, 1.08, 2.5))
+    z_list += list(np.exp(u(np.log(0.002), np.log(0.02), n_hi)))
+    fn, zeta = np.array(fn_list), np.array(z_list)
+    order = np.argsort(fn)
+    return fn[order], zeta[order]
+
+
 def _impact_case(seed: int, rng: np.random.Generator,
-                 complex_phase_deg: float = 0.0) -> HardCase:
-    """Roving-free impact test: 1 hammer point, 1-4 accelerometers, 3-5 hits."""
+                 complex_phase_deg: float = 0.0, family: str = "impact") -> HardCase:
+    """Roving-free impact test: 1 hammer point, 1-4 accelerometers, 3-5 hits
+    (``family`` "impact_close": close pairs at low frequency,
+    :func:`_close_low_modes`)."""
     from scipy.signal import decimate
 
     u = rng.uniform
@@ -336,16 +510,21 @@ def _impact_case(seed: int, rng: np.random.Generator,
     over = 4
     n_out = int(rng.integers(1, 5))
     n_avg = int(rng.integers(3, 6))
-    n = int(rng.integers(4, 11))
-    fn = _spaced_log(rng, n, 12.0, 780.0, 1.08, 2.5)
-    zeta = np.exp(u(np.log(0.002), np.log(0.02), n))
+    if family == "impact_close":
+        n_out = max(n_out, 2)
+        fn, zeta = _close_low_modes(rng, T)
+        n = fn.size
+    else:
+        n = int(rng.integers(4, 11))
+        fn = _spaced_log(rng, n, 12.0, 780.0, 1.08, 2.5)
+        zeta = np.exp(u(np.log(0.002), np.log(0.02), n))
     pole = modal_poles(fn, zeta)
     n_pts = n_out + 1
     out, ref = np.arange(n_out), np.array([n_out])
     phi = _observable(_shapes(rng, n_pts, n, str(rng.choice(["random", "beam"]))), ref, rng)
     phi = _observable(phi, out, rng) if n_out == 1 else phi
     mass = np.exp(u(np.log(0.1), np.log(3.0), n))
-    A = _residues(pole, complex_shapes(phi, complex_phase_deg, "impact", seed), mass, out,
+    A = _residues(pole, complex_shapes(phi, complex_phase_deg, family, seed), mass, out,
                   ref)[:, :, 0]  # (n_modes, n_out)
     D = np.sum(2 * np.real(A * pole[:, None]), axis=0)  # accelerance feed-through
     tp = u(0.5e-3, 1.0e-3)
@@ -391,10 +570,10 @@ def _impact_case(seed: int, rng: np.random.Generator,
             sample_rate_hz=fs, n_samples=N, n_averages=n_avg,
             force_window="rect + exponential", response_window="exponential",
             exp_window_tau_s=float(tau), estimator="H1"),
-        configuration=f"impact-{seed}",
+        configuration=f"{family}-{seed}",
     )
     band = (float(max(2.0, 4 * fs / N)), 900.0)
-    return HardCase("impact", seed, frf, band, fn, zeta, phi[:, :n])
+    return HardCase(family, seed, frf, band, fn, zeta, phi[:, :n])
 
 
 # --------------------------------------------------------------------------- API
@@ -404,8 +583,10 @@ def make_case(family: str, seed: int, complex_phase_deg: float = 0.0) -> HardCas
     if family not in _FAMILY_ID:
         raise ValueError(f"unknown family {family!r}; known: {', '.join(FAMILIES)}")
     rng = np.random.default_rng([11, _FAMILY_ID[family], int(seed)])
-    if family == "impact":
-        return _impact_case(seed, rng, complex_phase_deg)
+    if family in ("impact", "impact_close"):
+        return _impact_case(seed, rng, complex_phase_deg, family)
+    if family == "complex_chain":
+        return _chain_case(seed, rng)
     return _freq_case(family, seed, rng, complex_phase_deg)
 
 

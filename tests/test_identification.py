@@ -419,16 +419,22 @@ def test_real_roving_hammer_data(real_uff):
     res = identify(frf.reciprocal())  # defaults: no band, adaptive order
     dist = np.abs(res.fn_hz[:, None] - PUBLISHED_HZ[None, :])
     matched = np.sum(dist.min(axis=0) < 1.0)
-    extra = np.sum((dist.min(axis=1) >= 1.0) & (res.fn_hz < 800))
+    shown = np.abs(res.fn_hz[:, None] - np.array([42.1, 274.6, 325.1])[None, :]).min(axis=1) < 1
+    extra = np.sum((dist.min(axis=1) >= 1.0) & (res.fn_hz < 800) & ~shown)
     assert matched >= 12, res.fn_hz  # issue 11 asks for 13 (measured 12)
-    assert extra <= 1, res.fn_hz  # issue 11's target (measured 0)
+    # issue 31: nothing that is neither published nor a resonance the FRFs
+    # show (42.1 and 325.1 Hz are kept since the residual-drop test: SNR
+    # 58-72, their own terms explain 6-10 times their local residual)
+    assert extra == 0, res.fn_hz
     # (the README's example with --band 5 790 runs in tests/test_readme.py)
     assert res.modes.shapes.shape == (30, res.modes.n_modes)
     assert np.all(res.zeta > 0) and np.all(res.zeta < 0.05)
     assert np.median(res.frac) > 0.8
-    # resonances the FRFs show that are not kept (and not published) are listed
-    # (test_real_beam_has_resonances_the_published_list_lacks)
+    # resonances the FRFs show that are not published are kept or listed as
+    # not kept (test_real_beam_has_resonances_the_published_list_lacks)
     for f_hz in (42.0, 274.7, 325.1):
+        if np.min(np.abs(res.fn_hz - f_hz)) < 1.0:
+            continue
         k = np.argmin(np.abs(res.not_kept_hz - f_hz))
         assert abs(res.not_kept_hz[k] - f_hz) < 1.0, res.not_kept_hz
         assert res.not_kept_frfs[k] >= 6, res.not_kept_frfs

@@ -35,6 +35,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ema_pipeline.identification.local_band import (
+    background_columns,
+    global_residues,
+    local_problem,
+    pole_columns,
+    scaled_solve,
+)
 from ema_pipeline.identification.local_fits import (
     local_shapes,
     quick_significance,
@@ -133,6 +140,28 @@ def decay_determined(pole: np.ndarray, cov: np.ndarray,
     return np.asarray(np.nan_to_num(rel, nan=np.inf) < limit)
 
 
+def inside_band(freq_hz: np.ndarray, pole: np.ndarray,
+                thresholds: SelectionThresholds | None = None) -> np.ndarray:
+    """True where the damped natural frequency of ``pole`` lies inside the band
+    of the lines ``freq_hz`` less the fractions ``thresholds.band_edge`` of its
+    width at the bottom and the top, as the selection asks of a trajectory: a
+    refined pole or a residual peak that ends up beyond it models what lies
+    outside the band (band 100-400 Hz of the measured beam: a pole of zeta
+    6 % at 405 Hz, the tail of its 414 Hz mode).
+
+    Examples
+    --------
+    >>> f = np.linspace(100.0, 400.0, 301)
+    >>> inside_band(f, 2j * np.pi * np.array([150.0, 395.0, 405.0])).tolist()
+    [True, False, False]
+    """
+    th = thresholds or SelectionThresholds()
+    lo, hi = float(freq_hz[0]), float(freq_hz[-1])
+    fd = np.asarray(pole).imag / (2 * np.pi)
+    return np.asarray((fd > lo + th.band_edge[0] * (hi - lo))
+                      & (fd < hi - th.band_edge[1] * (hi - lo)))
+
+
 def final_tests(
     freq_hz: np.ndarray,
     H: np.ndarray,
@@ -170,12 +199,14 @@ def final_tests(
     >>> final_tests(f, H, H, ref, "receptance").tolist()
     [True]
     """
-    keep = decay_determined(refined.pole, refined.cov, thresholds)
+    keep = decay_determined(refined.pole, refined.cov, thresholds) & inside_band(
+        freq_hz, refined.pole, thresholds)
     by_shape = None if strict is None else ~strict[keep]
     keep[keep] = resonant(freq_hz, Hn, refined.pole[keep], quantity, by_shape=by_shape,
                           thresholds=thresholds)
     if partner is not None:
-        keep |= decay_determined(refined.pole, refined.cov, thresholds) & partner
+        keep |= decay_determined(refined.pole, refined.cov, thresholds) & partner & inside_band(
+            freq_hz, refined.pole, thresholds)
     return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders,
                                   thresholds=thresholds)
 
@@ -275,7 +306,10 @@ def resonant(
     """True for poles that are resonances of the data: own peak ratio at least
     ``weak_peak_ratio``, or peak SNR at least ``min_weak_peak_snr``
     (both from :func:`~ema_pipeline.identification.local_fits.quick_significance`),
-    or, with at least 3 channels ``H`` (n_ch, n_freq), a local shape
+    or, with at least 3 channels ``H`` (n_ch, n_freq), whatever the shape
+    (complex modes too), a peak SNR of at least ``complex_min_snr`` with a
+    residual drop (:func:`residual_drop`) of at least
+    ``complex_min_residual_drop``, or a local shape
     (:func:`~ema_pipeline.identification.local_fits.local_shapes`) of
     MPC >= ``weak_min_mpc`` (only the poles marked ``by_shape``, when
     given); with fewer channels every pole is kept. Thresholds of
@@ -301,11 +335,70 @@ def resonant(
         return np.asarray(ok)
     if H.shape[0] < 3:
         return np.asarray(ok | shape_ok)
+    # complex or real: a clear peak whose own term explains its local residual
+    ask = ~ok & shape_ok & (snr >= th.complex_min_snr)
+    if ask.any():
+        drop = np.nan_to_num(residual_drop(freq_hz, H, pole, quantity, th, only=ask))
+        ok |= ask & (drop >= th.complex_min_residual_drop)
+        if np.all(ok | ~shape_ok):
+            return np.asarray(ok)
     try:
         shapes = local_shapes(freq_hz, H, pole, quantity=quantity, thresholds=th).T
     except (np.linalg.LinAlgError, ValueError):
         return np.asarray(ok | shape_ok)
     return np.asarray(ok | (shape_ok & (np.nan_to_num(mpc(shapes)) >= th.weak_min_mpc)))
+
+
+def residual_drop(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    pole: np.ndarray,
+    quantity: str | None = "accelerance",
+    thresholds: SelectionThresholds | None = None,
+    only: np.ndarray | None = None,
+) -> np.ndarray:
+    """For each pole (of those marked ``only``, when given; NaN for the
+    others), the residual of its local problem without it over the
+    residual with it (sums of squares over the local band and all channels;
+    the problem of :func:`~ema_pipeline.identification.local_band.local_problem`
+    at the given poles, its residues and background solved linearly); NaN
+    where the band is too short.
+
+    A pole that models noise lowers the residual by the share of its
+    parameters, 2 n_ch + 2 of 2 n_lines n_ch equations: a ratio near 1. A
+    resonance leaves, without its own term, its own response in the
+    residual: a ratio far above 1, whatever the phase of its residues across
+    the channels (complex modes as normal ones).
+
+    Examples
+    --------
+    >>> f = np.linspace(50.0, 150.0, 401)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0, -2.0 + 2j * np.pi * 120.0])
+    >>> jw = 2j * np.pi * f
+    >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.array([[1], [1j], [-1]])
+    >>> H = H + 1e-4 * np.random.default_rng(1).standard_normal(H.shape)
+    >>> drop = residual_drop(f, H, lam, "receptance")
+    >>> bool(drop[0] > 100), bool(drop[1] < 1.5)
+    (True, True)
+    """
+    th = thresholds or SelectionThresholds()
+    a_all = global_residues(freq_hz, H, pole, quantity)
+    out = np.full(pole.size, np.nan)
+    for r in np.flatnonzero(np.ones(pole.size, bool) if only is None else only).tolist():
+        local = local_problem(freq_hz, H, pole, r, th.local_half_width, th.local_min_lines,
+                              a_all)
+        if local is None:
+            continue
+        f, Y, members, background, k, _ = local
+        A = pole_columns(f, pole[members], background_columns(background))
+        others = np.delete(np.arange(A.shape[1]), [2 * k, 2 * k + 1])
+        try:
+            with_r = np.sum(scaled_solve(A, Y)[1] ** 2)
+            without_r = np.sum(scaled_solve(A[:, others], Y)[1] ** 2)
+        except np.linalg.LinAlgError:
+            continue
+        out[r] = without_r / max(with_r, 1e-300)
+    return out
 
 
 def distinct_shapes(

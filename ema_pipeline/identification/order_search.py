@@ -326,7 +326,34 @@ def add_zoom_modes(
     zoom = search.thresholds.zoom_ratio
     if hi < zoom * lo:
         return sel
-    return add_uncovered(sel, search_window(search, freq, Hn, (lo, lo + (hi - lo) / zoom)))
+    zsel = search_window(search, freq, Hn, (lo, lo + (hi - lo) / zoom))
+    return add_uncovered(without_merged(sel, zsel), zsel)
+
+
+def without_merged(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPoles:
+    """``sel`` less the candidates that cover two or more candidates of ``new``
+    (within the sum of their half-power half-widths): a wide pole of a
+    diagram that resolves the band poorly standing for a close pair that
+    ``new``, a search of a narrower band, separates (impact tests with a
+    pair 5 % apart at 17 Hz: the full band of 2-900 Hz gives one pole of
+    zeta 4 % which fails the final tests, its lowest eighth the two modes).
+
+    Examples
+    --------
+    >>> def cands(p):
+    ...     n = len(p)
+    ...     return SelectedPoles(np.array(p), np.zeros(n, int), np.ones(n, int),
+    ...                          np.zeros(n), np.zeros(n), np.zeros(n, int))
+    >>> wide, pair = cands([-8 + 100j, -1 + 300j]), cands([-1 + 97j, -1 + 103j])
+    >>> without_merged(wide, pair).pole.tolist()
+    [(-1+300j)]
+    """
+    if new is None or new.pole.size < 2 or sel.pole.size == 0:
+        return sel
+    gap = np.abs(sel.pole[:, None].imag - new.pole[None, :].imag)
+    width = np.abs(sel.pole[:, None].real) + np.abs(new.pole[None, :].real)
+    merged = np.sum(gap < width, axis=1) >= 2
+    return sel.subset(~merged) if merged.any() else sel
 
 
 def mode_windows(
