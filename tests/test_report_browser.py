@@ -16,16 +16,12 @@ import pytest
 from ema_pipeline.cli import main
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
+from browser import chromium, needs_browser  # noqa: E402
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-CHROMEDRIVER = shutil.which("chromedriver")
 #: A4 (210 mm) less the print style sheet's 14 mm margins, in CSS px (96 per inch).
 PRINT_WIDTH_PX = round((210 - 2 * 14) / 25.4 * 96)
 
-pytestmark = pytest.mark.skipif(
-    CHROMIUM is None or CHROMEDRIVER is None,
-    reason="no headless browser: install the system packages chromium and chromium-driver",
-)
+pytestmark = needs_browser
 
 # Per table: its width against the page's content width and whether its
 # scrolling wrapper would have to scroll. Per image and figure: loaded and drawn.
@@ -58,20 +54,8 @@ def report(example_study: Path) -> Path:
 
 @pytest.fixture(scope="module")
 def browser(tmp_path_factory):
-    from selenium.webdriver.chrome.options import Options
-    from selenium.webdriver.chrome.service import Service
-
-    options = Options()
-    options.binary_location = CHROMIUM
-    profile = tmp_path_factory.mktemp("chromium-profile")
-    for arg in ("--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                "--disable-component-update", "--disable-sync", "--no-first-run",
-                f"--user-data-dir={profile}", "--window-size=800,1000"):
-        options.add_argument(arg)
-    driver = webdriver.Chrome(service=Service(CHROMEDRIVER), options=options)
-    driver.set_page_load_timeout(60)
-    yield driver
-    driver.quit()
+    with chromium(tmp_path_factory.mktemp("chromium-profile"), width=800) as driver:
+        yield driver
 
 
 def _layout(driver, url: str, width: int, media: str) -> dict:
