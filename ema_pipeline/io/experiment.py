@@ -24,14 +24,13 @@ import difflib
 import math
 import os
 import re
-import tomllib
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ema_pipeline.data import DOF, Beam, DataError
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
-from ema_pipeline.io.files import check_readable
+from ema_pipeline.io.files import check_readable, read_toml
 from ema_pipeline.io.geometry import geometry_from_table
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -385,13 +384,7 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
     ema_pipeline.data.DataError: ...[identification] bandhz: unknown key (did you mean 'band_hz'?)
     """
     path = Path(path)
-    check_readable(path, "an experiment file (TOML)")
-    try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path}: not valid TOML ({exc})") from exc
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from exc
+    doc = read_toml(path, "an experiment file (TOML)")
     known = [*SCHEMA, "configurations", "geometry"]
     for key in doc:
         if key not in known:

@@ -27,9 +27,10 @@ import fcntl
 import hashlib
 import os
 import tempfile
+import tomllib
 from collections.abc import Iterator
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 import pandas as pd
 
@@ -192,3 +193,25 @@ def read_csv(path: str | os.PathLike[str], required: tuple[str, ...] = ()) -> pd
             f"found {', '.join(map(str, table.columns))}"
         )
     return table
+
+
+def read_toml(path: str | os.PathLike[str], kind: str) -> dict[str, Any]:
+    """The table of a TOML file, or one DataError naming ``path`` (``kind`` says
+    what the file should be: not a file, not valid TOML, unreadable).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.toml"
+    >>> _ = p.write_text("x = 1")
+    >>> read_toml(p, "a settings file (TOML)")
+    {'x': 1}
+    """
+    path = Path(path)
+    check_readable(path, kind)
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise DataError(f"{path}: not valid TOML ({exc})") from exc
+    except OSError as exc:
+        raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from exc

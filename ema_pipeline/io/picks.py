@@ -9,12 +9,10 @@ described by :mod:`ema_pipeline.identification.picks`, which also writes it
 from __future__ import annotations
 
 import os
-import tomllib
 from pathlib import Path
 
-from ema_pipeline.data import DataError
 from ema_pipeline.identification.picks import Picks, picks_from_mapping
-from ema_pipeline.io.files import check_readable, write_text
+from ema_pipeline.io.files import read_toml, write_text
 
 
 def read_picks(path: str | os.PathLike[str]) -> Picks:
@@ -31,13 +29,7 @@ def read_picks(path: str | os.PathLike[str]) -> Picks:
     4
     """
     path = Path(path)
-    check_readable(path, "a picks file (TOML)")
-    try:
-        doc = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise DataError(f"{path}: not valid TOML ({exc})") from exc
-    except OSError as exc:
-        raise DataError(f"{path}: cannot read ({exc.strerror or exc})") from exc
+    doc = read_toml(path, "a picks file (TOML)")
     return picks_from_mapping(doc, str(path))
 
 
