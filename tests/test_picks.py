@@ -125,3 +125,23 @@ def test_picks_set_the_band_and_order_and_refuse_expect():
     np.testing.assert_allclose(result.fn_hz, auto.fn_hz, rtol=1e-6)
     with pytest.raises(DataError, match="expected frequencies"):
         identify(frf, expect_hz=(42.0,), picks=picks)
+
+
+def test_untouched_page_picks_reproduce_the_measured_beam(real_uff, tmp_path):
+    """On the measured beam a candidate refined beside the kept modes and then
+    dropped (a companion) bends their local fits; the page's picks carry it,
+    so ``--picks`` gives the automatic modes again (before: 941.80 -> 941.22 Hz)."""
+    auto = tmp_path / "auto"
+    assert main(["identify", str(real_uff), "--out", str(auto), "--report",
+                 "--no-figures", "--quiet"]) == 0
+    text = page_picks(auto / f"{real_uff.stem}_report.html")
+    assert "companions = [[" in text  # the beam's automatic fit has one
+    picks = tmp_path / "picks.toml"
+    picks.write_text(text, encoding="utf-8")
+    assert main(["identify", str(real_uff), "--out", str(tmp_path / "p"), "--picks",
+                 str(picks), "--no-figures", "--quiet"]) == 0
+    before = pd.read_csv(auto / f"{real_uff.stem}_modes.csv")
+    after = pd.read_csv(tmp_path / "p" / f"{real_uff.stem}_modes.csv")
+    assert len(after) == len(before)
+    np.testing.assert_allclose(after["fn_hz"], before["fn_hz"], rtol=1e-6)
+    np.testing.assert_allclose(after["zeta_pct"], before["zeta_pct"], rtol=1e-4)

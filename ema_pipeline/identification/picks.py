@@ -18,6 +18,15 @@ diagram (band, orders, weighting) and one ``[[pick]]`` table per mode:
   report draws them in its top row, and the untouched page lists them, so
   that ``--picks`` with that page's text reproduces the automatic result.
 
+``[diagram]`` may also hold ``companions = [[re, im], ...]`` (rad/s, before the
+window correction): poles fitted alongside the picks and not reported. They
+are the start poles of the candidates that the automatic selection refined
+together with its kept modes and then dropped (a candidate in a mode's local
+band bends its fit); the picks fit refines them with the picks and drops
+them as well, so the untouched page reproduces the automatic modes exactly.
+The page writes them while its picks are mode poles only; a pole picked from
+the diagram drops them (it may be the resonance a companion stood for).
+
 :func:`identify_picks` fits exactly the picked poles with the chain of the
 automatic modes -- refinement with covariance, the band-sensitivity term,
 LSFD, window correction, indicators -- and runs no automatic selection (no
@@ -38,7 +47,7 @@ from ema_pipeline.identification.common import finish_identification, resolve_ba
 from ema_pipeline.identification.lsfd import mpc
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf import plscf
-from ema_pipeline.identification.refine import band_sensitivity, refine_poles
+from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, refine_poles
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
 from ema_pipeline.identification.selection import SelectedPoles, link_fragments, track_poles
 from ema_pipeline.identification.stabilization import (
@@ -99,6 +108,9 @@ class Picks:
         "none" or "coherence".
     source : str
         The file (for messages).
+    companions : tuple of complex
+        Poles (rad/s, before the window correction) refined together with the
+        picks and then dropped, not reported (see the module's description).
     """
 
     band_hz: tuple[float, float]
@@ -106,6 +118,7 @@ class Picks:
     picks: tuple[Pick, ...]
     weighting: str = "none"
     source: str = ""
+    companions: tuple[complex, ...] = ()
 
     @property
     def max_order(self) -> int:
@@ -124,6 +137,9 @@ class Picks:
         >>> p = Picks((5.0, 100.0), (2, 4, 6), (Pick(30.0, 0.01, order=6),))
         >>> picks_from_mapping(tomllib_loads(p.toml())) == p
         True
+        >>> q = replace(p, companions=(-2.5 + 300.0j,))
+        >>> picks_from_mapping(tomllib_loads(q.toml())).companions
+        ((-2.5+300j),)
         """
         lines = [
             "# ema-pipeline picks: `ema-pipeline identify FILE --picks THIS_FILE` fits exactly",
@@ -137,6 +153,11 @@ class Picks:
             f"orders = [{', '.join(str(int(o)) for o in self.orders)}]",
             f'weighting = "{self.weighting}"',
         ]
+        if self.companions:
+            lines += ["# poles fitted alongside the picks, not reported: candidates the automatic",
+                      "# selection refined with its modes and then dropped (rad/s)",
+                      "companions = [" + ", ".join(f"[{_num(c.real)}, {_num(c.imag)}]"
+                                                   for c in self.companions) + "]"]
         for pk in self.picks:
             lines += ["", "[[pick]]", f"freq_hz = {_num(pk.freq_hz)}",
                       f"zeta = {_num(pk.zeta)}"]
@@ -187,6 +208,11 @@ def picks_from_mapping(data: Mapping[str, Any], source: str = "") -> Picks:
         raise DataError(f"{where}[diagram] band_hz must be [LO, HI] with LO < HI and "
                         "orders positive integers")
     weighting = str(diagram.get("weighting", "none"))
+    try:
+        companions = tuple(complex(float(re), float(im))
+                           for re, im in diagram.get("companions", []))
+    except (TypeError, ValueError) as exc:
+        raise DataError(f"{where}[diagram] companions must be [[RE, IM], ...] ({exc})") from None
     rows = data.get("pick")
     if not rows:
         raise DataError(f"{where}no [[pick]] table: pick at least one pole")
@@ -205,22 +231,24 @@ def picks_from_mapping(data: Mapping[str, Any], source: str = "") -> Picks:
                             "diagram) or pole = [RE, IM] (a mode pole), not both nor neither")
         picks.append(Pick(freq_hz=f, zeta=zeta, order=order, pole=pole))
     return Picks(band_hz=(band[0], band[1]), orders=orders, picks=tuple(picks),
-                 weighting=weighting, source=source)
+                 weighting=weighting, source=source, companions=companions)
 
 
 def picks_from_result(result: IdentificationResult) -> Picks:
     """The picks of an automatic result: every kept mode by its start pole
-    (``result.stabilization.mode_pole``), with the result's band, orders and
-    weighting. ``identify(frf, picks=picks_from_result(r))`` gives ``r``'s
-    modes again (see :func:`identify_picks`)."""
+    (``result.stabilization.mode_pole``), with the result's band, orders,
+    weighting and companions (``stabilization.companion_pole``).
+    ``identify(frf, picks=picks_from_result(r))`` gives ``r``'s modes again
+    (see :func:`identify_picks`)."""
     stab, s = result.stabilization, result.settings
-    start = stab.mode_pole if stab.mode_pole.size == result.pole.size else (
-        result.pole - s.window_decay_rate)
+    stored = stab.mode_pole.size == result.pole.size
+    start = stab.mode_pole if stored else result.pole - s.window_decay_rate
+    companions = tuple(complex(c) for c in stab.companion_pole) if stored else ()
     fn, _, zeta = pole_to_modal(start, s.window_decay_rate)
     picks = tuple(Pick(freq_hz=float(f), zeta=float(z), pole=complex(p))
                   for f, z, p in zip(fn, zeta, start, strict=True))
     return Picks(band_hz=s.band_hz, orders=tuple(int(o) for o in s.orders), picks=picks,
-                 weighting=s.weighting)
+                 weighting=s.weighting, companions=companions)
 
 
 def diagram_poles(frf: FRFSet, picks: Picks, window_decay_rate: float,
@@ -307,7 +335,8 @@ def identify_picks(frf: FRFSet, options: IdentificationOptions,
     :func:`ema_pipeline.identification.identify` (which calls this with
     ``picks=``) does. The diagram is recomputed with the picks file's band,
     orders and weighting; each pick is matched (:func:`match_picks`); the
-    start poles are refined together (``options.refine``), their covariance
+    start poles are refined together (``options.refine``) with the picks
+    file's companions, which are then dropped; their covariance
     gets the band-sensitivity term, and LSFD, window correction and
     indicators follow as for automatic modes. ``result.extras[PICKED]`` is the
     number of picked modes; ``result.not_kept_hz`` is empty (no candidate
@@ -328,6 +357,7 @@ def identify_picks(frf: FRFSet, options: IdentificationOptions,
     array([70.])
     """
     decay = float(frf.acquisition.window_decay_rate)
+    where = f"{picks.source}: " if picks.source else ""
     lo, hi = resolve_band(frf, picks.band_hz)
     sub = frf.band(lo, hi)
     n_out, n_in, n_freq = sub.H.shape
@@ -347,9 +377,17 @@ def identify_picks(frf: FRFSet, options: IdentificationOptions,
     Hc = sub.H.reshape(n_out * n_in, n_freq)
     cov = None
     tau, force_s = frf.acquisition.exp_window_tau_s, frf.acquisition.force_window_s
+    companions = np.array(picks.companions, dtype=complex)
     if options.refine and start.size:
-        ref = refine_poles(freq, Hc, start, quantity=sub.quantity, window_tau_s=tau,
-                           force_window_s=force_s, thresholds=th)
+        inside = (companions.real < 0) & (companions.imag > lo * 2 * np.pi) & (
+            companions.imag < hi * 2 * np.pi)
+        if not inside.all():
+            raise DataError(f"{where}companion pole {companions[~inside][0]} is not a decaying "
+                            "pole inside the band")
+        ref = refine_poles(freq, Hc, np.concatenate([start, companions]), quantity=sub.quantity,
+                           window_tau_s=tau, force_window_s=force_s, thresholds=th)
+        ref = RefinedPoles(*(np.asarray(a)[: start.size] for a in (
+            ref.pole, ref.cov, ref.noise_std, ref.band_hz, ref.n_iter)))
         order_s = np.argsort(ref.pole.imag, kind="stable")
         sel = replace(sel.subset(order_s), pole=ref.pole[order_s])
         start = start[order_s]

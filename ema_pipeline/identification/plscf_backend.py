@@ -108,6 +108,8 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     tau, force_s = frf.acquisition.exp_window_tau_s, frf.acquisition.force_window_s
     rejected: list[np.ndarray] = []  # refined candidates that failed the final tests
     start = sel.pole  # the kept modes' start poles, stored with the diagram (--picks)
+    # the start poles of the candidates refined with them and then dropped
+    companions = np.zeros(0, dtype=complex)
     if options.refine and sel.pole.size:
         ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
                            force_window_s=force_s, thresholds=th)
@@ -140,6 +142,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             sel, ref, keep = found.sel, found.ref, found.keep
         order_s = np.argsort(ref.pole[keep].imag)
         start = sel.pole[keep][order_s]
+        companions = sel.pole[~keep]
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
         cov = ref.cov[keep][order_s]
         # the local model's own error (band choice), added in quadrature
@@ -151,7 +154,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         decay=decay,
         lower_residual=options.lower_residual,
         upper_residual=options.upper_residual,
-        stab=replace(stab, mode_pole=start),
+        stab=replace(stab, mode_pole=start, companion_pole=companions),
         selected=sel,
         pole_cov=cov,
         settings=ResolvedSettings(

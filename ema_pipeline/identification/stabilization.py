@@ -58,6 +58,12 @@ class StabilizationData:
                               median or a pole found outside the diagram; what
                               the report's diagram and ``--picks`` use
                               (:mod:`ema_pipeline.identification.picks`).
+    companion_pole : (n,) complex  the start poles of the candidates refined
+                              together with the kept modes in their final
+                              fit that the final tests then dropped (before
+                              window correction): ``--picks`` refines them
+                              with the picks and drops them again, so that
+                              the untouched picks reproduce the kept modes.
     """
 
     order: np.ndarray
@@ -70,6 +76,7 @@ class StabilizationData:
     tol_zeta: float = float("nan")
     tol_mac: float = float("nan")
     mode_pole: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
+    companion_pole: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
 
     @property
     def stable(self) -> np.ndarray:

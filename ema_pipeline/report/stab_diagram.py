@@ -23,7 +23,9 @@ moves the pick there. The element ``#picks`` always holds the picks file
 (TOML, :class:`ema_pipeline.identification.picks.Picks`) of the current
 selection, with a copy and a download button: ``ema-pipeline identify FILE
 --picks picks.toml`` fits exactly those poles. Untouched, the page's picks
-are the automatic result's (:func:`~ema_pipeline.identification.picks.picks_from_result`).
+are the automatic result's (:func:`~ema_pipeline.identification.picks.picks_from_result`),
+with its companions (candidates refined beside the kept modes, then dropped);
+the script writes these only while no pole of the diagram itself is picked.
 """
 
 from __future__ import annotations
@@ -87,6 +89,11 @@ function text(){
   '[diagram]  # the settings that reproduce the stabilization diagram',
   'band_hz = ['+num(cfg.band_hz[0])+', '+num(cfg.band_hz[1])+']',
   'orders = ['+cfg.orders.join(', ')+']','weighting = "'+cfg.weighting+'"'];
+ if(cfg.companions.length&&sel.every(function(p){return p.dataset.kind==='mode';})){
+  t.push('# poles fitted alongside the picks, not reported: candidates the automatic',
+   '# selection refined with its modes and then dropped (rad/s)',
+   'companions = ['+cfg.companions.map(function(c){return '['+num(c[0])+', '+num(c[1])+
+   ']';}).join(', ')+']');}
  sel.forEach(function(p){
   t.push('','[[pick]]','freq_hz = '+num(p.dataset.freqHz),'zeta = '+num(p.dataset.zeta));
   if(p.dataset.kind==='mode'){t.push('pole = ['+num(p.dataset.poleRe)+', '+
@@ -249,7 +256,8 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
     parts.append("</svg>")
     cfg = json.dumps({"band_hz": [float(lo), float(hi)],
                       "orders": [int(o) for o in picks.orders],
-                      "weighting": picks.weighting, "file": file_name})
+                      "weighting": picks.weighting, "file": file_name,
+                      "companions": [[c.real, c.imag] for c in picks.companions]})
     picked = (" This result was fitted from picks (<code>--picks</code>): every mode is "
               "picked." if is_picked(result) else "")
     return (
