@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import logging
 import os
-import sys
+
+from ema_pipeline.pipeline.logs import verbose_logging
 
 __all__ = [
     "EXIT_INPUT",
@@ -43,12 +44,3 @@ def capture_warnings() -> None:
             except OSError:
                 pass
         log.addHandler(handler)
-
-
-def verbose_logging() -> None:
-    """``--verbose``: the package's INFO messages (skipped UFF datasets, ...) on stderr."""
-    log = logging.getLogger("ema_pipeline")
-    handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(logging.Formatter("ema-pipeline: %(message)s"))
-    log.addHandler(handler)
-    log.setLevel(logging.INFO)

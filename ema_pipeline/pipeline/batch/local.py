@@ -23,13 +23,13 @@ import multiprocessing
 import os
 import select
 import signal
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterator
 
 from ema_pipeline.io import FORK_SAFE_THREAD_NAME
 from ema_pipeline.pipeline.batch.tasks import FileRecord, FileTask, process_file
+from ema_pipeline.pipeline.logs import verbose_logging
 
 __all__ = ["PRELOAD", "THREAD_VARIABLES", "LocalBackend", "default_workers"]
 
@@ -54,11 +54,9 @@ def _init_worker(parent_pid: int, environ: dict[str, str], log_level: int) -> No
         os.environ.clear()
         os.environ.update(environ)
     log = logging.getLogger("ema_pipeline")
-    log.setLevel(log_level)
     if log_level and log_level <= logging.INFO and not log.handlers:
-        handler = logging.StreamHandler(sys.stderr)
-        handler.setFormatter(logging.Formatter("ema-pipeline: %(message)s"))
-        log.addHandler(handler)
+        verbose_logging()
+    log.setLevel(log_level)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     # named fork-safe: it only polls and sleeps, so the worker can still check
     # HDF5 inputs in a forked child (65 ms) rather than a fresh interpreter (~2 s)
