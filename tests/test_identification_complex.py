@@ -27,30 +27,10 @@ import pytest
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import hardcases  # noqa: E402
 from conftest import Background  # noqa: E402
-from test_identification_hard import _match, identify_case  # noqa: E402
+from test_identification_hard import _match, identify_case, scores  # noqa: E402
 
 SEEDS = (1, 2, 3, 4, 5, 6)
 BACKGROUND = {f"hard:{f}": SEEDS for f in hardcases.COMPLEX_FAMILIES}
-
-
-def _scores(family: str, background: Background) -> dict:
-    done = background.outputs(f"hard:{family}")
-    n_true = missed = spurious = 0
-    rf: list[float] = []
-    rz: list[float] = []
-    for seed in SEEDS:
-        case = hardcases.make_case(family, seed)
-        out = done[seed] if seed in done else identify_case(case)
-        pairs = _match(case.fn_hz, case.zeta, out["fn_hz"])
-        n_true += case.fn_hz.size
-        missed += case.fn_hz.size - len(pairs)
-        spurious += out["fn_hz"].size - len(pairs)
-        for i, j in pairs:
-            rf.append(abs(out["fn_hz"][j] - case.fn_hz[i]) / out["fn_std_hz"][j])
-            rz.append(abs(out["zeta"][j] - case.zeta[i]) / out["zeta_std"][j])
-    return {"n_true": n_true, "missed": missed, "spurious": spurious,
-            "rf": np.nan_to_num(np.array(rf), nan=np.inf),
-            "rz": np.nan_to_num(np.array(rz), nan=np.inf)}
 
 
 # --------------------------------------------------------------------------- generators
@@ -169,7 +149,7 @@ def test_close_low_pair_under_a_wide_pole_is_found() -> None:
 @pytest.mark.parametrize("family", hardcases.COMPLEX_FAMILIES)
 def test_complex_families_no_mode_missed_or_invented(family: str,
                                                      background: Background) -> None:
-    s = _scores(family, background)
+    s = scores(family, SEEDS, background)
     assert s["n_true"] >= 30, s["n_true"]
     assert s["missed"] <= 0.02 * s["n_true"], s
     assert s["spurious"] <= 0.02 * s["n_true"], s
@@ -180,7 +160,7 @@ def test_complex_families_sigmas_are_calibrated(family: str, background: Backgro
     """p68 of |error|/sigma in 0.75-1.35 for f and zeta on seeds 1-6 (31 and
     46 matched modes: the p68 of n modes scatters by about 0.96/sqrt(n),
     0.14-0.17 here), and at least 80 % within 2 sigma."""
-    s = _scores(family, background)
+    s = scores(family, SEEDS, background)
     for key in ("rf", "rz"):
         r = s[key]
         assert 0.75 <= np.percentile(r, 68) <= 1.35, (key, np.percentile(r, 68))
