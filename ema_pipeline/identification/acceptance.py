@@ -108,6 +108,68 @@ def add_found(
     return found
 
 
+def refit_kept(
+    found: Candidates,
+    retest: Callable[[SelectedPoles, np.ndarray, np.ndarray], tuple[RefinedPoles, np.ndarray]],
+    rounds: int = 3,
+) -> Candidates:
+    """``found``'s kept candidates refined and tested again without those that
+    failed (``retest`` as in :func:`add_found`), repeated while some fail.
+
+    A failed candidate bends its neighbours' local fits: on the measured beam
+    a pole of zeta 1.1 % at 362.3 Hz, which fails the resonance test, shares
+    the 362.8 Hz peak with the kept pole and pushes it to 363.9 Hz in the
+    bands 5-790 and 250-700 Hz; refined without it, the kept pole is
+    362.86 Hz, as without a band. A candidate that passed and fails once
+    refined alone is dropped (its verdict leaned on the failed one).
+
+    Examples
+    --------
+    >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
+    >>> empty = Candidates(none, None, np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, bool))
+    >>> refit_kept(empty, None) is empty
+    True
+    """
+    for _ in range(rounds):
+        if found.keep.all() or not found.keep.any():
+            return found
+        sel = found.sel.subset(found.keep)
+        partner, strict = found.partner[found.keep], found.strict[found.keep]
+        ref, keep = retest(sel, partner, strict)
+        found = Candidates(sel, ref, keep, partner, strict)
+    return found
+
+
+def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None]) -> np.ndarray:
+    """The poles of ``alternates`` (candidates of narrower searches that a
+    candidate of the full band covered,
+    :func:`~ema_pipeline.identification.order_search.covered_candidates`) that
+    no ``kept`` pole covers (within the sum of their half-power half-widths):
+    their cover failed the final tests, so they have not been judged. One per
+    resonance: an alternate covered by one of more orders is left out.
+
+    Examples
+    --------
+    >>> alt = SelectedPoles(np.array([-1 + 100j, -1 + 100.5j, -1 + 200j]), np.zeros(3, int),
+    ...                     np.array([20, 30, 20]), np.zeros(3), np.zeros(3), np.zeros(3, int))
+    >>> uncovered_alternates(np.array([-1 + 200.2j]), [alt, None]).tolist()
+    [(-1+100.5j)]
+    """
+    found = [a for a in alternates if a is not None and a.pole.size]
+    if not found:
+        return np.zeros(0, dtype=complex)
+    pole = np.concatenate([a.pole for a in found])
+    members = np.concatenate([a.n_members for a in found])
+    chosen: list[complex] = []
+    for k in np.argsort(-members, kind="stable"):
+        others = np.concatenate([kept, np.array(chosen, dtype=complex)])
+        if others.size and np.any(np.abs(pole[k].imag - others.imag)
+                                  < np.abs(pole[k].real) + np.abs(others.real)):
+            continue
+        chosen.append(complex(pole[k]))
+    return np.sort_complex(np.array(chosen, dtype=complex)) if chosen else np.zeros(0, complex)
+
+
 def unseen_candidates(pole: np.ndarray) -> SelectedPoles:
     """Candidates found outside the diagrams (trajectory label -1, no orders).
 

@@ -36,6 +36,8 @@ from ema_pipeline.identification.acceptance import (
     close_partners,
     decay_determined,
     final_tests,
+    refit_kept,
+    uncovered_alternates,
 )
 from ema_pipeline.identification.common import (
     default_max_order,
@@ -91,9 +93,11 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                          min_fraction=options.min_fraction, expect=expect_hz is not None,
                          thresholds=th, tolerances=(link_freq, link_zeta, link_mac))
     sel, traj, poles = search.run(freq, Hn, (lo, hi), p, cap, fixed)
+    # candidates of the narrower searches covered by one of the full band
+    alternates: list[SelectedPoles | None] = []
     if not fixed and expect_hz is None:
-        sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi))
-        sel = add_window_modes(sel, search, freq, Hn, (lo, hi))
+        sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi), alternates)
+        sel = add_window_modes(sel, search, freq, Hn, (lo, hi), alternates)
     p = int(poles.orders[-1])
     diagram_freq, diagram_zeta, diagram_mac = options.diagram_tolerances()
     stab = stabilization(
@@ -129,6 +133,11 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             found = Candidates(sel, ref, final_tests(freq, Hc, Hn_c, ref, sub.quantity,
                                                      sel.n_members, thresholds=th), none, none)
             rejected.append(ref.pole[~found.keep & decay_determined(ref.pole, ref.cov, th)])
+            # the kept candidates refined without those that failed
+            found = refit_kept(found, retest)
+            # where a candidate failed, the narrower searches' candidate it covered
+            alt = uncovered_alternates(found.kept_poles(), alternates)
+            found = add_found(found, alt, False, np.zeros(alt.size, bool), retest)
             # close modes hidden in a kept resonance, then modes that no
             # diagram resolved (peaks of the residual)
             partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
