@@ -55,7 +55,11 @@ from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, r
 from ema_pipeline.identification.residual_search import residual_peaks
 from ema_pipeline.identification.resources import order_cap
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
-from ema_pipeline.identification.selection import SelectedPoles, select_expected
+from ema_pipeline.identification.selection import (
+    SelectedPoles,
+    expected_from_automatic,
+    select_expected,
+)
 from ema_pipeline.identification.stabilization import StabilizationData, stabilization
 
 
@@ -104,8 +108,24 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         poles, decay, tol_freq=diagram_freq, tol_zeta=diagram_zeta, tol_mac=diagram_mac,
     )
     stab = StabilizationData(**{**stab.__dict__, "cluster": traj})
+    # with expected frequencies: the automatic selection's other modes and
+    # dropped candidates, refined alongside the expected poles and then dropped
+    neighbours = np.zeros(0, dtype=complex)
+    n_kept_neighbours = 0
     if expect_hz is not None:
         sel = select_expected(sel, expect_hz, decay, thresholds=th)
+        if options.refine:
+            auto = identify_plscf(frf, replace(options, expect_hz=()))
+            auto_start = auto.stabilization.mode_pole
+            sel, rest = expected_from_automatic(sel, expect_hz, auto.fn_hz, auto_start, decay,
+                                                thresholds=th)
+            dropped = auto.stabilization.companion_pole
+            if sel.pole.size and dropped.size:  # none on a pole of the expected ones
+                gap = np.abs(dropped[:, None].imag - sel.pole[None, :].imag)
+                width = np.abs(dropped[:, None].real) + np.abs(sel.pole[None, :].real)
+                dropped = dropped[~np.any(gap < width, axis=1)]
+            neighbours = np.concatenate([auto_start[rest], dropped])
+            n_kept_neighbours = rest.size
 
     Hc = sub.H.reshape(n_out * n_in, n_freq)
     cov = None
@@ -115,8 +135,13 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     # the start poles of the candidates refined with them and then dropped
     companions = np.zeros(0, dtype=complex)
     if options.refine and sel.pole.size:
-        ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
-                           force_window_s=force_s, thresholds=th)
+        ref = refine_poles(freq, Hc, np.concatenate([sel.pole, neighbours]),
+                           quantity=sub.quantity, window_tau_s=tau, force_window_s=force_s,
+                           thresholds=th)
+        m = sel.pole.size
+        near = ref.pole[m : m + n_kept_neighbours]  # the automatic modes' refined poles
+        ref = RefinedPoles(*(np.asarray(a)[:m] for a in (
+            ref.pole, ref.cov, ref.noise_std, ref.band_hz, ref.n_iter)))
         keep = np.ones(sel.pole.size, bool)
         if expect_hz is None:
 
@@ -151,12 +176,13 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             sel, ref, keep = found.sel, found.ref, found.keep
         order_s = np.argsort(ref.pole[keep].imag)
         start = sel.pole[keep][order_s]
-        companions = sel.pole[~keep]
+        companions = np.concatenate([sel.pole[~keep], neighbours])
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
         cov = ref.cov[keep][order_s]
         # the local model's own error (band choice), added in quadrature
-        cov = cov + band_sensitivity(freq, Hc, sel.pole, quantity=sub.quantity,
-                                     window_tau_s=tau, force_window_s=force_s, thresholds=th)
+        cov = cov + band_sensitivity(freq, Hc, np.concatenate([sel.pole, near]),
+                                     quantity=sub.quantity, window_tau_s=tau,
+                                     force_window_s=force_s, thresholds=th)[: sel.pole.size]
     result = finish_identification(
         sub,
         sel.pole,
