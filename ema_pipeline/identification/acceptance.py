@@ -170,6 +170,40 @@ def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None
     return np.sort_complex(np.array(chosen, dtype=complex)) if chosen else np.zeros(0, complex)
 
 
+def band_support(pole: np.ndarray,
+                 searched: list[tuple[tuple[float, float], SelectedPoles | None]],
+                 thresholds: SelectionThresholds | None = None) -> np.ndarray:
+    """Per pole (n, 2) int: how many of the narrower searches ``searched``
+    (band in Hz and candidates, the first two entries of each
+    :data:`~ema_pipeline.identification.order_search.SearchedBand`) hold it
+    (its damped frequency inside their band by ``band_support_margin`` of
+    itself) and how many of those have a candidate that covers it (within the
+    sum of their half-power half-widths); the doubtful rule
+    ``found_only_in_some_bands`` reads it
+    (:func:`~ema_pipeline.identification.result.doubtful_flags`).
+
+    Examples
+    --------
+    >>> cand = SelectedPoles(np.array([-1 + 2j * np.pi * 100.2]), np.zeros(1, int),
+    ...                      np.ones(1, int), np.zeros(1), np.zeros(1), np.zeros(1, int))
+    >>> lam = np.array([-2 + 2j * np.pi * 100.0, -2 + 2j * np.pi * 150.0])
+    >>> band_support(lam, [((50.0, 200.0), cand, None), ((90.0, 160.0), None, None)]).tolist()
+    [[2, 1], [2, 0]]
+    """
+    margin = (thresholds or SelectionThresholds()).band_support_margin
+    fd = np.asarray(pole).imag / (2 * np.pi)
+    out = np.zeros((fd.size, 2), dtype=int)
+    for entry in searched:
+        (lo, hi), cand = entry[0], entry[1]
+        holds = (fd > lo * (1 + margin)) & (fd < hi / (1 + margin))
+        out[:, 0] += holds
+        if cand is not None and cand.pole.size:
+            gap = np.abs(pole[:, None].imag - cand.pole[None, :].imag)
+            width = np.abs(pole[:, None].real) + np.abs(cand.pole[None, :].real)
+            out[:, 1] += holds & np.any(gap < width, axis=1)
+    return out
+
+
 def unseen_candidates(pole: np.ndarray) -> SelectedPoles:
     """Candidates found outside the diagrams (trajectory label -1, no orders).
 

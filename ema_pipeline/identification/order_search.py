@@ -303,6 +303,12 @@ def add_uncovered(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPole
     return merged.subset(np.argsort(merged.pole.imag))
 
 
+#: One narrower search of :func:`add_zoom_modes` or :func:`add_window_modes`:
+#: its band (Hz), its candidates (None: too few lines or singular) and those of
+#: them that a candidate already selected covered (None: none).
+SearchedBand = tuple[tuple[float, float], SelectedPoles | None, SelectedPoles | None]
+
+
 def covered_candidates(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPoles | None:
     """The candidates of ``new`` that a candidate of ``sel`` covers (within
     the sum of their half-power half-widths): those :func:`add_uncovered`
@@ -333,13 +339,14 @@ def add_zoom_modes(
     freq: np.ndarray,
     Hn: np.ndarray,
     band: tuple[float, float],
-    alternates: list[SelectedPoles] | None = None,
+    searched: list[SearchedBand] | None = None,
 ) -> SelectedPoles:
     """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of a
     second search of the band's lowest 1/``zoom_ratio`` (of
     ``search.thresholds``). Unchanged for a narrower band or one with too few
-    lines in that part. The candidates of that search that ``sel`` covers
-    are appended to ``alternates`` (when given; :func:`covered_candidates`).
+    lines in that part. The search is appended to ``searched`` (when given):
+    its band, its candidates and those of them that ``sel`` covers
+    (:func:`covered_candidates`).
 
     Examples
     --------
@@ -354,8 +361,8 @@ def add_zoom_modes(
         return sel
     zsel = search_window(search, freq, Hn, (lo, lo + (hi - lo) / zoom))
     sel = without_merged(sel, zsel)
-    if alternates is not None:
-        alternates.append(covered_candidates(sel, zsel))
+    if searched is not None:
+        searched.append(((lo, lo + (hi - lo) / zoom), zsel, covered_candidates(sel, zsel)))
     return add_uncovered(sel, zsel)
 
 
@@ -421,13 +428,12 @@ def add_window_modes(
     freq: np.ndarray,
     Hn: np.ndarray,
     band: tuple[float, float],
-    alternates: list[SelectedPoles] | None = None,
+    searched: list[SearchedBand] | None = None,
 ) -> SelectedPoles:
     """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of searches
     in the windows of :func:`mode_windows` (a dense band; unchanged with fewer
-    than ``window_min_modes`` candidates). The candidates of the windows that
-    a candidate already there covers are appended to ``alternates`` (when
-    given; :func:`covered_candidates`).
+    than ``window_min_modes`` candidates). Each window's search is appended
+    to ``searched`` (when given), as by :func:`add_zoom_modes`.
 
     Examples
     --------
@@ -439,7 +445,7 @@ def add_window_modes(
     """
     for window in mode_windows(pole_fd_hz(sel.pole), band, search.thresholds):
         wsel = search_window(search, freq, Hn, window)
-        if alternates is not None:
-            alternates.append(covered_candidates(sel, wsel))
+        if searched is not None:
+            searched.append((window, wsel, covered_candidates(sel, wsel)))
         sel = add_uncovered(sel, wsel)
     return sel

@@ -33,6 +33,7 @@ from ema_pipeline.data import FRFSet
 from ema_pipeline.identification.acceptance import (
     Candidates,
     add_found,
+    band_support,
     close_partners,
     decay_determined,
     final_tests,
@@ -48,6 +49,7 @@ from ema_pipeline.identification.not_kept import resonances_not_kept
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.order_search import (
     OrderSearch,
+    SearchedBand,
     add_window_modes,
     add_zoom_modes,
 )
@@ -97,11 +99,11 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                          min_fraction=options.min_fraction, expect=expect_hz is not None,
                          thresholds=th, tolerances=(link_freq, link_zeta, link_mac))
     sel, traj, poles = search.run(freq, Hn, (lo, hi), p, cap, fixed)
-    # candidates of the narrower searches covered by one of the full band
-    alternates: list[SelectedPoles | None] = []
+    # the narrower searches: bands, candidates, those covered by one already there
+    searched: list[SearchedBand] = []
     if not fixed and expect_hz is None:
-        sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi), alternates)
-        sel = add_window_modes(sel, search, freq, Hn, (lo, hi), alternates)
+        sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi), searched)
+        sel = add_window_modes(sel, search, freq, Hn, (lo, hi), searched)
     p = int(poles.orders[-1])
     diagram_freq, diagram_zeta, diagram_mac = options.diagram_tolerances()
     stab = stabilization(
@@ -112,6 +114,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     # dropped candidates, refined alongside the expected poles and then dropped
     neighbours = np.zeros(0, dtype=complex)
     n_kept_neighbours = 0
+    auto: IdentificationResult | None = None
     if expect_hz is not None:
         sel = select_expected(sel, expect_hz, decay, thresholds=th)
         if options.refine:
@@ -161,7 +164,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             # the kept candidates refined without those that failed
             found = refit_kept(found, retest)
             # where a candidate failed, the narrower searches' candidate it covered
-            alt = uncovered_alternates(found.kept_poles(), alternates)
+            alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
             found = add_found(found, alt, False, np.zeros(alt.size, bool), retest)
             # close modes hidden in a kept resonance, then modes that no
             # diagram resolved (peaks of the residual)
@@ -214,6 +217,16 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             thresholds=th,
         ),
     )
+    if auto is not None:  # --expect: the automatic modes' support, where the pole is theirs
+        support = np.zeros((result.fn_hz.size, 2), dtype=int)
+        if auto.band_support.shape[0] == auto.fn_hz.size:
+            for i, f_hz in enumerate(result.fn_hz):
+                same = np.flatnonzero(np.isclose(auto.fn_hz, f_hz, rtol=1e-6, atol=0.0))
+                if same.size:
+                    support[i] = auto.band_support[same[0]]
+        result = replace(result, band_support=support)
+    elif searched:
+        result = replace(result, band_support=band_support(sel.pole, searched, th))
     if not rejected:
         return result
     not_kept_hz, not_kept_frfs = resonances_not_kept(freq, Hc, np.concatenate(rejected),
