@@ -14,6 +14,13 @@ Every candidate of :func:`~ema_pipeline.identification.plscf_backend.identify_pl
 3. it is not one mode found twice (:func:`distinct_shapes`), nor the split of
    a neighbour (a complex shape beside a real one).
 
+The candidates that pass are refined and tested again without those that
+failed (:func:`refit_kept`); where a candidate of the full band failed, the
+candidate of a narrower search that it covered is tried
+(:func:`uncovered_alternates`). :func:`band_support` counts the narrower
+searches that hold and find each kept mode (the doubtful rule
+``found_only_in_some_bands``).
+
 Close modes hidden in a kept resonance are looked for by
 :func:`close_partners` (one pole more in that mode's local fit,
 :func:`pair_is_real`); those and the starts of
@@ -30,7 +37,7 @@ field's comment there says on what.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -171,7 +178,8 @@ def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None
 
 
 def band_support(pole: np.ndarray,
-                 searched: list[tuple[tuple[float, float], SelectedPoles | None]],
+                 searched: Sequence[tuple[tuple[float, float], SelectedPoles | None,
+                                          SelectedPoles | None]],
                  thresholds: SelectionThresholds | None = None) -> np.ndarray:
     """Per pole (n, 2) int: how many of the narrower searches ``searched``
     (band in Hz and candidates, the first two entries of each
