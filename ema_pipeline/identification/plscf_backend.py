@@ -33,9 +33,12 @@ from ema_pipeline.data import FRFSet
 from ema_pipeline.identification.acceptance import (
     Candidates,
     add_found,
+    band_support,
     close_partners,
     decay_determined,
     final_tests,
+    refit_kept,
+    uncovered_alternates,
 )
 from ema_pipeline.identification.common import (
     default_max_order,
@@ -46,6 +49,7 @@ from ema_pipeline.identification.not_kept import resonances_not_kept
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.order_search import (
     OrderSearch,
+    SearchedBand,
     add_window_modes,
     add_zoom_modes,
 )
@@ -53,7 +57,11 @@ from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, r
 from ema_pipeline.identification.residual_search import residual_peaks
 from ema_pipeline.identification.resources import order_cap
 from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
-from ema_pipeline.identification.selection import SelectedPoles, select_expected
+from ema_pipeline.identification.selection import (
+    SelectedPoles,
+    expected_from_automatic,
+    select_expected,
+)
 from ema_pipeline.identification.stabilization import StabilizationData, stabilization
 
 
@@ -91,17 +99,36 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                          min_fraction=options.min_fraction, expect=expect_hz is not None,
                          thresholds=th, tolerances=(link_freq, link_zeta, link_mac))
     sel, traj, poles = search.run(freq, Hn, (lo, hi), p, cap, fixed)
+    # the narrower searches: bands, candidates, those covered by one already there
+    searched: list[SearchedBand] = []
     if not fixed and expect_hz is None:
-        sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi))
-        sel = add_window_modes(sel, search, freq, Hn, (lo, hi))
+        sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi), searched)
+        sel = add_window_modes(sel, search, freq, Hn, (lo, hi), searched)
     p = int(poles.orders[-1])
     diagram_freq, diagram_zeta, diagram_mac = options.diagram_tolerances()
     stab = stabilization(
         poles, decay, tol_freq=diagram_freq, tol_zeta=diagram_zeta, tol_mac=diagram_mac,
     )
     stab = StabilizationData(**{**stab.__dict__, "cluster": traj})
+    # with expected frequencies: the automatic selection's other modes and
+    # dropped candidates, refined alongside the expected poles and then dropped
+    neighbours = np.zeros(0, dtype=complex)
+    n_kept_neighbours = 0
+    auto: IdentificationResult | None = None
     if expect_hz is not None:
         sel = select_expected(sel, expect_hz, decay, thresholds=th)
+        if options.refine:
+            auto = identify_plscf(frf, replace(options, expect_hz=()))
+            auto_start = auto.stabilization.mode_pole
+            sel, rest = expected_from_automatic(sel, expect_hz, auto.fn_hz, auto_start, decay,
+                                                thresholds=th)
+            dropped = auto.stabilization.companion_pole
+            if sel.pole.size and dropped.size:  # none on a pole of the expected ones
+                gap = np.abs(dropped[:, None].imag - sel.pole[None, :].imag)
+                width = np.abs(dropped[:, None].real) + np.abs(sel.pole[None, :].real)
+                dropped = dropped[~np.any(gap < width, axis=1)]
+            neighbours = np.concatenate([auto_start[rest], dropped])
+            n_kept_neighbours = rest.size
 
     Hc = sub.H.reshape(n_out * n_in, n_freq)
     cov = None
@@ -111,8 +138,13 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     # the start poles of the candidates refined with them and then dropped
     companions = np.zeros(0, dtype=complex)
     if options.refine and sel.pole.size:
-        ref = refine_poles(freq, Hc, sel.pole, quantity=sub.quantity, window_tau_s=tau,
-                           force_window_s=force_s, thresholds=th)
+        ref = refine_poles(freq, Hc, np.concatenate([sel.pole, neighbours]),
+                           quantity=sub.quantity, window_tau_s=tau, force_window_s=force_s,
+                           thresholds=th)
+        m = sel.pole.size
+        near = ref.pole[m : m + n_kept_neighbours]  # the automatic modes' refined poles
+        ref = RefinedPoles(*(np.asarray(a)[:m] for a in (
+            ref.pole, ref.cov, ref.noise_std, ref.band_hz, ref.n_iter)))
         keep = np.ones(sel.pole.size, bool)
         if expect_hz is None:
 
@@ -129,6 +161,11 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             found = Candidates(sel, ref, final_tests(freq, Hc, Hn_c, ref, sub.quantity,
                                                      sel.n_members, thresholds=th), none, none)
             rejected.append(ref.pole[~found.keep & decay_determined(ref.pole, ref.cov, th)])
+            # the kept candidates refined without those that failed
+            found = refit_kept(found, retest)
+            # where a candidate failed, the narrower searches' candidate it covered
+            alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
+            found = add_found(found, alt, False, np.zeros(alt.size, bool), retest)
             # close modes hidden in a kept resonance, then modes that no
             # diagram resolved (peaks of the residual)
             partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
@@ -142,12 +179,13 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             sel, ref, keep = found.sel, found.ref, found.keep
         order_s = np.argsort(ref.pole[keep].imag)
         start = sel.pole[keep][order_s]
-        companions = sel.pole[~keep]
+        companions = np.concatenate([sel.pole[~keep], neighbours])
         sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
         cov = ref.cov[keep][order_s]
         # the local model's own error (band choice), added in quadrature
-        cov = cov + band_sensitivity(freq, Hc, sel.pole, quantity=sub.quantity,
-                                     window_tau_s=tau, force_window_s=force_s, thresholds=th)
+        cov = cov + band_sensitivity(freq, Hc, np.concatenate([sel.pole, near]),
+                                     quantity=sub.quantity, window_tau_s=tau,
+                                     force_window_s=force_s, thresholds=th)[: sel.pole.size]
     result = finish_identification(
         sub,
         sel.pole,
@@ -179,6 +217,16 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             thresholds=th,
         ),
     )
+    if auto is not None:  # --expect: the automatic modes' support, where the pole is theirs
+        support = np.zeros((result.fn_hz.size, 2), dtype=int)
+        if auto.band_support.shape[0] == auto.fn_hz.size:
+            for i, f_hz in enumerate(result.fn_hz):
+                same = np.flatnonzero(np.isclose(auto.fn_hz, f_hz, rtol=1e-6, atol=0.0))
+                if same.size:
+                    support[i] = auto.band_support[same[0]]
+        result = replace(result, band_support=support)
+    elif searched:
+        result = replace(result, band_support=band_support(sel.pole, searched, th))
     if not rejected:
         return result
     not_kept_hz, not_kept_frfs = resonances_not_kept(freq, Hc, np.concatenate(rejected),

@@ -75,6 +75,11 @@ class IdentificationResult:
         ``not_kept_frfs`` of the FRFs; :mod:`ema_pipeline.identification.not_kept`),
         Hz, ascending; empty when there is none and for the sdypy backend.
     not_kept_frfs : (n,) int  in how many FRFs each stands out.
+    band_support : (n_modes, 2) int  per mode, how many of the narrower searches
+        of the band (its lowest part, the windows of a dense band) hold it and
+        how many of those found a candidate there
+        (:func:`~ema_pipeline.identification.acceptance.band_support`); no rows
+        when there were no such searches' records (picks, the sdypy backend).
     """
 
     modes: ModalParameters
@@ -96,6 +101,7 @@ class IdentificationResult:
     extras: dict[str, float] = field(default_factory=dict)
     not_kept_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
     not_kept_frfs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    band_support: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
 
     def __repr__(self) -> str:
         """Short: configuration, modes, band, method and order, mean fit error."""
@@ -163,7 +169,8 @@ def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray,
 
 
 #: The names of the rules of :func:`doubtful_reasons`, in the order they are listed.
-DOUBTFUL_RULES = ("few_stable_orders", "loose_damping", "complex_shape", "unresolved_damping")
+DOUBTFUL_RULES = ("few_stable_orders", "loose_damping", "complex_shape", "unresolved_damping",
+                  "found_only_in_some_bands")
 
 
 def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
@@ -175,7 +182,10 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
     * ``loose_damping``: ``zeta_std > max_rel_zeta_std * zeta``;
     * ``complex_shape``: ``mpc < min_mpc`` with three or more responses;
     * ``unresolved_damping``: a half-power bandwidth 2 zeta f_n below
-      ``min_bandwidth_lines`` line spacings.
+      ``min_bandwidth_lines`` line spacings;
+    * ``found_only_in_some_bands``: at least ``min_band_searches`` of the
+      band's narrower searches hold it and none found it
+      (``result.band_support``).
     """
     th = result.settings.thresholds
     m = result.modes
@@ -187,7 +197,11 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
     complex_shape = (mpc < th.min_mpc) if len(m.dofs) >= 3 else np.zeros(m.n_modes, bool)
     df = float(np.median(np.diff(result.freq_hz))) if result.freq_hz.size > 1 else 0.0
     unresolved = 2 * np.abs(m.zeta) * m.fn_hz < th.min_bandwidth_lines * df
-    flags = (few, loose, complex_shape, unresolved)
+    support = np.asarray(result.band_support).reshape(-1, 2)
+    only_some = np.zeros(m.n_modes, bool)
+    if support.shape[0] == m.n_modes:
+        only_some = (support[:, 0] >= th.min_band_searches) & (support[:, 1] == 0)
+    flags = (few, loose, complex_shape, unresolved, only_some)
     return {name: np.asarray(f, dtype=bool) for name, f in zip(DOUBTFUL_RULES, flags, strict=True)}
 
 

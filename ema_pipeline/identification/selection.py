@@ -17,7 +17,7 @@ and cannot use the order structure; the linking needs only one
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -358,3 +358,68 @@ def select_expected(
             chosen.append(int(np.argmin(np.where(ok, d, np.inf))))
     idx = np.array(sorted(chosen, key=lambda i: fn[i]), dtype=int)
     return candidates.subset(idx)
+
+
+def expected_from_automatic(
+    expected: SelectedPoles,
+    expect_hz: np.ndarray,
+    auto_fn_hz: np.ndarray,
+    auto_start: np.ndarray,
+    window_decay_rate: float = 0.0,
+    *,
+    thresholds: SelectionThresholds | None = None,
+) -> tuple[SelectedPoles, np.ndarray]:
+    """The expected candidates with the automatic selection's modes put in.
+
+    A guess that an automatic mode answers (frequency ``auto_fn_hz`` within
+    ``thresholds.expect_tol`` of it, nearest first, each mode once) gets that
+    mode's start pole ``auto_start``, in the row of the expected candidate
+    nearest to it (its trajectory; a row of its own with label -1 and no
+    orders when there is none). An expected candidate left over is kept when no
+    automatic mode covers it (within the sum of their half-power
+    half-widths). Returns those rows, ascending frequency, and the indices of
+    the automatic modes not used: refined alongside them as neighbours, so
+    that an expected pole is the automatic one (the measured beam's 119.4 Hz
+    mode refined without its neighbour at 118.0 Hz took both: zeta 0.47 %
+    against 0.11 %).
+
+    Examples
+    --------
+    >>> lam = np.array([-1 + 2j * np.pi * 50.0, -1 + 2j * np.pi * 81.0])
+    >>> sel = SelectedPoles(pole=lam, cluster=np.arange(2), n_members=np.array([10, 8]),
+    ...                     scatter_fn_hz=np.zeros(2), scatter_zeta=np.zeros(2))
+    >>> auto = np.array([-0.5 + 2j * np.pi * 79.0, -0.5 + 2j * np.pi * 80.0])
+    >>> rows, rest = expected_from_automatic(sel, np.array([50.0, 80.0]), np.array([79.0, 80.0]),
+    ...                                      auto)
+    >>> (rows.pole.imag / (2 * np.pi)).round(1).tolist(), rows.cluster.tolist(), rest.tolist()
+    ([50.0, 80.0], [0, 1], [0])
+    """
+    expect_tol = (thresholds or SelectionThresholds()).expect_tol
+    fn_e, _, _ = pole_to_modal(expected.pole, window_decay_rate)
+    used_a = np.zeros(auto_fn_hz.size, bool)
+    used_e = np.zeros(expected.pole.size, bool)
+    rows = []
+    for fe in np.atleast_1d(np.asarray(expect_hz, dtype=float)):
+        d = np.where(used_a, np.inf, np.abs(auto_fn_hz - fe))
+        if not d.size or d.min() >= expect_tol * fe:
+            continue
+        a = int(np.argmin(d))
+        used_a[a] = True
+        de = np.where(used_e, np.inf, np.abs(fn_e - auto_fn_hz[a]))
+        if de.size and de.min() < expect_tol * fe:
+            e = int(np.argmin(de))
+            used_e[e] = True
+            rows.append(replace(expected.subset(np.array([e])), pole=auto_start[[a]]))
+        else:
+            n = 1
+            rows.append(SelectedPoles(auto_start[[a]], np.full(n, -1), np.zeros(n, int),
+                                      np.zeros(n), np.zeros(n), np.zeros(n, int)))
+    left = expected.subset(~used_e)
+    if left.pole.size and auto_start.size:
+        gap = np.abs(left.pole[:, None].imag - auto_start[None, :].imag)
+        width = np.abs(left.pole[:, None].real) + np.abs(auto_start[None, :].real)
+        left = left.subset(~np.any(gap < width, axis=1))
+    out = expected.subset(np.zeros(0, int))
+    for row in [*rows, left]:
+        out = out.concatenate(row)
+    return out.subset(np.argsort(out.pole.imag)), np.flatnonzero(~used_a)

@@ -272,5 +272,18 @@ class SelectionThresholds:
     #: responses (``complex_shape``) ...
     min_mpc: float = 0.5
     #: ... or its half-power bandwidth 2 zeta f_n is below this fraction of the
-    #: line spacing: the lines do not resolve its damping (``unresolved_damping``).
+    #: line spacing: the lines do not resolve its damping (``unresolved_damping``) ...
     min_bandwidth_lines: float = 0.5
+    #: ... or at least this many of the narrower searches of the band (its lowest
+    #: part, the windows of a dense band) hold it and none of them has a
+    #: candidate that covers it (``found_only_in_some_bands``: the band's own
+    #: diagram, a close-partner or residual search found it, no narrower band
+    #: did). Two searches that miss a true mode are common: a close partner
+    #: hidden in its neighbour's resonance (impact_close-9 23.1 Hz beside
+    #: 21.5 Hz) or a weak mode of a dense band (dense_log-1 48.7 Hz), held by
+    #: two searches and found by neither; 3 marks no true mode of the families
+    #: (seeds 1-9) ...
+    min_band_searches: int = 3
+    #: ... a search holds a mode when the mode lies inside its band by this
+    #: fraction of its frequency (issue 31's margin).
+    band_support_margin: float = 0.03
