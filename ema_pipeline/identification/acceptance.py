@@ -58,7 +58,7 @@ from ema_pipeline.identification.lsfd import lsfd, mpc
 from ema_pipeline.identification.refine import RefinedPoles
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.modal import mac
+from ema_pipeline.modal import mac, pole_fd_hz
 
 
 @dataclass(frozen=True)
@@ -199,7 +199,7 @@ def band_support(pole: np.ndarray,
     [[2, 1], [2, 0]]
     """
     margin = (thresholds or SelectionThresholds()).band_support_margin
-    fd = np.asarray(pole).imag / (2 * np.pi)
+    fd = pole_fd_hz(np.asarray(pole))
     out = np.zeros((fd.size, 2), dtype=int)
     for entry in searched:
         (lo, hi), cand = entry[0], entry[1]
@@ -261,7 +261,7 @@ def inside_band(freq_hz: np.ndarray, pole: np.ndarray,
     """
     th = thresholds or SelectionThresholds()
     lo, hi = float(freq_hz[0]), float(freq_hz[-1])
-    fd = np.asarray(pole).imag / (2 * np.pi)
+    fd = pole_fd_hz(np.asarray(pole))
     return np.asarray((fd > lo + th.band_edge[0] * (hi - lo))
                       & (fd < hi - th.band_edge[1] * (hi - lo)))
 
