@@ -32,7 +32,10 @@ def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.n
     the modal columns of :func:`~ema_pipeline.identification.lsfd.design_matrix`
     (no residual terms) and ``bg_r``, the real-stacked background columns."""
     modal = design_matrix(freq_hz, lam, "receptance", lower=False, upper=False)
-    return np.concatenate([real_stack(modal), bg_r], axis=1)
+    n, m2 = modal.shape
+    A = np.empty((2 * n, m2 + bg_r.shape[1]))  # real_stack(modal) and bg_r, one array
+    A[:n, :m2], A[n:, :m2], A[:, m2:] = modal.real, modal.imag, bg_r
+    return A
 
 
 def pole_jacobian(jw: np.ndarray, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -92,11 +95,14 @@ def pole_jacobian_factors(
     B[:n, 1::2], B[n:, 1::2] = q.real, q.imag
     ar, ai = X[0 : 2 * m : 2].T, X[1 : 2 * m : 2].T  # (n_ch, m)
     W = np.zeros((X.shape[1], 2 * m, 2 * m))
-    r = np.arange(m)
-    W[:, 2 * r, 2 * r] = -ar
-    W[:, 2 * r, 2 * r + 1] = -ai
-    W[:, 2 * r + 1, 2 * r] = -ai
-    W[:, 2 * r + 1, 2 * r + 1] = ar
+    # the 2 x 2 diagonal blocks through strided views of the flattened W
+    # (entry (2r + i, 2r + j) sits at r (4m + 2) + 2m i + j): no index arrays
+    Wf = W.reshape(X.shape[1], 4 * m * m)
+    step = 4 * m + 2
+    Wf[:, 0::step] = -ar
+    Wf[:, 1::step] = -ai
+    Wf[:, 2 * m :: step] = -ai
+    Wf[:, 2 * m + 1 :: step] = ar
     return B, W
 
 
@@ -114,7 +120,7 @@ def scaled_solve(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     columns scaled to unit maximum: the orthonormal basis Q of A, the
     residual (2n, n_ch) and the solution X (K, n_ch). One projection serves
     every channel (the local problems of :func:`local_problem`)."""
-    scale = np.max(np.abs(A), axis=0)
+    scale = np.maximum(np.max(A, axis=0), -np.min(A, axis=0))  # max |A|, no copy of A
     scale[scale == 0] = 1.0
     Q, R = batched_qr(A / scale)
     QtY = Q.T @ Y

@@ -369,14 +369,17 @@ def correlated_leverage(Q: np.ndarray, J: np.ndarray, Finv: np.ndarray,
     PX = 0.5 * toeplitz_apply(QJ[:n] + 1j * QJ[n:], rho if kernel is None else kernel)
     SX = np.concatenate([PX.real, PX.imag], axis=0)
     SQ = SX[:, : Q.shape[1]]
-    SJ = SX[:, Q.shape[1] :].reshape(J.shape)
-    JF = np.einsum("kic,ij->kjc", J, Finv)
+    SJ = SX[:, Q.shape[1] :]  # (2n, n_par n_ch), columns as J.reshape(2n, -1)
+    # per channel c (leading axis): J_c Finv, S J_c off Q; matrix products
+    # rather than einsum loops (the same numbers up to rounding)
+    JF = np.matmul(J.transpose(2, 0, 1), Finv)  # (n_ch, 2n, n_par)
     d = 0.5 * float(np.real(rho[0]))
     linear = d - 2 * np.sum(Q * SQ, axis=1) + np.sum((Q @ (Q.T @ SQ)) * Q, axis=1)
-    SJ_off = SJ - np.einsum("ki,ijc->kjc", Q, np.einsum("ki,kjc->ijc", Q, SJ))
-    G = np.einsum("kic,kjc->ij", J, SJ)  # sum over channels of J_c^T S J_c
-    kept = (linear[:, None] - 2 * np.einsum("kjc,kjc->kc", SJ_off, JF)
-            + np.einsum("kic,ij,kjc->kc", JF, G, JF))
+    SJ_off = (SJ - Q @ (Q.T @ SJ)).reshape(J.shape).transpose(2, 0, 1)
+    # sum over channels of J_c^T S J_c
+    G = np.tensordot(J, SJ.reshape(J.shape), axes=([0, 2], [0, 2]))
+    kept = (linear[:, None] - 2 * np.sum(SJ_off * JF, axis=2).T
+            + np.sum(np.matmul(JF, G) * JF, axis=2).T)
     return np.asarray(1.0 - kept / d)
 
 
