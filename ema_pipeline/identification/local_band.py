@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack
+from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack, solve_r
 from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
 
@@ -124,7 +124,7 @@ def scaled_solve(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     scale[scale == 0] = 1.0
     Q, R = batched_qr(A / scale)
     QtY = Q.T @ Y
-    return Q, Y - Q @ QtY, np.linalg.solve(R, QtY) / scale[:, None]
+    return Q, Y - Q @ QtY, solve_r(R, QtY) / scale[:, None]
 
 
 def global_residues(

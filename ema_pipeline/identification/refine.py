@@ -144,7 +144,9 @@ def vp_fit(
         Bw = B * u[:, None]
         Bp = Bw - Qm @ (Qm.T @ Bw)
         Ws = W * inv_s2[:, None, None]
-        F = np.tensordot(Ws, (Bp.T @ Bp) @ W, axes=([0, 1], [0, 1]))
+        # sum over channels and rows as one product (np.tensordot's own
+        # reshape and dot, without its per-call overhead)
+        F = Ws.reshape(-1, Ws.shape[2]).T @ ((Bp.T @ Bp) @ W).reshape(-1, Ws.shape[2])
         g = np.einsum("cia,ic->a", Ws, Bp.T @ Rw)
         return 0.5 * (F + F.T), g, cost_of(Rw, inv_s2) if cost is None else cost
 
