@@ -33,7 +33,9 @@ def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.n
     (no residual terms) and ``bg_r``, the real-stacked background columns."""
     modal = design_matrix(freq_hz, lam, "receptance", lower=False, upper=False)
     n, m2 = modal.shape
-    A = np.empty((2 * n, m2 + bg_r.shape[1]))  # real_stack(modal) and bg_r, one array
+    # real_stack(modal) and bg_r in one column-major array (LAPACK's QR in
+    # scaled_solve takes it without a copy)
+    A = np.empty((2 * n, m2 + bg_r.shape[1]), order="F")
     A[:n, :m2], A[n:, :m2], A[:, m2:] = modal.real, modal.imag, bg_r
     return A
 
