@@ -197,7 +197,7 @@ def solve_r(R: np.ndarray, B: np.ndarray) -> np.ndarray:
     --------
     >>> R = np.array([[2.0, 1.0], [0.0, 4.0]])
     >>> solve_r(R, np.array([[4.0], [8.0]])).ravel().tolist()
-    [1.5, 2.0]
+    [1.0, 2.0]
     """
     if (R.ndim != 2 or B.ndim != 2 or R.dtype != np.float64 or B.dtype != np.float64
             or np.any(R[np.tri(*R.shape, -1, dtype=bool)])):
