@@ -21,6 +21,7 @@ in :mod:`ema_pipeline.modal`.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from scipy.linalg import lapack
@@ -185,6 +186,21 @@ def batched_qr(A: np.ndarray, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndar
     return Q, R
 
 
+@lru_cache(maxsize=64)
+def strictly_lower(k: int) -> np.ndarray:
+    """Read-only (k, k) mask of the entries below the diagonal, built once per
+    size (``np.tri`` costs more than the small solves it serves).
+
+    Examples
+    --------
+    >>> strictly_lower(2).tolist()
+    [[False, False], [True, False]]
+    """
+    mask = np.tri(k, k, -1, dtype=bool)
+    mask.flags.writeable = False
+    return mask
+
+
 def solve_r(R: np.ndarray, B: np.ndarray) -> np.ndarray:
     """``numpy.linalg.solve(R, B)`` for the R of :func:`batched_qr`: by back
     substitution (LAPACK ``dtrtrs``) when R is one upper triangular real
@@ -200,7 +216,7 @@ def solve_r(R: np.ndarray, B: np.ndarray) -> np.ndarray:
     [1.0, 2.0]
     """
     if (R.ndim != 2 or B.ndim != 2 or R.dtype != np.float64 or B.dtype != np.float64
-            or np.any(R[np.tri(*R.shape, -1, dtype=bool)])):
+            or R.shape[0] != R.shape[1] or np.any(R[strictly_lower(R.shape[0])])):
         return np.linalg.solve(R, B)
     X, info = lapack.dtrtrs(R, B, lower=0)
     if info != 0:  # a zero on the diagonal: singular, as numpy.linalg.solve says
@@ -229,7 +245,7 @@ def householder_qr(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     if info != 0:  # pragma: no cover - only for invalid arguments
         raise np.linalg.LinAlgError("dgeqrf failed")
     R = qr[:k].copy()
-    R[np.tri(k, k, -1, dtype=bool)] = 0.0  # np.triu, without its masked copy
+    R[strictly_lower(k)] = 0.0  # np.triu, without its masked copy
     Q, _, info = lapack.dorgqr(qr, tau, overwrite_a=1)
     if info != 0:  # pragma: no cover
         raise np.linalg.LinAlgError("dorgqr failed")
