@@ -280,12 +280,13 @@ class ToeplitzKernel:
 
     (P X)_k = sum_d h_d X_(k+d), h_d = rho_d (d >= 0), conj(rho_-d) (d < 0):
     a convolution with the reversed kernel, O(n log n) for any number of
-    lags. The arithmetic is that of ``scipy.signal.fftconvolve`` (the same
-    FFT length and the same products, so the same numbers) without
-    importing ``scipy.signal`` (0.7 s of start-up through ``scipy.stats``)
-    and without transforming the kernel again for every product (the
-    correlated leverage and information of one local fit apply one
-    correlation three times).
+    lags: a circular convolution just long enough that the n outputs kept
+    are free of wrap-around (about 2n points for n lags, where
+    ``scipy.signal.fftconvolve`` transforms the full linear convolution of
+    3n; the same products to rounding) without importing ``scipy.signal``
+    (0.7 s of start-up through ``scipy.stats``) and without transforming the
+    kernel again for every product (the correlated leverage and information
+    of one local fit apply one correlation three times).
 
     Examples
     --------
@@ -306,7 +307,10 @@ class ToeplitzKernel:
         if complex_result not in self._spectra:
             from scipy import fft  # here, not at the top: see the module docstring
 
-            size = fft.next_fast_len(self.n + self.g.size - 1, not complex_result)
+            # a circular convolution of n + L - 1 points or more leaves the n
+            # outputs kept (from L - 1 on) free of wrap-around: 2n instead of
+            # the 3n of the full linear convolution for a window's n lags
+            size = fft.next_fast_len(self.n + self.lags - 1, not complex_result)
             spec = fft.fft(self.g, size) if complex_result else fft.rfft(self.g, size)
             self._spectra[complex_result] = (size, spec)
         return self._spectra[complex_result]
