@@ -171,12 +171,17 @@ def local_problem(
     if sel.sum() < 12:
         return None
     f = freq_hz[sel]
-    members = np.union1d(np.flatnonzero((f_r + hpb > lo) & (f_r - hpb < hi)), [r])
+    # the member mask, r included: its indices are the sorted union, the rest
+    # the others (np.union1d and np.setdiff1d without their sorting)
+    member = (f_r + hpb > lo) & (f_r - hpb < hi)
+    member[r] = True
+    members = np.flatnonzero(member)
     x = (f - f_r[r]) / width
-    background = np.stack([np.ones_like(x), x, x**2], axis=1).astype(complex)
+    background = np.empty((x.size, 3), dtype=complex)  # 1, x, x^2
+    background[:, 0], background[:, 1], background[:, 2] = 1.0, x, x**2
     Hl = H[:, sel].T
     if a_all is not None:
-        other = np.setdiff1d(np.arange(poles.size), members)
+        other = np.flatnonzero(~member)
         if other.size:
             jw = 2j * np.pi * f[:, None]
             lam = poles[other][None, :]
