@@ -79,6 +79,10 @@ class VPFit:
     lam : (m,) fitted poles (rad/s).   F : (2m, 2m) Fisher matrix of the last
     accepted step.   u : (2n,) row weights.   inv_s2 : (n_ch,) channel weights.
     n_iter : Levenberg-Marquardt iterations taken.
+    solved : the weighted projection (Q, weighted residual, coefficients) of
+    ``scaled_solve`` at ``lam`` with the weights ``u``, as the last accepted
+    step computed it (``vp_covariance`` takes it instead of solving again:
+    the same numbers); None: solved again.
     """
 
     freq_hz: np.ndarray
@@ -89,6 +93,7 @@ class VPFit:
     u: np.ndarray
     inv_s2: np.ndarray
     n_iter: int
+    solved: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @property
     def noise_std(self) -> np.ndarray:
@@ -166,7 +171,8 @@ def vp_fit(
         inv_s2 = 1.0 / np.maximum(s2, np.finfo(float).tiny)
         u = 1.0 / np.sqrt(np.mean(std**2 * inv_s2[None, :], axis=1))
         Yw = Y * u[:, None]
-        F, g, cost = normal(lam_of(theta), u, inv_s2, fit(lam_of(theta), u, Yw))
+        solved = fit(lam_of(theta), u, Yw)  # the fit at theta with the final weights
+        F, g, cost = normal(lam_of(theta), u, inv_s2, solved)
         damping = MarquardtDamping(mu=1e-3, mu_min=1e-9, mu_max=1e6)
         for _it in range(max_iter):
             it_total += 1
@@ -178,7 +184,7 @@ def vp_fit(
             fitted = fit(lam_of(trial), u, Yw) if np.all(trial[0::2] > 0) else None
             cost_t = np.inf if fitted is None else cost_of(fitted[1], inv_s2)
             if cost_t < cost:
-                theta = trial
+                theta, solved = trial, fitted
                 F, g, cost_new = normal(lam_of(theta), u, inv_s2, fitted, cost_t)
                 sd = np.sqrt(1.0 / np.maximum(np.diag(F), 1e-300))
                 done = (cost - cost_new) < 1e-8 * cost or np.all(np.abs(step) < 1e-3 * sd)
@@ -189,7 +195,7 @@ def vp_fit(
             elif not damping.rejected():
                 break
     return VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam_of(theta), F=F, u=u, inv_s2=inv_s2,
-                 n_iter=it_total)
+                 n_iter=it_total, solved=solved)
 
 
 def vp_covariance(
@@ -207,7 +213,8 @@ def vp_covariance(
         Finv = np.linalg.inv(fit.F)
     except np.linalg.LinAlgError:
         Finv = np.linalg.pinv(fit.F)
-    Qm, Rw, X = scaled_solve(pole_columns(freq_hz, lam, fit.bg_r) * u[:, None], Y * u[:, None])
+    Qm, Rw, X = (scaled_solve(pole_columns(freq_hz, lam, fit.bg_r) * u[:, None], Y * u[:, None])
+                 if fit.solved is None else fit.solved)
     sq = np.sqrt(inv_s2)
     # the projected, weighted Jacobian from its factors (pole_jacobian_factors):
     # 2m columns projected instead of 2m per channel
