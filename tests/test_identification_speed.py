@@ -65,3 +65,41 @@ def test_batched_qr_one_matrix_least_squares_and_rank_deficient():
     Q2, R2 = batched_qr(A2)
     x = np.linalg.solve(R2, Q2.T @ Y[:, :1])
     np.testing.assert_allclose(x, np.linalg.pinv(A2) @ Y[:, :1], rtol=1e-8, atol=1e-10)
+
+
+def test_correlated_leverage_products_are_the_einsum_sums():
+    """correlated_leverage by matrix products (issue 28, third round) against
+    its sums written out with einsum, for a window's correlation over all
+    lines and three channels; and the pole leverage of vp_covariance,
+    diag(Bp (W_c Finv W_c^T) Bp^T), against diag(J_c Finv J_c^T)."""
+    from ema_pipeline.identification.uncertainty import (
+        correlated_leverage,
+        exponential_window_correlation,
+        toeplitz_apply,
+    )
+
+    rng = np.random.default_rng(7)
+    n, n_par, n_ch = 50, 4, 3
+    Q, _ = np.linalg.qr(rng.standard_normal((2 * n, 5)))
+    B = rng.standard_normal((2 * n, n_par))
+    B = B - Q @ (Q.T @ B)
+    W = rng.standard_normal((n_ch, n_par, n_par))
+    J = np.einsum("ki,cij->kjc", B, W)
+    Finv = np.linalg.inv(np.einsum("kic,kjc->ij", J, J))
+    rho = exponential_window_correlation(0.1, n)
+    # the sums of the einsum form
+    QJ = np.concatenate([Q, J.reshape(2 * n, -1)], axis=1)
+    PX = 0.5 * toeplitz_apply(QJ[:n] + 1j * QJ[n:], rho)
+    SX = np.concatenate([PX.real, PX.imag], axis=0)
+    SQ, SJ = SX[:, :5], SX[:, 5:].reshape(J.shape)
+    JF = np.einsum("kic,ij->kjc", J, Finv)
+    linear = 0.5 - 2 * np.sum(Q * SQ, axis=1) + np.sum((Q @ (Q.T @ SQ)) * Q, axis=1)
+    SJ_off = SJ - np.einsum("ki,ijc->kjc", Q, np.einsum("ki,kjc->ijc", Q, SJ))
+    G = np.einsum("kic,kjc->ij", J, SJ)
+    kept = (linear[:, None] - 2 * np.einsum("kjc,kjc->kc", SJ_off, JF)
+            + np.einsum("kic,ij,kjc->kc", JF, G, JF))
+    np.testing.assert_allclose(correlated_leverage(Q, J, Finv, rho), 1.0 - kept / 0.5,
+                               rtol=0, atol=1e-12)
+    M = np.matmul(np.matmul(W, Finv), W.transpose(0, 2, 1))
+    np.testing.assert_allclose(np.sum(np.matmul(B, M) * B, axis=2).T,
+                               np.einsum("kjc,ji,kic->kc", J, Finv, J), rtol=1e-12)

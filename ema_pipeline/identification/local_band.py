@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack
+from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack, solve_r
 from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
 
@@ -32,7 +32,12 @@ def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.n
     the modal columns of :func:`~ema_pipeline.identification.lsfd.design_matrix`
     (no residual terms) and ``bg_r``, the real-stacked background columns."""
     modal = design_matrix(freq_hz, lam, "receptance", lower=False, upper=False)
-    return np.concatenate([real_stack(modal), bg_r], axis=1)
+    n, m2 = modal.shape
+    # real_stack(modal) and bg_r in one column-major array (LAPACK's QR in
+    # scaled_solve takes it without a copy)
+    A = np.empty((2 * n, m2 + bg_r.shape[1]), order="F")
+    A[:n, :m2], A[n:, :m2], A[:, m2:] = modal.real, modal.imag, bg_r
+    return A
 
 
 def pole_jacobian(jw: np.ndarray, lam: np.ndarray, X: np.ndarray) -> np.ndarray:
@@ -92,11 +97,14 @@ def pole_jacobian_factors(
     B[:n, 1::2], B[n:, 1::2] = q.real, q.imag
     ar, ai = X[0 : 2 * m : 2].T, X[1 : 2 * m : 2].T  # (n_ch, m)
     W = np.zeros((X.shape[1], 2 * m, 2 * m))
-    r = np.arange(m)
-    W[:, 2 * r, 2 * r] = -ar
-    W[:, 2 * r, 2 * r + 1] = -ai
-    W[:, 2 * r + 1, 2 * r] = -ai
-    W[:, 2 * r + 1, 2 * r + 1] = ar
+    # the 2 x 2 diagonal blocks through strided views of the flattened W
+    # (entry (2r + i, 2r + j) sits at r (4m + 2) + 2m i + j): no index arrays
+    Wf = W.reshape(X.shape[1], 4 * m * m)
+    step = 4 * m + 2
+    Wf[:, 0::step] = -ar
+    Wf[:, 1::step] = -ai
+    Wf[:, 2 * m :: step] = -ai
+    Wf[:, 2 * m + 1 :: step] = ar
     return B, W
 
 
@@ -114,11 +122,11 @@ def scaled_solve(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     columns scaled to unit maximum: the orthonormal basis Q of A, the
     residual (2n, n_ch) and the solution X (K, n_ch). One projection serves
     every channel (the local problems of :func:`local_problem`)."""
-    scale = np.max(np.abs(A), axis=0)
+    scale = np.maximum(np.max(A, axis=0), -np.min(A, axis=0))  # max |A|, no copy of A
     scale[scale == 0] = 1.0
     Q, R = batched_qr(A / scale)
     QtY = Q.T @ Y
-    return Q, Y - Q @ QtY, np.linalg.solve(R, QtY) / scale[:, None]
+    return Q, Y - Q @ QtY, solve_r(R, QtY) / scale[:, None]
 
 
 def global_residues(
@@ -163,12 +171,17 @@ def local_problem(
     if sel.sum() < 12:
         return None
     f = freq_hz[sel]
-    members = np.union1d(np.flatnonzero((f_r + hpb > lo) & (f_r - hpb < hi)), [r])
+    # the member mask, r included: its indices are the sorted union, the rest
+    # the others (np.union1d and np.setdiff1d without their sorting)
+    member = (f_r + hpb > lo) & (f_r - hpb < hi)
+    member[r] = True
+    members = np.flatnonzero(member)
     x = (f - f_r[r]) / width
-    background = np.stack([np.ones_like(x), x, x**2], axis=1).astype(complex)
+    background = np.empty((x.size, 3), dtype=complex)  # 1, x, x^2
+    background[:, 0], background[:, 1], background[:, 2] = 1.0, x, x**2
     Hl = H[:, sel].T
     if a_all is not None:
-        other = np.setdiff1d(np.arange(poles.size), members)
+        other = np.flatnonzero(~member)
         if other.size:
             jw = 2j * np.pi * f[:, None]
             lam = poles[other][None, :]

@@ -97,7 +97,10 @@ def quick_significance(
         # (local_band.pole_jacobian_factors; 30 channels: ~5x cheaper)
         B, W = pole_jacobian_factors(jw, lam, X)
         Bp = B - Qm @ (Qm.T @ B)
-        F = np.tensordot(W / s2[:, None, None], (Bp.T @ Bp) @ W, axes=([0, 1], [0, 1]))
+        Ws, BW = W / s2[:, None, None], (Bp.T @ Bp) @ W
+        # the sum over channels and rows as one product (np.tensordot's own
+        # reshape and dot, without its per-call overhead)
+        F = Ws.reshape(-1, 2 * m).T @ BW.reshape(-1, 2 * m)
         try:
             var = np.linalg.inv(0.5 * (F + F.T))[2 * k, 2 * k]
         except np.linalg.LinAlgError:

@@ -162,16 +162,18 @@ def plscf_normal_matrix(
 
     # S: lag sums of w^2 H_ob   -> (n_out, n_in, 2p+1)
     s = lag_sums(freq_hz, w2o[:, None, :] * H, dt, p)
-    S = -np.real(s[:, :, idx])  # (n_out, n_in, q, q) [o, b, j, l]
+    # the real part taken before the Toeplitz gather (one pass over q^2 reals
+    # per channel instead of three over q^2 complex numbers; the same numbers)
+    S = (-s.real)[:, :, idx]  # (n_out, n_in, q, q) [o, b, j, l]
     S = S.transpose(0, 2, 3, 1).reshape(n_out, q, q * n_in)  # [o, j, (l, b)]
     # T summed over outputs (the Toeplitz structure is linear): (n_in, n_in, 2p+1)
     HH = np.einsum("oak,obk->abk", np.conj(H) * w2o[:, None, :], H)
     t = lag_sums(freq_hz, HH, dt, p)
-    T = np.real(t[:, :, idx])  # [a, b, j, l]
+    T = t.real[:, :, idx]  # [a, b, j, l]
     T = T.transpose(2, 0, 3, 1).reshape(q * n_in, q * n_in)
     # R and the Schur complement
     r = lag_sums(freq_hz, w2o.astype(complex), dt, p)  # (n_out or 1, 2p+1)
-    R = np.real(r[:, idx])  # (n_out or 1, q, q)
+    R = r.real[:, idx]  # (n_out or 1, q, q)
     if per_output:
         X = np.stack([linalg.solve_triangular(gram_cholesky(R[o]), S[o], lower=True)
                       for o in range(n_out)])

@@ -81,11 +81,15 @@ order search's screen counts a pole as determined by the data.
 
 Neither ``scipy.optimize`` nor ``scipy.signal`` is imported here (together
 about 0.8 s of start-up through ``scipy.stats``): the noise level's NNLS of two
-coefficients is closed-form (:func:`nonnegative_line_fit`) and ``scipy.fft`` is
-imported inside the functions that use it.
+coefficients is closed-form (:func:`nonnegative_line_fit`), and the Toeplitz
+products use ``numpy.fft`` (the same pocketfft as ``scipy.fft``, bit for bit,
+without the 60-75 ms of importing ``scipy.fft`` in every process) with the
+transform lengths of :func:`fast_fft_len`.
 """
 
 from __future__ import annotations
+
+from functools import lru_cache
 
 import numpy as np
 
@@ -233,6 +237,30 @@ def rect_window_correlation(length_df: float, n_lags: int) -> np.ndarray:
     return np.asarray(np.exp(1j * np.pi * x) * np.sinc(x))
 
 
+@lru_cache(maxsize=512)
+def fast_fft_len(target: int, real: bool) -> int:
+    """Smallest length >= ``target`` whose prime factors are 2, 3 and 5 (a
+    real transform) or 2, 3, 5, 7 and 11 (a complex one): pocketfft's fast
+    lengths, those of ``scipy.fft.next_fast_len``, without importing
+    ``scipy.fft``.
+
+    Examples
+    --------
+    >>> fast_fft_len(97, True), fast_fft_len(97, False), fast_fft_len(1, False)
+    (100, 98, 1)
+    """
+    primes = (2, 3, 5) if real else (2, 3, 5, 7, 11)
+    m = max(int(target), 1)
+    while True:
+        rest = m
+        for p in primes:
+            while rest % p == 0:
+                rest //= p
+        if rest == 1:
+            return m
+        m += 1
+
+
 def correlated_information(Jc: np.ndarray, rho: np.ndarray,
                            kernel: ToeplitzKernel | None = None) -> np.ndarray:
     """G = Re(Jc^H P Jc) summed over channels, P[k, k+l] = rho_l (Hermitian Toeplitz).
@@ -280,12 +308,13 @@ class ToeplitzKernel:
 
     (P X)_k = sum_d h_d X_(k+d), h_d = rho_d (d >= 0), conj(rho_-d) (d < 0):
     a convolution with the reversed kernel, O(n log n) for any number of
-    lags. The arithmetic is that of ``scipy.signal.fftconvolve`` (the same
-    FFT length and the same products, so the same numbers) without
-    importing ``scipy.signal`` (0.7 s of start-up through ``scipy.stats``)
-    and without transforming the kernel again for every product (the
-    correlated leverage and information of one local fit apply one
-    correlation three times).
+    lags: a circular convolution just long enough that the n outputs kept
+    are free of wrap-around (about 2n points for n lags, where
+    ``scipy.signal.fftconvolve`` transforms the full linear convolution of
+    3n; the same products to rounding) without importing ``scipy.signal``
+    (0.7 s of start-up through ``scipy.stats``) and without transforming the
+    kernel again for every product (the correlated leverage and information
+    of one local fit apply one correlation three times).
 
     Examples
     --------
@@ -304,25 +333,24 @@ class ToeplitzKernel:
     def _spectrum(self, complex_result: bool) -> tuple[int, np.ndarray]:
         """FFT length and the kernel's spectrum for a complex or real product."""
         if complex_result not in self._spectra:
-            from scipy import fft  # here, not at the top: see the module docstring
-
-            size = fft.next_fast_len(self.n + self.g.size - 1, not complex_result)
-            spec = fft.fft(self.g, size) if complex_result else fft.rfft(self.g, size)
+            # a circular convolution of n + L - 1 points or more leaves the n
+            # outputs kept (from L - 1 on) free of wrap-around: 2n instead of
+            # the 3n of the full linear convolution for a window's n lags
+            size = fast_fft_len(self.n + self.lags - 1, not complex_result)
+            spec = np.fft.fft(self.g, size) if complex_result else np.fft.rfft(self.g, size)
             self._spectra[complex_result] = (size, spec)
         return self._spectra[complex_result]
 
     def apply(self, X: np.ndarray) -> np.ndarray:
         """P X, X (n, p)."""
-        from scipy import fft  # here, not at the top: see the module docstring
-
         if X.shape[0] != self.n:
             raise ValueError(f"ToeplitzKernel for {self.n} lines applied to {X.shape[0]}")
         complex_result = bool(np.iscomplexobj(self.g) or np.iscomplexobj(X))
         size, spec = self._spectrum(complex_result)
         if complex_result:
-            out = fft.ifft(fft.fft(X, size, axis=0) * spec[:, None], size, axis=0)
+            out = np.fft.ifft(np.fft.fft(X, size, axis=0) * spec[:, None], size, axis=0)
         else:
-            out = fft.irfft(fft.rfft(X, size, axis=0) * spec[:, None], size, axis=0)
+            out = np.fft.irfft(np.fft.rfft(X, size, axis=0) * spec[:, None], size, axis=0)
         L = self.lags
         return np.asarray(out[L - 1 : L - 1 + self.n])
 
@@ -369,14 +397,17 @@ def correlated_leverage(Q: np.ndarray, J: np.ndarray, Finv: np.ndarray,
     PX = 0.5 * toeplitz_apply(QJ[:n] + 1j * QJ[n:], rho if kernel is None else kernel)
     SX = np.concatenate([PX.real, PX.imag], axis=0)
     SQ = SX[:, : Q.shape[1]]
-    SJ = SX[:, Q.shape[1] :].reshape(J.shape)
-    JF = np.einsum("kic,ij->kjc", J, Finv)
+    SJ = SX[:, Q.shape[1] :]  # (2n, n_par n_ch), columns as J.reshape(2n, -1)
+    # per channel c (leading axis): J_c Finv, S J_c off Q; matrix products
+    # rather than einsum loops (the same numbers up to rounding)
+    JF = np.matmul(J.transpose(2, 0, 1), Finv)  # (n_ch, 2n, n_par)
     d = 0.5 * float(np.real(rho[0]))
     linear = d - 2 * np.sum(Q * SQ, axis=1) + np.sum((Q @ (Q.T @ SQ)) * Q, axis=1)
-    SJ_off = SJ - np.einsum("ki,ijc->kjc", Q, np.einsum("ki,kjc->ijc", Q, SJ))
-    G = np.einsum("kic,kjc->ij", J, SJ)  # sum over channels of J_c^T S J_c
-    kept = (linear[:, None] - 2 * np.einsum("kjc,kjc->kc", SJ_off, JF)
-            + np.einsum("kic,ij,kjc->kc", JF, G, JF))
+    SJ_off = (SJ - Q @ (Q.T @ SJ)).reshape(J.shape).transpose(2, 0, 1)
+    # sum over channels of J_c^T S J_c
+    G = np.tensordot(J, SJ.reshape(J.shape), axes=([0, 2], [0, 2]))
+    kept = (linear[:, None] - 2 * np.sum(SJ_off * JF, axis=2).T
+            + np.sum(np.matmul(JF, G) * JF, axis=2).T)
     return np.asarray(1.0 - kept / d)
 
 
