@@ -123,7 +123,8 @@ def vp_fit(
     bg_r = background_columns(background)
     n_lin = 2 * m + bg_r.shape[1]
 
-    def fit(lam: np.ndarray, u: np.ndarray, Yw: np.ndarray | None = None) -> tuple[np.ndarray, ...]:
+    def fit(lam: np.ndarray, u: np.ndarray,
+            Yw: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Projection with row weights u (2n,) shared by all channels; the
         residual is row-weighted (2n, n_ch). ``Yw``: Y * u, when formed once
         for all the fits of a round (the same numbers)."""
@@ -183,7 +184,7 @@ def vp_fit(
             trial = theta + step
             fitted = fit(lam_of(trial), u, Yw) if np.all(trial[0::2] > 0) else None
             cost_t = np.inf if fitted is None else cost_of(fitted[1], inv_s2)
-            if cost_t < cost:
+            if fitted is not None and cost_t < cost:
                 theta, solved = trial, fitted
                 F, g, cost_new = normal(lam_of(theta), u, inv_s2, fitted, cost_t)
                 sd = np.sqrt(1.0 / np.maximum(np.diag(F), 1e-300))

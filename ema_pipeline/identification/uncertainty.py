@@ -347,6 +347,7 @@ class ToeplitzKernel:
             raise ValueError(f"ToeplitzKernel for {self.n} lines applied to {X.shape[0]}")
         complex_result = bool(np.iscomplexobj(self.g) or np.iscomplexobj(X))
         size, spec = self._spectrum(complex_result)
+        out: np.ndarray
         if complex_result:
             out = np.fft.ifft(np.fft.fft(X, size, axis=0) * spec[:, None], size, axis=0)
         else:
