@@ -38,6 +38,7 @@ from ema_pipeline.identification.acceptance import (
     decay_determined,
     final_tests,
     refit_kept,
+    shown_by_the_frfs,
     uncovered_alternates,
 )
 from ema_pipeline.identification.common import (
@@ -165,6 +166,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             found = refit_kept(found, retest)
             # where a candidate failed, the narrower searches' candidate it covered
             alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
+            alt = alt[shown_by_the_frfs(freq, Hc, alt, th)]
             found = add_found(found, alt, False, np.zeros(alt.size, bool), retest)
             # close modes hidden in a kept resonance, then modes that no
             # diagram resolved (peaks of the residual)
