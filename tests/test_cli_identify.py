@@ -203,3 +203,21 @@ def test_narrow_band_far_from_zero_runs_to_the_end(real_uff: Path, tmp_path: Pat
     fn = pd.read_csv(tmp_path / "ufsc-beam-hammer_modes.csv")["fn_hz"].to_numpy()
     for published in (155.391, 226.395, 265.219, 362.805):
         assert np.min(np.abs(fn - published)) < 1.0, (published, fn)
+
+
+def test_console_says_the_model_each_band_fitted(example_dir: Path, tmp_path: Path,
+                                                 capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 31: the band changes the model, and `identify` says so under the
+    modes: band, diagram orders and residual terms, the numbers of the stored
+    result's settings (on the measured beam the orders differ by band:
+    test_identification.test_real_beam_modes_do_not_depend_on_the_band)."""
+    for band in ((5.0, 200.0), (5.0, 700.0)):
+        out = tmp_path / f"b{band[1]:g}"
+        assert main(["identify", str(example_dir / "genuine.uff"), "--out", str(out),
+                     "--band", *map(str, band)]) == 0
+        line = [s for s in capsys.readouterr().out.splitlines() if s.startswith("  model: ")]
+        assert len(line) == 1
+        orders = io.read_identification_result(out / "genuine_result.h5")[1].settings.orders
+        assert line[0] == (f"  model: band {band[0]:g}-{band[1]:g} Hz, diagram orders "
+                           f"{int(np.min(orders))}-{int(np.max(orders))}, lower and upper "
+                           "residual terms")

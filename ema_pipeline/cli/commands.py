@@ -282,6 +282,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
                 + (f"and {page} " if page else "")
                 + f"({outcome.seconds:.1f} s)"
             )
+            print(f"  model: {outcome.model}")
     return EXIT_RUNTIME if runtime else EXIT_USAGE if failed else EXIT_OK
 
 

@@ -33,6 +33,7 @@ from ema_pipeline.identification.expect import (
 from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.identification.picks import Picks
 from ema_pipeline.identification.resources import check_identification
+from ema_pipeline.report.wording import model_text
 
 
 @dataclass
@@ -51,6 +52,7 @@ class FileOutcome:
     zeta: np.ndarray = field(default_factory=lambda: np.zeros(0))
     fit_frac: float = float("nan")
     fit_error: float = float("nan")
+    model: str = ""  # the fitted model in words (report.wording.model_text)
     seconds: float = 0.0
     modes_csv: Path | None = None
     result_h5: Path | None = None
@@ -213,6 +215,8 @@ def identify_file(
         outcome.fn_hz, outcome.zeta = result.modes.fn_hz, result.modes.zeta
         outcome.fit_frac = float(np.mean(result.frac))
         outcome.fit_error = float(np.mean(result.error))
+        st = result.settings
+        outcome.model = model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual)
         outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
         if keep:
             outcome.frf, outcome.result = frf, result

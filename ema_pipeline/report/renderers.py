@@ -46,7 +46,13 @@ from ema_pipeline.report.shape_views import (
 from ema_pipeline.report.stab_diagram import stab_diagram_html
 from ema_pipeline.report.tables import TABLE_TITLES, html_table, markdown_table
 from ema_pipeline.report.trends import PAIRING, pair_modes
-from ema_pipeline.report.wording import fit_grade, fit_limits_text, fit_verdict, plural
+from ema_pipeline.report.wording import (
+    fit_grade,
+    fit_limits_text,
+    fit_verdict,
+    model_text,
+    plural,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.result import IdentificationResult
@@ -325,13 +331,15 @@ def render_identify_html(
             result, [d.label() for d in frf.response_dofs]
         )
     page = Page(f"Modal identification: {frf.source.path or name}")
-    m = result.modes
+    m, st = result.modes, result.settings
     error = float(np.mean(result.error))
     summary = pd.DataFrame(
         {
-            "": ["file", "configuration", "modes", "natural frequencies / Hz", "fit quality"],
+            "": ["file", "configuration", "modes", "natural frequencies / Hz", "fit quality",
+                 "model"],
             "value": [frf.source.path, frf.configuration, str(m.n_modes),
-                      ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)), fit_verdict(error)],
+                      ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)), fit_verdict(error),
+                      model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual)],
         }
     )
     up = (f'<p><a class="batch-page" href="{esc(batch_page)}">Back to the batch report</a>'

@@ -1,13 +1,18 @@
-"""Words the reports and the console share: counts with the right plural, and
-the fit-quality verdict with its limits (the one home of those limits).
+"""Words the reports and the console share: counts with the right plural, the
+fit-quality verdict with its limits (the one home of those limits), and the
+model an identification fitted.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
-__all__ = ["FIT_LIMITS", "FitLimits", "fit_grade", "fit_limits_text", "fit_verdict", "plural"]
+import numpy as np
+
+__all__ = ["FIT_LIMITS", "FitLimits", "fit_grade", "fit_limits_text", "fit_verdict", "model_text",
+           "plural"]
 
 
 def plural(n: int, word: str, many: str | None = None) -> str:
@@ -96,3 +101,28 @@ def fit_verdict(error: float, limits: FitLimits = FIT_LIMITS) -> str:
         return (f"poor fit (error {pct:.1f} % > {limits.fair_pct:g} %): a mode may be missing "
                 "or wrong")
     return "fit not computed"
+
+
+def model_text(band_hz: tuple[float, float], orders: Sequence[int] | np.ndarray,
+               lower_residual: bool, upper_residual: bool) -> str:
+    """The model an identification fitted, in words: its band, the orders of its
+    stabilization diagram and its residual terms
+    (:class:`~ema_pipeline.identification.result.ResolvedSettings`). The band
+    changes the model (the adaptive order search stops at another order in
+    another band), and this says so beside the modes.
+
+    Examples
+    --------
+    >>> model_text((5.0, 400.0), [2, 8, 98], True, True)
+    'band 5-400 Hz, diagram orders 2-98, lower and upper residual terms'
+    >>> model_text((0.0, 1024.0), [40], False, True)
+    'band 0-1024 Hz, diagram order 40, upper residual term'
+    """
+    lo, hi = (float(x) for x in band_hz)
+    o = [int(x) for x in orders]
+    span = "" if not o else (f", diagram order {o[0]}" if len(o) == 1 or min(o) == max(o)
+                             else f", diagram orders {min(o)}-{max(o)}")
+    terms = [name for name, on in (("lower", lower_residual), ("upper", upper_residual)) if on]
+    residual = (f", {' and '.join(terms)} residual term{'s' if len(terms) > 1 else ''}"
+                if terms else ", no residual terms")
+    return f"band {lo:g}-{hi:g} Hz{span}{residual}"
