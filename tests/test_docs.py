@@ -18,6 +18,7 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
@@ -104,7 +105,9 @@ def test_added_mass_tutorial_recovers_the_known_mass(site):
 def test_measured_beam_tutorial_runs_or_says_why_not(site):
     text = _text(site / "tutorials" / "plot_2_measured_beam.html")
     if (SHARED / "data" / "ufsc-beam-hammer.uff").is_file():
-        assert "30 out x 1 in" in text and "265.5" in text
+        # the 265.5 Hz mode in the tutorial's 100-400 Hz band (within 0.3 Hz)
+        numbers = np.array([float(x) for x in re.findall(r"\d+\.\d+", text)])
+        assert "30 out x 1 in" in text and np.any(np.abs(numbers - 265.5) < 0.3), numbers
     else:
         assert "absent here" in text
 
