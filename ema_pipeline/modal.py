@@ -21,7 +21,7 @@ import numpy as np
 
 from ema_pipeline.data import DataError
 
-__all__ = ["mac", "mac_pairs", "pole_fd_hz", "pole_fn_hz", "pole_half_width_hz"]
+__all__ = ["mac", "mac_pairs", "pole_fd_hz", "pole_fn_hz", "pole_half_width_hz", "poles_overlap"]
 
 
 def mac(phi_a: np.ndarray, phi_b: np.ndarray | None = None) -> np.ndarray:
@@ -125,3 +125,19 @@ def pole_half_width_hz(pole: np.ndarray | complex) -> np.ndarray:
     0.5
     """
     return np.abs(np.real(pole)) / (2 * np.pi)
+
+
+def poles_overlap(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """(a.size, b.size) bool: pole ``a[i]`` and pole ``b[j]`` (rad/s) lie within
+    the sum of their half-power half-widths of each other (one resonance:
+    |Im a - Im b| < |Re a| + |Re b|).
+
+    Examples
+    --------
+    >>> a = np.array([-1 + 100j, -1 + 150j])
+    >>> poles_overlap(a, np.array([-1 + 101.5j, -1 + 103j])).tolist()
+    [[True, False], [False, False]]
+    """
+    a, b = np.asarray(a), np.asarray(b)
+    gap = np.abs(a[:, None].imag - b[None, :].imag)
+    return np.asarray(gap < np.abs(a[:, None].real) + np.abs(b[None, :].real))

@@ -59,7 +59,7 @@ from ema_pipeline.identification.not_kept import visible_peaks
 from ema_pipeline.identification.refine import RefinedPoles
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.modal import mac, pole_fd_hz, pole_fn_hz
+from ema_pipeline.modal import mac, pole_fd_hz, pole_fn_hz, poles_overlap
 
 
 @dataclass(frozen=True)
@@ -171,8 +171,7 @@ def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None
     chosen: list[complex] = []
     for k in np.argsort(-members, kind="stable"):
         others = np.concatenate([kept, np.array(chosen, dtype=complex)])
-        if others.size and np.any(np.abs(pole[k].imag - others.imag)
-                                  < np.abs(pole[k].real) + np.abs(others.real)):
+        if np.any(poles_overlap(pole[k : k + 1], others)):
             continue
         chosen.append(complex(pole[k]))
     return np.sort_complex(np.array(chosen, dtype=complex)) if chosen else np.zeros(0, complex)
@@ -235,9 +234,7 @@ def band_support(pole: np.ndarray,
         holds = (fd > lo * (1 + margin)) & (fd < hi / (1 + margin))
         out[:, 0] += holds
         if cand is not None and cand.pole.size:
-            gap = np.abs(pole[:, None].imag - cand.pole[None, :].imag)
-            width = np.abs(pole[:, None].real) + np.abs(cand.pole[None, :].real)
-            out[:, 1] += holds & np.any(gap < width, axis=1)
+            out[:, 1] += holds & np.any(poles_overlap(pole, cand.pole), axis=1)
     return out
 
 

@@ -63,7 +63,7 @@ from ema_pipeline.identification.selection import (
 )
 from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.modal import pole_fd_hz
+from ema_pipeline.modal import pole_fd_hz, poles_overlap
 
 
 def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarray:
@@ -293,9 +293,7 @@ def add_uncovered(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPole
     """
     if new is None or new.pole.size == 0:
         return sel
-    gap = np.abs(new.pole[:, None].imag - sel.pole[None, :].imag)
-    width = np.abs(new.pole[:, None].real) + np.abs(sel.pole[None, :].real)
-    fresh = ~np.any(gap < width, axis=1) if sel.pole.size else np.ones(new.pole.size, bool)
+    fresh = ~np.any(poles_overlap(new.pole, sel.pole), axis=1)
     if not fresh.any():
         return sel
     add = new.subset(fresh)
@@ -319,18 +317,16 @@ def covered_candidates(sel: SelectedPoles, new: SelectedPoles | None) -> Selecte
 
     Examples
     --------
-    >>> one = SelectedPoles(np.array([-1 + 100j]), np.zeros(1, int), np.ones(1, int),
-    ...                     np.zeros(1), np.zeros(1), np.zeros(1, int))
-    >>> two = SelectedPoles(np.array([-1 + 100.5j, -1 + 150j]), np.zeros(2, int),
-    ...                     np.ones(2, int), np.zeros(2), np.zeros(2), np.zeros(2, int))
-    >>> covered_candidates(one, two).pole.tolist()
-    [(-1+100.5j)]
+    >>> def candidates(*pole):
+    ...     n = len(pole)
+    ...     return SelectedPoles(np.array(pole), np.zeros(n, int), np.ones(n, int),
+    ...                          np.zeros(n), np.zeros(n), np.zeros(n, int))
+    >>> covered_candidates(candidates(-2 + 300j), candidates(-1 + 296j, -1 + 301j)).pole.tolist()
+    [(-1+301j)]
     """
     if new is None or new.pole.size == 0 or sel.pole.size == 0:
         return None
-    gap = np.abs(new.pole[:, None].imag - sel.pole[None, :].imag)
-    width = np.abs(new.pole[:, None].real) + np.abs(sel.pole[None, :].real)
-    return new.subset(np.any(gap < width, axis=1))
+    return new.subset(np.any(poles_overlap(new.pole, sel.pole), axis=1))
 
 
 def add_zoom_modes(
@@ -386,9 +382,7 @@ def without_merged(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPol
     """
     if new is None or new.pole.size < 2 or sel.pole.size == 0:
         return sel
-    gap = np.abs(sel.pole[:, None].imag - new.pole[None, :].imag)
-    width = np.abs(sel.pole[:, None].real) + np.abs(new.pole[None, :].real)
-    merged = np.sum(gap < width, axis=1) >= 2
+    merged = np.sum(poles_overlap(sel.pole, new.pole), axis=1) >= 2
     return sel.subset(~merged) if merged.any() else sel
 
 

@@ -64,6 +64,7 @@ from ema_pipeline.identification.selection import (
     select_expected,
 )
 from ema_pipeline.identification.stabilization import StabilizationData, stabilization
+from ema_pipeline.modal import poles_overlap
 
 
 def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
@@ -125,9 +126,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                                                 thresholds=th)
             dropped = auto.stabilization.companion_pole
             if sel.pole.size and dropped.size:  # none on a pole of the expected ones
-                gap = np.abs(dropped[:, None].imag - sel.pole[None, :].imag)
-                width = np.abs(dropped[:, None].real) + np.abs(sel.pole[None, :].real)
-                dropped = dropped[~np.any(gap < width, axis=1)]
+                dropped = dropped[~np.any(poles_overlap(dropped, sel.pole), axis=1)]
             neighbours = np.concatenate([auto_start[rest], dropped])
             n_kept_neighbours = rest.size
 

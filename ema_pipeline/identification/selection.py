@@ -24,7 +24,7 @@ import numpy as np
 from ema_pipeline.identification.plscf import PoleSet
 from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.modal import mac
+from ema_pipeline.modal import mac, poles_overlap
 
 
 @dataclass(frozen=True)
@@ -416,9 +416,7 @@ def expected_from_automatic(
                                       np.zeros(n), np.zeros(n), np.zeros(n, int)))
     left = expected.subset(~used_e)
     if left.pole.size and auto_start.size:
-        gap = np.abs(left.pole[:, None].imag - auto_start[None, :].imag)
-        width = np.abs(left.pole[:, None].real) + np.abs(auto_start[None, :].real)
-        left = left.subset(~np.any(gap < width, axis=1))
+        left = left.subset(~np.any(poles_overlap(left.pole, auto_start), axis=1))
     out = expected.subset(np.zeros(0, int))
     for row in [*rows, left]:
         out = out.concatenate(row)
