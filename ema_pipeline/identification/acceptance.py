@@ -355,8 +355,8 @@ def close_partners(
     each, the extra pole of :func:`~ema_pipeline.identification.local_fits.split_fit`
     when it passes the tests of ``thresholds.partner_max_residual_ratio`` (rad/s,
     ascending frequency; empty when there is none). ``H`` (n_ch, n_freq) on
-    the lines ``freq_hz``; with fewer than 3 channels no shape tells two
-    modes from one, and none is added.
+    the lines ``freq_hz``; with fewer than ``thresholds.min_shape_channels``
+    channels no shape tells two modes from one, and none is added.
 
     Examples
     --------
@@ -370,7 +370,7 @@ def close_partners(
     [100.6]
     """
     th = thresholds or SelectionThresholds()
-    if H.shape[0] < 3 or pole.size == 0:
+    if H.shape[0] < th.min_shape_channels or pole.size == 0:
         return np.zeros(0, complex)
     try:
         residues = lsfd(freq_hz, H, pole, quantity).a
@@ -457,13 +457,13 @@ def resonant(
     """
     th = thresholds or SelectionThresholds()
     shape_ok = np.ones(pole.size, bool) if by_shape is None else np.asarray(by_shape, bool)
-    if H.shape[0] < 3 and np.all(shape_ok):
+    if H.shape[0] < th.min_shape_channels and np.all(shape_ok):
         return np.ones(pole.size, bool)
     _, peak, snr = quick_significance(freq_hz, H, pole, thresholds=th)
     ok = (peak >= th.weak_peak_ratio) | (snr >= th.min_weak_peak_snr)
     if np.all(ok | ~shape_ok):
         return np.asarray(ok)
-    if H.shape[0] < 3:
+    if H.shape[0] < th.min_shape_channels:
         return np.asarray(ok | shape_ok)
     # complex or real: a clear peak whose own term explains its local residual
     ask = ~ok & shape_ok & (snr >= th.complex_min_snr)

@@ -206,6 +206,11 @@ class SelectionThresholds:
     #: 0.84 at most in the global LSFD, 0.75 in the local fits).
     partner_max_residual_ratio: float = 0.75
     partner_min_mpc: float = 0.9
+    #: Shapes are judged (the MPC and residual-drop tests of a weak pole, the
+    #: split of a resonance into two close modes) only with at least this many
+    #: channels: with two, the residues of any extra pole fit both channels, so
+    #: a shape tells nothing of realness and a split always fits better.
+    min_shape_channels: int = 3
     #: A refined pole is kept only when its decay rate has a relative standard
     #: deviation below this (5 sigma from zero). On the hard families (about 540
     #: true modes, seeds 600-607) true modes reach 0.15, the poles that are not
