@@ -115,8 +115,8 @@ def model_text(band_hz: tuple[float, float], orders: Sequence[int] | np.ndarray,
     --------
     >>> model_text((5.0, 400.0), [2, 8, 98], True, True)
     'band 5-400 Hz, diagram orders 2-98, lower and upper residual terms'
-    >>> model_text((0.0, 1024.0), [40], False, True)
-    'band 0-1024 Hz, diagram order 40, upper residual term'
+    >>> model_text((0.6103515625, 1000.0), [40], False, True)
+    'band 0.6104-1000 Hz, diagram order 40, upper residual term'
     """
     lo, hi = (float(x) for x in band_hz)
     o = [int(x) for x in orders]
@@ -125,4 +125,4 @@ def model_text(band_hz: tuple[float, float], orders: Sequence[int] | np.ndarray,
     terms = [name for name, on in (("lower", lower_residual), ("upper", upper_residual)) if on]
     residual = (f", {' and '.join(terms)} residual term{'s' if len(terms) > 1 else ''}"
                 if terms else ", no residual terms")
-    return f"band {lo:g}-{hi:g} Hz{span}{residual}"
+    return f"band {lo:.4g}-{hi:.4g} Hz{span}{residual}"
