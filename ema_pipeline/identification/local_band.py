@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import batched_qr, design_matrix, lsfd, real_stack, solve_r
+from ema_pipeline.identification.lsfd import design_matrix, lsfd, qr_factor, real_stack, solve_r
 from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
 
@@ -122,11 +122,13 @@ def scaled_solve(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     columns scaled to unit maximum: the orthonormal basis Q of A, the
     residual (2n, n_ch) and the solution X (K, n_ch). One projection serves
     every channel (the local problems of :func:`local_problem`)."""
-    scale = np.maximum(np.max(A, axis=0), -np.min(A, axis=0))  # max |A|, no copy of A
+    # max |A|, no copy of A (the array methods: numpy's function wrappers
+    # cost as much as these small reductions)
+    scale = np.maximum(A.max(axis=0), -A.min(axis=0))
     scale[scale == 0] = 1.0
-    Q, R = batched_qr(A / scale)
+    Q, R, triangular = qr_factor(A / scale)
     QtY = Q.T @ Y
-    return Q, Y - Q @ QtY, solve_r(R, QtY) / scale[:, None]
+    return Q, Y - Q @ QtY, solve_r(R, QtY, triangular) / scale[:, None]
 
 
 def global_residues(

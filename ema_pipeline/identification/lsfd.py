@@ -121,8 +121,8 @@ def lsfd(
         w2 = np.concatenate([w, w])[:, None]
         A *= w2
         Y = Y * w2
-    Qm, Rm = batched_qr(A)
-    X = solve_r(Rm, Qm.T @ Y) / scale[:, None]
+    Qm, Rm, triangular = qr_factor(A)
+    X = solve_r(Rm, Qm.T @ Y, triangular) / scale[:, None]
     m = poles.size
     a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]
     rest = X[2 * m :]
@@ -162,28 +162,54 @@ def batched_qr(A: np.ndarray, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndar
     >>> x.ravel().round(6), (A[0] @ x).ravel().round(6)
     (array([1., 1.]), array([2., 4., 0.]))
     """
-    try:
-        with np.errstate(all="ignore"):
-            # one matrix (the local fits, a whole band's LSFD): LAPACK's
-            # Householder QR called directly, faster than CholeskyQR2 at
-            # every size here (1.4x at 4700 x 10, 2.2x at 16000 x 14; numpy's
-            # own qr was 3x slower than CholeskyQR2 on the tall ones); a
-            # stack: CholeskyQR2, all matrix products
-            householder = A.ndim == 2
-            Q, R = householder_qr(A) if householder else _cholesky_qr2(A)
-        d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
-        # Householder's Q has entries of at most 1: its sum is finite exactly
-        # when all of them are (one reduction, no boolean copy of Q)
-        finite = np.isfinite(np.sum(Q)) if householder else np.all(np.isfinite(Q))
-        if finite and np.all(d >= 1e-6 * np.max(d, axis=-1, keepdims=True)):
-            return Q, R
-    except np.linalg.LinAlgError:
-        pass
+    return qr_factor(A, rcond)[:2]
+
+
+def qr_factor(A: np.ndarray, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndarray, bool]:
+    """:func:`batched_qr` and whether its R is the upper triangular factor of
+    the Householder path (one matrix, not singular): then ``solve_r(R, B,
+    triangular=True)`` skips its checks of R. The local fits factorise
+    thousands of small matrices per file, where these checks and numpy's
+    wrappers cost more than LAPACK's factorisation.
+
+    Examples
+    --------
+    >>> A = np.array([[1.0, 0.0], [1.0, 1.0], [0.0, 2.0]])
+    >>> qr_factor(A)[2], qr_factor(np.ones((3, 2)))[2]  # independent columns; equal ones
+    (True, False)
+    """
+    if A.ndim == 2 and A.dtype == np.float64 and A.shape[0] >= A.shape[1] > 0:
+        # one matrix (the local fits, a whole band's LSFD): LAPACK's
+        # Householder QR called directly, faster than CholeskyQR2 at every
+        # size here (1.4x at 4700 x 10, 2.2x at 16000 x 14; numpy's own qr
+        # was 3x slower than CholeskyQR2 on the tall ones). LAPACK sets no
+        # numpy error state: no errstate needed around it.
+        try:
+            Q, R = householder_qr(A)
+        except np.linalg.LinAlgError:  # pragma: no cover - invalid arguments only
+            pass
+        else:
+            d = np.abs(R.diagonal())
+            # Householder's Q has entries of at most 1: its sum is finite
+            # exactly when all of them are (one reduction, no boolean copy of
+            # Q); min(d) >= c max(d) is all(d >= c max(d)), NaN included
+            if np.isfinite(Q.sum()) and d.min() >= 1e-6 * d.max():
+                return Q, R, True
+    else:
+        try:
+            with np.errstate(all="ignore"):
+                # a stack: CholeskyQR2, all matrix products
+                Q, R = householder_qr(A) if A.ndim == 2 else _cholesky_qr2(A)
+            d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
+            if np.all(np.isfinite(Q)) and np.all(d >= 1e-6 * np.max(d, axis=-1, keepdims=True)):
+                return Q, R, False
+        except np.linalg.LinAlgError:
+            pass
     U, s, Vt = np.linalg.svd(A, full_matrices=False)
     floor = rcond * s[..., :1]
     Q = U * (s > floor)[..., None, :]
     R = np.maximum(s, floor)[..., :, None] * Vt
-    return Q, R
+    return Q, R, False
 
 
 @lru_cache(maxsize=64)
@@ -201,13 +227,15 @@ def strictly_lower(k: int) -> np.ndarray:
     return mask
 
 
-def solve_r(R: np.ndarray, B: np.ndarray) -> np.ndarray:
+def solve_r(R: np.ndarray, B: np.ndarray, triangular: bool = False) -> np.ndarray:
     """``numpy.linalg.solve(R, B)`` for the R of :func:`batched_qr`: by back
     substitution (LAPACK ``dtrtrs``) when R is one upper triangular real
     matrix (the QR paths; LU of a triangular matrix does not pivot, so the
     same arithmetic), else ``numpy.linalg.solve`` (a stack, or the dense R of
     the SVD fallback). The local fits solve thousands of these small systems
     per file: numpy's wrapper costs more than the substitution.
+    ``triangular``: R is known to be one upper triangular float64 matrix (the
+    third value of :func:`qr_factor`), its checks are skipped.
 
     Examples
     --------
@@ -215,7 +243,9 @@ def solve_r(R: np.ndarray, B: np.ndarray) -> np.ndarray:
     >>> solve_r(R, np.array([[4.0], [8.0]])).ravel().tolist()
     [1.0, 2.0]
     """
-    if (R.ndim != 2 or B.ndim != 2 or R.dtype != np.float64 or B.dtype != np.float64
+    if triangular and B.ndim == 2 and B.dtype == np.float64:
+        pass  # R as the checks below would find it: straight to dtrtrs
+    elif (R.ndim != 2 or B.ndim != 2 or R.dtype != np.float64 or B.dtype != np.float64
             or R.shape[0] != R.shape[1] or np.any(R[strictly_lower(R.shape[0])])):
         return np.linalg.solve(R, B)
     X, info = lapack.dtrtrs(R, B, lower=0)
