@@ -30,12 +30,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ema_pipeline.identification.local_band import (
+    WeightedPoleDesign,
     background_columns,
     global_residues,
     local_problem,
-    pole_columns,
     pole_jacobian_factors,
-    scaled_solve,
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.identification.uncertainty import (
@@ -123,19 +122,11 @@ def vp_fit(
     bg_r = background_columns(background)
     n_lin = 2 * m + bg_r.shape[1]
 
-    def fit(lam: np.ndarray, u: np.ndarray,
-            Yw: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Projection with row weights u (2n,) shared by all channels; the
-        residual is row-weighted (2n, n_ch). ``Yw``: Y * u, when formed once
-        for all the fits of a round (the same numbers)."""
-        Yw = Y * u[:, None] if Yw is None else Yw
-        return scaled_solve(pole_columns(freq_hz, lam, bg_r) * u[:, None], Yw)
-
     def cost_of(Rw: np.ndarray, inv_s2: np.ndarray) -> float:
-        return float(np.sum(Rw**2 * inv_s2[None, :]))
+        return float((Rw**2 * inv_s2).sum())
 
     def normal(
-        lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray, fitted: tuple | None = None,
+        lam: np.ndarray, u: np.ndarray, inv_s2: np.ndarray, fitted: tuple,
         cost: float | None = None,
     ) -> tuple[np.ndarray, np.ndarray, float]:
         """Fisher matrix, gradient and cost at ``lam`` (``fitted``: its fit,
@@ -145,7 +136,7 @@ def vp_fit(
         F = sum_c W_c^T (Bp^T Bp) W_c / s_c^2 and g = sum_c W_c^T Bp^T r_c / s_c^2,
         Bp the row-weighted B projected off the linear terms: one projection
         of 2m columns, not of 2m per channel."""
-        Qm, Rw, X = fit(lam, u) if fitted is None else fitted
+        Qm, Rw, X = fitted
         B, W = pole_jacobian_factors(jw, lam, X)
         Bw = B * u[:, None]
         Bp = Bw - Qm @ (Qm.T @ Bw)
@@ -164,15 +155,20 @@ def vp_fit(
     theta[1::2] = poles.imag
     it_total = 0
     u = np.ones(2 * n)
+    # the design with unit weights (the start of each round): the
+    # pole-independent background formed once (WeightedPoleDesign)
+    unweighted = WeightedPoleDesign(freq_hz, bg_r, u)
     for _round in range(2):
-        _, R0, _ = fit(lam_of(theta), np.ones(2 * n))
+        _, R0, _ = unweighted.solve(lam_of(theta), Y)
         std, _ = noise_model(R0, Y, n_lin, with_fraction=True)
         # separable approximation std_ck ~ s_c u_k (one projection for all channels)
         s2 = np.mean(std**2, axis=0)
         inv_s2 = 1.0 / np.maximum(s2, np.finfo(float).tiny)
         u = 1.0 / np.sqrt(np.mean(std**2 * inv_s2[None, :], axis=1))
         Yw = Y * u[:, None]
-        solved = fit(lam_of(theta), u, Yw)  # the fit at theta with the final weights
+        design = WeightedPoleDesign(freq_hz, bg_r, u)
+        fit = design.solve
+        solved = fit(lam_of(theta), Yw)  # the fit at theta with the final weights
         F, g, cost = normal(lam_of(theta), u, inv_s2, solved)
         damping = MarquardtDamping(mu=1e-3, mu_min=1e-9, mu_max=1e6)
         for _it in range(max_iter):
@@ -182,7 +178,7 @@ def vp_fit(
             except np.linalg.LinAlgError:
                 break
             trial = theta + step
-            fitted = fit(lam_of(trial), u, Yw) if np.all(trial[0::2] > 0) else None
+            fitted = fit(lam_of(trial), Yw) if np.all(trial[0::2] > 0) else None
             cost_t = np.inf if fitted is None else cost_of(fitted[1], inv_s2)
             if fitted is not None and cost_t < cost:
                 theta, solved = trial, fitted
@@ -214,7 +210,7 @@ def vp_covariance(
         Finv = np.linalg.inv(fit.F)
     except np.linalg.LinAlgError:
         Finv = np.linalg.pinv(fit.F)
-    Qm, Rw, X = (scaled_solve(pole_columns(freq_hz, lam, fit.bg_r) * u[:, None], Y * u[:, None])
+    Qm, Rw, X = (WeightedPoleDesign(freq_hz, fit.bg_r, u).solve(lam, Y * u[:, None])
                  if fit.solved is None else fit.solved)
     sq = np.sqrt(inv_s2)
     # the projected, weighted Jacobian from its factors (pole_jacobian_factors):
