@@ -158,40 +158,56 @@ def vp_fit(
     # the design with unit weights (the start of each round): the
     # pole-independent background formed once (WeightedPoleDesign)
     unweighted = WeightedPoleDesign(freq_hz, bg_r, u)
+    tiny = np.finfo(float).tiny
+    lam = lam_of(theta)
     for _round in range(2):
-        _, R0, _ = unweighted.solve(lam_of(theta), Y)
+        _, R0, _ = unweighted.solve(lam, Y)
         std, _ = noise_model(R0, Y, n_lin, with_fraction=True)
         # separable approximation std_ck ~ s_c u_k (one projection for all channels)
-        s2 = np.mean(std**2, axis=0)
-        inv_s2 = 1.0 / np.maximum(s2, np.finfo(float).tiny)
-        u = 1.0 / np.sqrt(np.mean(std**2 * inv_s2[None, :], axis=1))
+        std2 = std**2
+        s2 = np.mean(std2, axis=0)
+        inv_s2 = 1.0 / np.maximum(s2, tiny)
+        u = 1.0 / np.sqrt(np.mean(std2 * inv_s2[None, :], axis=1))
         Yw = Y * u[:, None]
         design = WeightedPoleDesign(freq_hz, bg_r, u)
         fit = design.solve
-        solved = fit(lam_of(theta), Yw)  # the fit at theta with the final weights
-        F, g, cost = normal(lam_of(theta), u, inv_s2, solved)
+        solved = fit(lam, Yw)  # the fit at theta with the final weights
+        F, g, cost = normal(lam, u, inv_s2, solved)
         damping = MarquardtDamping(mu=1e-3, mu_min=1e-9, mu_max=1e6)
+        n_accepted = 0
+        it_round = 0
         for _it in range(max_iter):
-            it_total += 1
+            it_round += 1
             try:
-                step = marquardt_step(F, g, damping.mu, floor=np.finfo(float).tiny)
+                step = marquardt_step(F, g, damping.mu, floor=tiny)
             except np.linalg.LinAlgError:
                 break
             trial = theta + step
-            fitted = fit(lam_of(trial), Yw) if np.all(trial[0::2] > 0) else None
+            # min > 0 is all(> 0), NaN included
+            lam_t = lam_of(trial)
+            fitted = fit(lam_t, Yw) if trial[0::2].min() > 0 else None
             cost_t = np.inf if fitted is None else cost_of(fitted[1], inv_s2)
             if fitted is not None and cost_t < cost:
-                theta, solved = trial, fitted
-                F, g, cost_new = normal(lam_of(theta), u, inv_s2, fitted, cost_t)
-                sd = np.sqrt(1.0 / np.maximum(np.diag(F), 1e-300))
-                done = (cost - cost_new) < 1e-8 * cost or np.all(np.abs(step) < 1e-3 * sd)
+                theta, solved, lam = trial, fitted, lam_t
+                n_accepted += 1
+                F, g, cost_new = normal(lam, u, inv_s2, fitted, cost_t)
+                sd = np.sqrt(1.0 / np.maximum(F.diagonal(), 1e-300))
+                done = (cost - cost_new) < 1e-8 * cost or bool((np.abs(step) < 1e-3 * sd).all())
                 cost = cost_new
                 damping.accepted()
                 if done:
                     break
             elif not damping.rejected():
                 break
-    return VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam_of(theta), F=F, u=u, inv_s2=inv_s2,
+        it_total += it_round
+        if n_accepted == 0:
+            # the poles did not move: the second round would start from the
+            # same residual, hence the same weights, and repeat this round
+            # step by step (the fits of max_iter=0, a wandered-off refinement's
+            # start pole): its iterations are counted, not taken
+            it_total += it_round * (1 - _round)
+            break
+    return VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam, F=F, u=u, inv_s2=inv_s2,
                  n_iter=it_total, solved=solved)
 
 
