@@ -162,7 +162,7 @@ def vp_fit(
     lam = lam_of(theta)
     for _round in range(2):
         _, R0, _ = unweighted.solve(lam, Y)
-        std, _ = noise_model(R0, Y, n_lin, with_fraction=True)
+        std = np.asarray(noise_model(R0, Y, n_lin))
         # separable approximation std_ck ~ s_c u_k (one projection for all channels)
         std2 = std**2
         s2 = np.mean(std2, axis=0)

@@ -132,10 +132,13 @@ def noise_model(
     var = (a + b * x) * dof
     floor = np.maximum(np.mean(e2, axis=0) * dof * 1e-3, np.finfo(float).tiny)
     std = np.sqrt(np.maximum(var, floor))
-    frac_b = b * x * dof / std**2
     # each of the real and imaginary parts carries half the complex variance
-    out = np.concatenate([std, std], axis=0) / np.sqrt(2)
-    return (out, np.clip(frac_b, 0.0, 1.0)) if with_fraction else out
+    half = std / np.sqrt(2)
+    out = np.concatenate([half, half], axis=0)
+    if not with_fraction:  # (the fraction costs as much again as the rest)
+        return out
+    frac_b = b * x * dof / std**2
+    return out, np.clip(frac_b, 0.0, 1.0)
 
 
 def nonnegative_line_fit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -170,7 +173,13 @@ def nonnegative_line_fit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.n
     zero = np.zeros_like(y_mean)
     a = np.stack([a_only, zero, np.where(line_ok, a_line, 0.0)])  # the three faces
     b = np.stack([zero, b_only, np.where(line_ok, b_line, 0.0)])
-    cost = np.sum((a[:, None] + b[:, None] * x[None] - y[None]) ** 2, axis=1)
+    # the squared error of each face, (a + b x - y)^2 summed over the lines:
+    # a face with a zero coefficient drops its term (a + 0 x = a, 0 + b x =
+    # b x: the same numbers with fewer passes over the lines)
+    cost = np.empty((3, y.shape[1]))
+    cost[0] = ((a[0] - y) ** 2).sum(axis=0)
+    cost[1] = ((b[1] * x - y) ** 2).sum(axis=0)
+    cost[2] = ((a[2] + b[2] * x - y) ** 2).sum(axis=0)
     cost[2] = np.where(line_ok, cost[2], np.inf)
     pick = np.argmin(cost, axis=0)
     cols = np.arange(y.shape[1])
