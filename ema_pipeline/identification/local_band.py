@@ -108,6 +108,33 @@ def pole_jacobian_factors(
     return B, W
 
 
+def block_fisher(G: np.ndarray, X: np.ndarray, weights: np.ndarray) -> np.ndarray:
+    """sum_c weights_c W_c^T G W_c (2m, 2m) for the ``W`` of
+    :func:`pole_jacobian_factors` (from the coefficients ``X``), G (2m, 2m),
+    using that each W_c is block diagonal: its 2 x 2 blocks w_rc enter as
+    F_rs = sum_c weights_c w_rc^T G_rs w_sc, O(m^2 n_ch) instead of the
+    O(m^3 n_ch) of the dense products (a candidate with 20 member poles:
+    ~10x cheaper; the same numbers up to rounding).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> X, G = rng.standard_normal((7, 4)), rng.standard_normal((6, 6))
+    >>> _, W = pole_jacobian_factors(np.ones((2, 1)) * 1j, np.array([-1 + 2j, -1 + 3j, -2 + 5j]), X)
+    >>> wt = np.array([1.0, 2.0, 0.5, 3.0])
+    >>> dense = np.einsum("c,cki,kl,clj->ij", wt, W, G, W)
+    >>> bool(np.allclose(block_fisher(G, X, wt), dense, rtol=1e-13, atol=0))
+    True
+    """
+    m = G.shape[0] // 2
+    ar, ai = X[0 : 2 * m : 2].T, X[1 : 2 * m : 2].T  # (n_ch, m)
+    # w[c, r, k, i]: the block of W_c at (2r + k, 2r + i): [[-ar, -ai], [-ai, ar]]
+    w = np.stack([-ar, -ai, -ai, ar], axis=2).reshape(ar.shape[0], 4 * m)
+    T = ((w * weights[:, None]).T @ w).reshape(m, 2, 2, m, 2, 2)  # [r, k, i, s, l, j]
+    F = np.einsum("rksl,rkislj->risj", G.reshape(m, 2, m, 2), T)
+    return np.asarray(F.reshape(2 * m, 2 * m))
+
+
 def background_columns(background: np.ndarray) -> np.ndarray:
     """Real-stacked columns (2n, 2 K) of a complex background with real
     coefficients: each basis column and 1j times it."""

@@ -26,6 +26,7 @@ import numpy as np
 
 from ema_pipeline.identification.local_band import (
     background_columns,
+    block_fisher,
     global_residues,
     local_problem,
     pole_columns,
@@ -95,12 +96,10 @@ def quick_significance(
         # the Fisher matrix sum_c Jp_c^T Jp_c / s2_c with Jp_c = Bp W_c: one
         # projection of the 2m columns of B for all channels
         # (local_band.pole_jacobian_factors; 30 channels: ~5x cheaper)
-        B, W = pole_jacobian_factors(jw, lam, X)
+        B, _ = pole_jacobian_factors(jw, lam, X)
         Bp = B - Qm @ (Qm.T @ B)
-        Ws, BW = W / s2[:, None, None], (Bp.T @ Bp) @ W
-        # the sum over channels and rows as one product (np.tensordot's own
-        # reshape and dot, without its per-call overhead)
-        F = Ws.reshape(-1, 2 * m).T @ BW.reshape(-1, 2 * m)
+        # sum_c W_c^T (Bp^T Bp) W_c / s2_c from the 2 x 2 blocks of W_c
+        F = block_fisher(Bp.T @ Bp, X, 1.0 / s2)
         try:
             var = np.linalg.inv(0.5 * (F + F.T))[2 * k, 2 * k]
         except np.linalg.LinAlgError:
