@@ -658,6 +658,15 @@ def _schema_checked(h5: h5py.File, path: Path, schema: str, what: str) -> None:
         )
 
 
+def _results_checked(h5: h5py.File, path: Path, schema: str) -> None:
+    """A results file of ``schema`` whose write finished, else DataError."""
+    found = _attr(h5, "schema", path=path)
+    if found != schema:
+        raise DataError(f"{path}: schema {found!r}, expected {schema!r}")
+    if not _attr(h5, "complete", False, path):
+        raise DataError(f"{path}: incomplete results file (interrupted write)")
+
+
 def read_frf_h5(path: str | os.PathLike[str]) -> FRFSet:
     """Read an FRFSet from the project's HDF5 FRF file (checked as described above)."""
     path = Path(path)
@@ -778,11 +787,7 @@ def read_results_h5(path: str | os.PathLike[str], *, schema: str = SCHEMA_RESULT
     """Read a results file back as nested dicts of arrays and attributes."""
     path = Path(path)
     with _open_h5(path) as h5:
-        found = _attr(h5, "schema", path=path)
-        if found != schema:
-            raise DataError(f"{path}: schema {found!r}, expected {schema!r}")
-        if not _attr(h5, "complete", False, path):
-            raise DataError(f"{path}: incomplete results file (interrupted write)")
+        _results_checked(h5, path, schema)
         return _load(h5, path)
 
 
@@ -951,11 +956,7 @@ def read_identification_result(
     """
     path = Path(path)
     with _open_h5(path) as h5:
-        found = _attr(h5, "schema", path=path)
-        if found != SCHEMA_RESULTS:
-            raise DataError(f"{path}: schema {found!r}, expected {SCHEMA_RESULTS!r}")
-        if not _attr(h5, "complete", False, path):
-            raise DataError(f"{path}: incomplete results file (interrupted write)")
+        _results_checked(h5, path, SCHEMA_RESULTS)
         group = _member(h5, "frf", path, h5py.Group)
         frf = read_frf_group(group, str(path))
         source = Provenance(path=_typed_attr(group, "source_path", "str", path, ""),
