@@ -119,7 +119,7 @@ def add_found(
 def refit_kept(
     found: Candidates,
     retest: Callable[[SelectedPoles, np.ndarray, np.ndarray], tuple[RefinedPoles, np.ndarray]],
-    rounds: int = 3,
+    rounds: int = SelectionThresholds.refit_rounds,
 ) -> Candidates:
     """``found``'s kept candidates refined and tested again without those that
     failed (``retest`` as in :func:`add_found`), repeated while some fail.

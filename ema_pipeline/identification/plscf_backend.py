@@ -162,7 +162,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
                                                      sel.n_members, thresholds=th), none, none)
             rejected.append(ref.pole[~found.keep & decay_determined(ref.pole, ref.cov, th)])
             # the kept candidates refined without those that failed
-            found = refit_kept(found, retest)
+            found = refit_kept(found, retest, th.refit_rounds)
             # where a candidate failed, the narrower searches' candidate it covered
             alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
             alt = alt[shown_by_the_frfs(freq, Hc, alt, th)]

@@ -211,6 +211,9 @@ class SelectionThresholds:
     #: channels: with two, the residues of any extra pole fit both channels, so
     #: a shape tells nothing of realness and a split always fits better.
     min_shape_channels: int = 3
+    #: The kept candidates are refined again without those that failed
+    #: (``acceptance.refit_kept``) while some fail, at most this many times.
+    refit_rounds: int = 3
     #: A refined pole is kept only when its decay rate has a relative standard
     #: deviation below this (5 sigma from zero). On the hard families (about 540
     #: true modes, seeds 600-607) true modes reach 0.15, the poles that are not
