@@ -17,9 +17,8 @@ Every candidate of :func:`~ema_pipeline.identification.plscf_backend.identify_pl
 The candidates that pass are refined and tested again without those that
 failed (:func:`refit_kept`); where a candidate of the full band failed, the
 candidate of a narrower search that it covered is tried
-(:func:`uncovered_alternates`). :func:`band_support` counts the narrower
-searches that hold and find each kept mode (the doubtful rule
-``found_only_in_some_bands``).
+(:func:`~ema_pipeline.identification.narrower_searches.uncovered_alternates`,
+through :func:`add_found`).
 
 Close modes hidden in a kept resonance are looked for by
 :func:`close_partners` (one pole more in that mode's local fit,
@@ -37,7 +36,7 @@ field's comment there says on what.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,11 +54,10 @@ from ema_pipeline.identification.local_fits import (
     split_fit,
 )
 from ema_pipeline.identification.lsfd import lsfd, mpc
-from ema_pipeline.identification.not_kept import visible_peaks
 from ema_pipeline.identification.refine import RefinedPoles
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.modal import mac, pole_fd_hz, pole_fn_hz, poles_overlap
+from ema_pipeline.modal import mac, pole_fd_hz
 
 
 @dataclass(frozen=True)
@@ -146,96 +144,6 @@ def refit_kept(
         ref, keep = retest(sel, partner, strict)
         found = Candidates(sel, ref, keep, partner, strict)
     return found
-
-
-def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None]) -> np.ndarray:
-    """The poles of ``alternates`` (candidates of narrower searches that a
-    candidate of the full band covered,
-    :func:`~ema_pipeline.identification.order_search.covered_candidates`) that
-    no ``kept`` pole covers (within the sum of their half-power half-widths):
-    their cover failed the final tests, so they have not been judged. One per
-    resonance: an alternate covered by one of more orders is left out.
-
-    Examples
-    --------
-    >>> alt = SelectedPoles(np.array([-1 + 100j, -1 + 100.5j, -1 + 200j]), np.zeros(3, int),
-    ...                     np.array([20, 30, 20]), np.zeros(3), np.zeros(3), np.zeros(3, int))
-    >>> uncovered_alternates(np.array([-1 + 200.2j]), [alt, None]).tolist()
-    [(-1+100.5j)]
-    """
-    found = [a for a in alternates if a is not None and a.pole.size]
-    if not found:
-        return np.zeros(0, dtype=complex)
-    pole = np.concatenate([a.pole for a in found])
-    members = np.concatenate([a.n_members for a in found])
-    chosen: list[complex] = []
-    for k in np.argsort(-members, kind="stable"):
-        others = np.concatenate([kept, np.array(chosen, dtype=complex)])
-        if np.any(poles_overlap(pole[k : k + 1], others)):
-            continue
-        chosen.append(complex(pole[k]))
-    return np.sort_complex(np.array(chosen, dtype=complex)) if chosen else np.zeros(0, complex)
-
-
-def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
-                      thresholds: SelectionThresholds | None = None) -> np.ndarray:
-    """Per pole: at least ``min_frfs`` of the FRFs ``H`` (n_ch, n_freq) show a
-    peak of their own within ``peak_lines`` lines of its natural frequency
-    (:func:`~ema_pipeline.identification.not_kept.visible_peaks`). An
-    alternate (:func:`uncovered_alternates`) is a second chance for a
-    resonance whose cover failed, so it is tried only where the data show one:
-    on the measured beam the alternate at 602.9 Hz (band 250-700 Hz) stands
-    out in 18 of 30 FRFs, one at 989.8 Hz, which no FRF shows, in none.
-
-    Examples
-    --------
-    >>> f = np.linspace(0.0, 100.0, 401)
-    >>> jw = 2j * np.pi * f
-    >>> lam = -0.5 + 2j * np.pi * 40.0
-    >>> H = np.tile(1 / (jw - lam) + 1 / (jw - np.conj(lam)), (2, 1))
-    >>> shown_by_the_frfs(f, H, np.array([lam, -0.5 + 2j * np.pi * 70.0])).tolist()
-    [True, False]
-    """
-    th = thresholds or SelectionThresholds()
-    pole = np.asarray(pole, dtype=complex)
-    if pole.size == 0:
-        return np.zeros(0, dtype=bool)
-    df = float(np.median(np.diff(freq_hz)))
-    n_frfs = visible_peaks(freq_hz, H, pole_fn_hz(pole), th.peak_lines * df, thresholds=th)
-    return np.asarray(n_frfs >= th.min_frfs)
-
-
-def band_support(pole: np.ndarray,
-                 searched: Sequence[tuple[tuple[float, float], SelectedPoles | None,
-                                          SelectedPoles | None]],
-                 thresholds: SelectionThresholds | None = None) -> np.ndarray:
-    """Per pole (n, 2) int: how many of the narrower searches ``searched``
-    (band in Hz and candidates, the first two entries of each
-    :data:`~ema_pipeline.identification.order_search.SearchedBand`) hold it
-    (its damped frequency inside their band by ``band_support_margin`` of
-    itself) and how many of those have a candidate that covers it (within the
-    sum of their half-power half-widths); the doubtful rule
-    ``found_only_in_some_bands`` reads it
-    (:func:`~ema_pipeline.identification.result.doubtful_flags`).
-
-    Examples
-    --------
-    >>> cand = SelectedPoles(np.array([-1 + 2j * np.pi * 100.2]), np.zeros(1, int),
-    ...                      np.ones(1, int), np.zeros(1), np.zeros(1), np.zeros(1, int))
-    >>> lam = np.array([-2 + 2j * np.pi * 100.0, -2 + 2j * np.pi * 150.0])
-    >>> band_support(lam, [((50.0, 200.0), cand, None), ((90.0, 160.0), None, None)]).tolist()
-    [[2, 1], [2, 0]]
-    """
-    margin = (thresholds or SelectionThresholds()).band_support_margin
-    fd = pole_fd_hz(np.asarray(pole))
-    out = np.zeros((fd.size, 2), dtype=int)
-    for entry in searched:
-        (lo, hi), cand = entry[0], entry[1]
-        holds = (fd > lo * (1 + margin)) & (fd < hi / (1 + margin))
-        out[:, 0] += holds
-        if cand is not None and cand.pole.size:
-            out[:, 1] += holds & np.any(poles_overlap(pole, cand.pole), axis=1)
-    return out
 
 
 def unseen_candidates(pole: np.ndarray) -> SelectedPoles:

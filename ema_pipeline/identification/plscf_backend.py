@@ -33,18 +33,20 @@ from ema_pipeline.data import FRFSet
 from ema_pipeline.identification.acceptance import (
     Candidates,
     add_found,
-    band_support,
     close_partners,
     decay_determined,
     final_tests,
     refit_kept,
-    shown_by_the_frfs,
-    uncovered_alternates,
 )
 from ema_pipeline.identification.common import (
     default_max_order,
     finish_identification,
     resolve_band,
+)
+from ema_pipeline.identification.narrower_searches import (
+    band_support,
+    shown_by_the_frfs,
+    uncovered_alternates,
 )
 from ema_pipeline.identification.not_kept import resonances_not_kept
 from ema_pipeline.identification.options import IdentificationOptions

@@ -78,7 +78,7 @@ class IdentificationResult:
     band_support : (n_modes, 2) int  per mode, how many of the narrower searches
         of the band (its lowest part, the windows of a dense band) hold it and
         how many of those found a candidate there
-        (:func:`~ema_pipeline.identification.acceptance.band_support`); no rows
+        (:func:`~ema_pipeline.identification.narrower_searches.band_support`); no rows
         when there were no such searches' records (picks, the sdypy backend).
     """
 
