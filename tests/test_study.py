@@ -80,7 +80,7 @@ def test_the_first_readme_command_leaves_a_checkout_clean(study):
     written = sorted(f"results/{p.relative_to(study).as_posix()}"
                      for p in study.rglob("*") if p.is_file())
     assert "results/tables/table4_updated_parameters.csv" in written
-    # with the folder itself and the run's temporary siblings (pipeline.study.swap_in)
+    # with the folder itself and the run's temporary siblings (io.swap_in)
     paths = [*written, "results", ".results.partial-1-x/report.md", ".results.old-1"]
     ignored = subprocess.run([git, "check-ignore", "--no-index", "--stdin"], cwd=REPO,
                              input="\n".join(paths), capture_output=True, text=True,

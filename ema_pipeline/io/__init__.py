@@ -7,7 +7,8 @@ complete (:func:`atomic_path`), so an interrupted run never leaves a
 half-written result. Everything it reads is checked, and problems are raised as
 :class:`~ema_pipeline.data.DataError` naming the file.
 
-Modules: :mod:`.files` (hashes, atomic writes, CSV), :mod:`.hdf5` (FRF files
+Modules: :mod:`.files` (hashes, atomic writes, CSV), :mod:`.folders` (the
+atomic results folder of ``run``), :mod:`.hdf5` (FRF files
 and results stores), :mod:`.uff` (dataset 58 in and out, modes out as datasets
 164/15/82/55), :mod:`.uff_format` (the dataset parser), :mod:`.uff_units` (unit
 labels, dataset 164), :mod:`.experiment` (TOML), :mod:`.recording` (raw time
@@ -32,6 +33,7 @@ from ema_pipeline.io.files import (
     write_csv,
     write_text,
 )
+from ema_pipeline.io.folders import partial_folder, pid_alive, remove_stale_partials, swap_in
 from ema_pipeline.io.geometry import (
     geometry_from_table,
     read_geometry,
@@ -229,6 +231,8 @@ __all__ = [
     "geometry_from_table",
     "open_regular",
     "parse_unit_label",
+    "partial_folder",
+    "pid_alive",
     "read_csv",
     "read_experiment",
     "read_frf",
@@ -244,9 +248,11 @@ __all__ = [
     "read_recording",
     "read_time_uff",
     "read_uff",
+    "remove_stale_partials",
     "result_details",
     "results_complete",
     "sha256_file",
+    "swap_in",
     "table_from_results",
     "write_bytes",
     "write_csv",

@@ -15,7 +15,7 @@ problem there is an input error (exit 2) and nothing is written.
 
 Results are never lost. The results folder is written into a fresh sibling
 folder ``.NAME.partial-PID-XXXX`` and swapped in only when complete
-(:func:`swap_in`): with Linux ``renameat2(RENAME_EXCHANGE)`` the old and the new
+(:func:`ema_pipeline.io.swap_in`): with Linux ``renameat2(RENAME_EXCHANGE)`` the old and the new
 folder trade places in one atomic step, then the old one is removed; where
 that call is unavailable, two renames (old -> ``.NAME.old-PID``, new -> NAME)
 and a killed run's backup is put back by the next run. A failure anywhere
@@ -23,18 +23,15 @@ and a killed run's backup is put back by the next run. A failure anywhere
 byte-identical; a run whose study has *problems* (exit 1) writes its incomplete
 results only when there is no earlier results folder to lose. Partial folders
 of killed runs (their process is gone) are removed by the next run
-(:func:`remove_stale_partials`). The numbers are reproducible (fixed seeds, no
+(:func:`ema_pipeline.io.remove_stale_partials`). The numbers are reproducible (fixed seeds, no
 time stamps in the outputs).
 """
 
 from __future__ import annotations
 
-import ctypes
-import ctypes.util
 import json
 import os
 import shutil
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -516,89 +513,6 @@ def summary(result: StudyResult) -> dict[str, Any]:
     return out
 
 
-_RENAME_EXCHANGE, _AT_FDCWD = 2, -100
-
-
-def _exchange(a: Path, b: Path) -> bool:
-    """Atomically exchange two paths (Linux ``renameat2``); False if unsupported."""
-    name = ctypes.util.find_library("c")
-    try:
-        libc = ctypes.CDLL(name, use_errno=True)
-        renameat2 = libc.renameat2
-    except (OSError, AttributeError, TypeError):
-        return False
-    renameat2.argtypes = [ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p,
-                          ctypes.c_uint]
-    if renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0:
-        return True
-    err = ctypes.get_errno()
-    if err in (22, 38, 95):  # EINVAL, ENOSYS, EOPNOTSUPP: this filesystem cannot
-        return False
-    raise OSError(err, os.strerror(err), str(b))
-
-
-def swap_in(new_dir: Path, results_dir: Path) -> None:
-    """Replace ``results_dir`` by the finished ``new_dir`` in one atomic step.
-
-    With ``renameat2(RENAME_EXCHANGE)`` the two folders trade places atomically
-    and the old one (now at ``new_dir``) is removed; otherwise old ->
-    ``.NAME.old-PID``, new -> NAME, remove the backup (a run killed between the
-    two renames leaves the backup, which :func:`remove_stale_partials` restores).
-    """
-    if not results_dir.exists():
-        os.rename(new_dir, results_dir)
-        return
-    if _exchange(new_dir, results_dir):
-        shutil.rmtree(new_dir, ignore_errors=True)
-        return
-    old = results_dir.with_name(f".{results_dir.name}.old-{os.getpid()}")
-    os.rename(results_dir, old)
-    try:
-        os.rename(new_dir, results_dir)
-    except BaseException:
-        os.rename(old, results_dir)
-        raise
-    shutil.rmtree(old, ignore_errors=True)
-
-
-def _pid_alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:
-        return True
-    return True
-
-
-def remove_stale_partials(results_dir: str | os.PathLike[str]) -> int:
-    """Remove the ``.NAME.partial-PID-*`` folders of runs whose process is gone,
-    and put back a ``.NAME.old-PID`` backup when NAME is missing (a run killed
-    between the two renames of :func:`swap_in`). Returns how many were removed."""
-    results_dir = Path(results_dir).absolute()
-    parent, name = results_dir.parent, results_dir.name
-    if not parent.is_dir():
-        return 0
-    removed = 0
-    for p in parent.glob(f".{name}.old-*"):
-        pid = p.name.rsplit("-", 1)[-1]
-        if pid.isdigit() and not _pid_alive(int(pid)):
-            if not results_dir.exists():
-                os.rename(p, results_dir)
-            else:
-                shutil.rmtree(p, ignore_errors=True)
-                removed += 1
-    for p in parent.glob(f".{name}.partial-*"):
-        pid = p.name[len(f".{name}.partial-"):].split("-", 1)[0]
-        if not pid.isdigit() or not _pid_alive(int(pid)) or int(pid) == os.getpid():
-            if p.is_dir() and not p.is_symlink():
-                shutil.rmtree(p, ignore_errors=True)
-            else:
-                p.unlink(missing_ok=True)
-            removed += 1
-    return removed
-
-
 def write_modes_uff_files(result: StudyResult, folder: Path) -> list[Path]:
     """``folder/<configuration>.uff`` for every identified configuration, with
     the measurement nodes' coordinates along the beam (x in m, y = z = 0)."""
@@ -641,7 +555,7 @@ def write_study(
     the files written.
 
     Everything goes to a fresh folder beside ``results_dir`` first, which
-    replaces ``results_dir`` only when complete (:func:`swap_in`); on any
+    replaces ``results_dir`` only when complete (:func:`ema_pipeline.io.swap_in`); on any
     failure it is removed and ``results_dir`` is untouched.
     """
     from ema_pipeline import report
@@ -649,9 +563,8 @@ def write_study(
     say = say or (lambda _msg: None)
     results_dir = Path(results_dir).resolve()
     results_dir.parent.mkdir(parents=True, exist_ok=True)
-    remove_stale_partials(results_dir)
-    tmp_dir = Path(tempfile.mkdtemp(prefix=f".{results_dir.name}.partial-{os.getpid()}-",
-                                    dir=results_dir.parent))
+    io.remove_stale_partials(results_dir)
+    tmp_dir = io.partial_folder(results_dir)
     try:
         for name, table in result.tables.items():
             io.write_csv(table, tmp_dir / "tables" / f"{name}.csv")
@@ -681,7 +594,7 @@ def write_study(
             tmp_dir / "ema_results.h5",
         )
         tmp_dir.chmod(0o755)
-        swap_in(tmp_dir, results_dir)
+        io.swap_in(tmp_dir, results_dir)
     except BaseException:
         shutil.rmtree(tmp_dir, ignore_errors=True)
         raise

@@ -27,7 +27,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 
-from ema_pipeline.io import FORK_SAFE_THREAD_NAME
+from ema_pipeline.io import FORK_SAFE_THREAD_NAME, pid_alive
 from ema_pipeline.pipeline.batch.tasks import FileRecord, FileTask, process_file
 from ema_pipeline.pipeline.logs import verbose_logging
 
@@ -77,21 +77,11 @@ def _exit_with_parent(parent_pid: int) -> None:
     except ProcessLookupError:
         os._exit(1)
     except (AttributeError, OSError):  # not Linux >= 5.3: poll
-        while _alive(parent_pid):
+        while pid_alive(parent_pid):
             time.sleep(0.5)
         os._exit(1)
     select.select([pidfd], [], [])
     os._exit(1)
-
-
-def _alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:  # pragma: no cover - exists, another user's
-        return True
-    return True
 
 
 @contextlib.contextmanager
