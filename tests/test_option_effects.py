@@ -33,6 +33,7 @@ from ema_pipeline.acquisition import modal_frf
 from ema_pipeline.cli import main
 from ema_pipeline.cli.parser import build_parser
 from ema_pipeline.data import DOF, FRFSet, ModalParameters
+from ema_pipeline.identification import IdentificationOptions
 from ema_pipeline.io import experiment as schema
 from ema_pipeline.io.hdf5 import read_results_h5
 
@@ -85,6 +86,7 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "identify --exp-window-tau": (
         "test_cli_identify.py::test_exp_window_tau_gives_structural_damping",),
     "identify --quiet": (f"{HERE}::test_identify_options_change_the_result",),
+    "identify --no-window-search": (f"{HERE}::test_no_window_search_skips_the_window_searches",),
     "identify --memory-limit-gb": (f"{HERE}::test_memory_limit_refuses_before_any_work",),
     "identify --uff": ("test_uff_export_cli.py::test_identify_uff_round_trips_through_pyuff",),
     "identify --verbose": (f"{HERE}::test_verbose_reaches_the_batch_workers",),
@@ -104,6 +106,7 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "batch --expect": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --exp-window-tau": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --quiet": (f"{HERE}::test_batch_options_change_the_result",),
+    "batch --no-window-search": (f"{HERE}::test_no_window_search_skips_the_window_searches",),
     "batch --memory-limit-gb": (f"{HERE}::test_memory_limit_refuses_before_any_work",),
     "batch --uff": ("test_uff_export_cli.py::test_batch_uff_writes_one_file_per_input",),
     "batch --verbose": (f"{HERE}::test_verbose_reaches_the_batch_workers",),
@@ -179,6 +182,8 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     **{f"[identification] {k}": (
         "test_identification_options.py::test_residual_terms_stand_for_the_modes_outside_the_"
         "band",) for k in ("lower_residual", "upper_residual")},
+    "[identification] window_searches": (
+        f"{HERE}::test_no_window_search_skips_the_window_searches",),
     "[fe] immersed_elements": (f"{HERE}::test_fe_experiment_keys",),
     "[fe] n_modes": (f"{HERE}::test_fe_n_modes", RUN_SIMULATED),
     "[fe] update_repeats": (f"{HERE}::test_fe_experiment_keys",),
@@ -462,6 +467,53 @@ def test_batch_options_change_the_result(two_mode_folder: Path, tmp_path: Path,
                           "--report"], capsys)
     assert code == 0 and "1 ok, 0 skipped" in said
     assert "<svg" in (out / "report.html").read_text()
+
+
+#: Twelve well-separated modes, enough candidates for the window searches of a
+#: dense band (``SelectionThresholds.window_min_modes``).
+TWELVE_MODES = ModalParameters(
+    fn_hz=[40.0, 85.0, 130.0, 180.0, 225.0, 270.0, 330.0, 380.0, 430.0, 490.0, 545.0, 610.0],
+    zeta=[0.01] * 12)
+
+
+def test_no_window_search_skips_the_window_searches(tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """On a noise-free twelve-mode FRF (3 x 1, 0-800 Hz): by default the band is
+    searched again in windows of consecutive candidates, so the middle modes are
+    held by two of the narrower searches (``band_support``); with
+    ``--no-window-search`` (identify and batch) only the low-band search is left,
+    which holds none of them, the stored settings say so, and the twelve modes
+    are the same. The experiment file's ``[identification] window_searches``
+    is the same option."""
+    toml = tmp_path / "experiment.toml"
+    assert schema.read_identification_options({"window_searches": False}, toml) == \
+        IdentificationOptions(window_searches=False)
+    with pytest.raises(io.DataError, match="window_searches"):
+        schema.read_identification_options({"window_searches": "no"}, toml)
+    f = np.linspace(0.0, 800.0, 2049)
+    phi = np.random.default_rng(3).standard_normal((3, 12))
+    H = modal_frf(f, TWELVE_MODES, phi, phi[:1], quantity="receptance")
+    folder = tmp_path / "in"
+    folder.mkdir()
+    io.write_frf(FRFSet(freq_hz=f, H=H, quantity="receptance"), folder / "twelve.uff", "uff")
+    src = folder / "twelve.uff"
+    stored = {}
+    for name, extra in (("default", []), ("off", ["--no-window-search"])):
+        assert _run(["identify", src, "--out", tmp_path / name, "--quiet", *extra],
+                    capsys)[0] == 0
+        stored[name] = read_results_h5(tmp_path / name / "twelve_result.h5")["identification"]
+        np.testing.assert_allclose(pd.read_csv(tmp_path / name / "twelve_modes.csv")["fn_hz"],
+                                   TWELVE_MODES.fn_hz, rtol=1e-5)
+    middle = (np.asarray(TWELVE_MODES.fn_hz) > 200) & (np.asarray(TWELVE_MODES.fn_hz) < 500)
+    held = {k: np.asarray(v["band_support"])[:, 0] for k, v in stored.items()}
+    assert np.all(held["default"][middle] >= 2) and np.all(held["off"][middle] == 0)
+    assert bool(stored["default"]["settings"]["window_searches"]) is True
+    assert bool(stored["off"]["settings"]["window_searches"]) is False
+    assert _run(["batch", folder, "--out", tmp_path / "batch", "--workers", "1", "--quiet",
+                 "--no-window-search"], capsys)[0] == 0
+    batch = read_results_h5(tmp_path / "batch" / "twelve_result.h5")["identification"]
+    assert bool(batch["settings"]["window_searches"]) is False
+    np.testing.assert_array_equal(np.asarray(batch["band_support"]), stored["off"]["band_support"])
 
 
 def test_memory_limit_refuses_before_any_work(two_mode_folder: Path, tmp_path: Path,

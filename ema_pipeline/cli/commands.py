@@ -220,6 +220,7 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
         method=args.method,
         expect_hz=tuple(args.expect or ()),
         exp_window_tau_s=args.exp_window_tau,
+        window_searches=not args.no_window_search,
     )
 
 

@@ -162,6 +162,13 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         "files that do not record it (UFF has no field for it); the identified damping "
         "is corrected by 1/tau (default: the value stored in the file, else none)",
     )
+    p.add_argument(
+        "--no-window-search",
+        action="store_true",
+        help="do not search a dense band again in windows of 10 candidates: much faster "
+        "on a band of many well-separated modes (measured beam: 2.1 s instead of 5 s, "
+        "the same modes), but a weak mode between strong ones may be missed",
+    )
     p.add_argument("--quiet", action="store_true", help="print only errors")
     _add_memory_limit(p)
 

@@ -107,7 +107,8 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     searched: list[SearchedBand] = []
     if not fixed and expect_hz is None:
         sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi), searched)
-        sel = add_window_modes(sel, search, freq, Hn, (lo, hi), searched)
+        if options.window_searches:
+            sel = add_window_modes(sel, search, freq, Hn, (lo, hi), searched)
     p = int(poles.orders[-1])
     diagram_freq, diagram_zeta, diagram_mac = options.diagram_tolerances()
     stab = stabilization(
@@ -217,6 +218,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             uncertainty="least-squares covariance of the refined poles"
             if options.refine
             else "scatter of the trajectory's poles over model orders",
+            window_searches=options.window_searches,
             thresholds=th,
         ),
     )

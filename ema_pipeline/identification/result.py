@@ -25,7 +25,9 @@ class ResolvedSettings:
     ``tol_freq``, ``tol_zeta``, ``tol_mac`` are the tolerances of the
     selection's pole linking (the diagram's are in ``result.stabilization``);
     ``thresholds`` the tuned thresholds used, which also define the
-    ``doubtful`` rule (:func:`doubtful_reasons`).
+    ``doubtful`` rule (:func:`doubtful_reasons`); ``window_searches`` whether
+    a dense band was searched again in windows (the option of that name;
+    results stored before it had them).
     """
 
     method: str
@@ -44,6 +46,7 @@ class ResolvedSettings:
     upper_residual: bool
     expect_hz: np.ndarray | None
     uncertainty: str
+    window_searches: bool = True
     thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
 
 

@@ -65,8 +65,10 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
 
     ``options.max_order`` is sdypy-EMA's ``pol_order_high`` (default 100, its
     own default; its LSCF then solves polynomial orders 2, 4, ..., 2 * max_order).
-    Only ``band_hz``, ``max_order``, ``expect_hz`` and the residual switches
-    apply; weighting, tolerances and refinement are pLSCF's. Poles are
+    Only ``band_hz``, ``max_order``, ``expect_hz``, the residual switches and
+    (for the automatic selection that finds the modes to look for, without
+    ``expect_hz``) ``window_searches`` apply; weighting, tolerances and
+    refinement are pLSCF's. Poles are
     window-corrected like the pLSCF ones. The synthesised FRFs (and FRAC,
     error) are sdypy-EMA's LSFD reconstruction; residues, shapes, MAC and MPC
     come from this package's LSFD at sdypy-EMA's poles (same model).
@@ -80,8 +82,9 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     decay = float(frf.acquisition.window_decay_rate)
     p = 100 if options.max_order is None else int(options.max_order)
     if not options.expect_hz:
-        auto = identify_plscf(frf, IdentificationOptions(band_hz=(lo, hi), refine=False,
-                                                         thresholds=options.thresholds))
+        auto = identify_plscf(frf, IdentificationOptions(
+            band_hz=(lo, hi), refine=False, window_searches=options.window_searches,
+            thresholds=options.thresholds))
         guesses = auto.modes.fd_hz
         if guesses.size == 0:
             raise DataError("sdypy-lscf: the automatic selection found no mode to look for")
@@ -144,7 +147,7 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         tol_mac=float("nan"), min_fraction=float("nan"), refine=False,
         lower_residual=lower_residual, upper_residual=upper_residual,
         expect_hz=guesses if options.expect_hz else None, uncertainty="none (NaN)",
-        thresholds=options.thresholds,
+        window_searches=options.window_searches, thresholds=options.thresholds,
     )
     result = finish_identification(
         sub, poles, decay=decay, lower_residual=lower_residual,

@@ -230,6 +230,7 @@ SCHEMA: dict[str, dict[str, Check]] = {
         "refine": _flag,
         "lower_residual": _flag,
         "upper_residual": _flag,
+        "window_searches": _flag,
     },
     "fe": {
         "immersed_elements": _list(_integer(), min_len=1, max_len=1000),
@@ -562,8 +563,8 @@ def read_identification_options(
 
     Keys: ``band_hz`` = [low, high], ``max_order``, ``method``, ``expect_hz`` =
     [f1, ...], ``weighting``, ``tol_freq``, ``tol_zeta``, ``tol_mac``,
-    ``min_fraction``, ``refine``, ``lower_residual``, ``upper_residual``; each
-    missing key keeps the option's default. (The exponential window's time
+    ``min_fraction``, ``refine``, ``lower_residual``, ``upper_residual``,
+    ``window_searches``; each missing key keeps the option's default. (The exponential window's time
     constant is per configuration: ``[[configurations]] exp_window_tau_s``.)
     """
     # imported here: reading FRF files (and the HDF5 check's child interpreter)
