@@ -33,7 +33,13 @@ from ema_pipeline.io.files import (
     write_csv,
     write_text,
 )
-from ema_pipeline.io.folders import partial_folder, pid_alive, remove_stale_partials, swap_in
+from ema_pipeline.io.folders import (
+    atomic_folder,
+    partial_folder,
+    pid_alive,
+    remove_stale_partials,
+    swap_in,
+)
 from ema_pipeline.io.geometry import (
     geometry_from_table,
     read_geometry,
@@ -216,6 +222,7 @@ __all__ = [
     "RECORDING_SUFFIXES",
     "UFF_SUFFIXES",
     "MAX_DATASET_BYTES",
+    "atomic_folder",
     "atomic_path",
     "axis_is_uniform",
     "FORK_SAFE_THREAD_NAME",

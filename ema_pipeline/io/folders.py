@@ -1,26 +1,28 @@
 """The atomic results folder: a whole folder of results written beside its
 target and swapped in only when complete (``ema-pipeline run``).
 
-:func:`partial_folder` makes the fresh sibling ``.NAME.partial-PID-XXXX``;
-:func:`swap_in` replaces NAME by it in one step: with Linux
-``renameat2(RENAME_EXCHANGE)`` the two folders trade places atomically and the
-old one is removed; where that call is unavailable, two renames (old ->
-``.NAME.old-PID``, new -> NAME). :func:`remove_stale_partials` removes the
-partial folders of runs whose process is gone and puts back a backup left by
-a run killed between the two renames. Single files are written by
-:func:`~ema_pipeline.io.files.atomic_path` instead.
+:func:`atomic_folder` does it all, as :func:`~ema_pipeline.io.files.atomic_path`
+does for one file. Its pieces: :func:`partial_folder` makes the fresh sibling
+``.NAME.partial-PID-XXXX``; :func:`swap_in` replaces NAME by it in one step:
+with Linux ``renameat2(RENAME_EXCHANGE)`` the two folders trade places
+atomically and the old one is removed; where that call is unavailable, two
+renames (old -> ``.NAME.old-PID``, new -> NAME). :func:`remove_stale_partials`
+removes the partial folders of runs whose process is gone and puts back a
+backup left by a run killed between the two renames.
 """
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
 import os
 import shutil
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["partial_folder", "pid_alive", "remove_stale_partials", "swap_in"]
+__all__ = ["atomic_folder", "partial_folder", "pid_alive", "remove_stale_partials", "swap_in"]
 
 
 def partial_folder(results_dir: str | os.PathLike[str]) -> Path:
@@ -128,3 +130,32 @@ def remove_stale_partials(results_dir: str | os.PathLike[str]) -> int:
                 p.unlink(missing_ok=True)
             removed += 1
     return removed
+
+
+@contextlib.contextmanager
+def atomic_folder(results_dir: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yield a fresh folder beside ``results_dir`` (:func:`partial_folder`, after
+    :func:`remove_stale_partials`); on success make it readable by all (0755)
+    and :func:`swap_in` it as ``results_dir``. On an exception it is removed
+    and ``results_dir`` is untouched.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> target = Path(tempfile.mkdtemp()) / "results"
+    >>> with atomic_folder(target) as tmp:
+    ...     _ = (tmp / "report.md").write_text("done")
+    >>> (target / "report.md").read_text(), [p.name for p in target.parent.iterdir()]
+    ('done', ['results'])
+    """
+    results_dir = Path(results_dir)
+    results_dir.parent.mkdir(parents=True, exist_ok=True)
+    remove_stale_partials(results_dir)
+    tmp_dir = partial_folder(results_dir)
+    try:
+        yield tmp_dir
+        tmp_dir.chmod(0o755)
+        swap_in(tmp_dir, results_dir)
+    except BaseException:
+        shutil.rmtree(tmp_dir, ignore_errors=True)
+        raise

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import json
 import os
-import shutil
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
@@ -555,17 +554,15 @@ def write_study(
     the files written.
 
     Everything goes to a fresh folder beside ``results_dir`` first, which
-    replaces ``results_dir`` only when complete (:func:`ema_pipeline.io.swap_in`); on any
-    failure it is removed and ``results_dir`` is untouched.
+    replaces ``results_dir`` only when complete
+    (:func:`ema_pipeline.io.atomic_folder`); on any failure it is removed and
+    ``results_dir`` is untouched.
     """
     from ema_pipeline import report
 
     say = say or (lambda _msg: None)
     results_dir = Path(results_dir).resolve()
-    results_dir.parent.mkdir(parents=True, exist_ok=True)
-    io.remove_stale_partials(results_dir)
-    tmp_dir = io.partial_folder(results_dir)
-    try:
+    with io.atomic_folder(results_dir) as tmp_dir:
         for name, table in result.tables.items():
             io.write_csv(table, tmp_dir / "tables" / f"{name}.csv")
         for name, table in result.hits.items():
@@ -593,11 +590,6 @@ def write_study(
             },
             tmp_dir / "ema_results.h5",
         )
-        tmp_dir.chmod(0o755)
-        io.swap_in(tmp_dir, results_dir)
-    except BaseException:
-        shutil.rmtree(tmp_dir, ignore_errors=True)
-        raise
     return sorted(p for p in results_dir.rglob("*") if p.is_file())
 
 
