@@ -25,6 +25,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from ema_pipeline.identification.not_kept import visible_peaks
+from ema_pipeline.identification.order_search import SearchedBand
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, pole_fn_hz, poles_overlap
@@ -89,12 +90,10 @@ def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
     return np.asarray(n_frfs >= th.min_frfs)
 
 
-def band_support(pole: np.ndarray,
-                 searched: Sequence[tuple[tuple[float, float], SelectedPoles | None,
-                                          SelectedPoles | None]],
+def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
                  thresholds: SelectionThresholds | None = None) -> np.ndarray:
     """Per pole (n, 2) int: how many of the narrower searches ``searched``
-    (band in Hz and candidates, the first two entries of each
+    (their bands in Hz and candidates: the first two entries of each
     :data:`~ema_pipeline.identification.order_search.SearchedBand`) hold it
     (its damped frequency inside their band by ``band_support_margin`` of
     itself) and how many of those have a candidate that covers it (within the

@@ -564,8 +564,9 @@ def read_identification_options(
     Keys: ``band_hz`` = [low, high], ``max_order``, ``method``, ``expect_hz`` =
     [f1, ...], ``weighting``, ``tol_freq``, ``tol_zeta``, ``tol_mac``,
     ``min_fraction``, ``refine``, ``lower_residual``, ``upper_residual``,
-    ``window_searches``; each missing key keeps the option's default. (The exponential window's time
-    constant is per configuration: ``[[configurations]] exp_window_tau_s``.)
+    ``window_searches``; each missing key keeps the option's default. (The
+    exponential window's time constant is per configuration:
+    ``[[configurations]] exp_window_tau_s``.)
     """
     # imported here: reading FRF files (and the HDF5 check's child interpreter)
     # does not need the identification package and its scipy imports
