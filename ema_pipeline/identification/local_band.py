@@ -23,7 +23,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import design_matrix, lsfd, qr_factor, real_stack, solve_r
+from ema_pipeline.identification.lsfd import (
+    column_scale,
+    design_matrix,
+    lsfd,
+    qr_factor,
+    real_stack,
+    solve_r,
+)
 from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
 
@@ -149,10 +156,7 @@ def scaled_solve(A: np.ndarray, Y: np.ndarray) -> tuple[np.ndarray, np.ndarray, 
     columns scaled to unit maximum: the orthonormal basis Q of A, the
     residual (2n, n_ch) and the solution X (K, n_ch). One projection serves
     every channel (the local problems of :func:`local_problem`)."""
-    # max |A|, no copy of A (the array methods: numpy's function wrappers
-    # cost as much as these small reductions)
-    scale = np.maximum(A.max(axis=0), -A.min(axis=0))
-    scale[scale == 0] = 1.0
+    scale = column_scale(A)
     Q, R, triangular = qr_factor(A / scale)
     QtY = Q.T @ Y
     return Q, Y - Q @ QtY, solve_r(R, QtY, triangular) / scale[:, None]
@@ -185,10 +189,8 @@ class WeightedPoleDesign:
         self.jw = 2j * np.pi * np.asarray(freq_hz, dtype=float)[:, None]
         self.u = u[:, None]
         bg_w = bg_r * self.u
-        scale = np.maximum(bg_w.max(axis=0), -bg_w.min(axis=0))
-        scale[scale == 0] = 1.0
-        self.bg_scaled = bg_w / scale
-        self.bg_scale = scale
+        self.bg_scale = column_scale(bg_w)
+        self.bg_scaled = bg_w / self.bg_scale
 
     def solve(
         self, lam: np.ndarray, Yw: np.ndarray
@@ -207,8 +209,7 @@ class WeightedPoleDesign:
         M[:n, 0::2], M[n:, 0::2] = p.real, p.imag
         M[:n, 1::2], M[n:, 1::2] = q.real, q.imag
         M *= self.u
-        scale = np.maximum(M.max(axis=0), -M.min(axis=0))
-        scale[scale == 0] = 1.0
+        scale = column_scale(M)
         M /= scale
         A[:, m2:] = self.bg_scaled
         Q, R, triangular = qr_factor(A)
