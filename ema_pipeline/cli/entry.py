@@ -5,6 +5,7 @@ exceptions into one-line errors on stderr and the exit statuses of
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections.abc import Callable
 
@@ -16,12 +17,18 @@ from ema_pipeline.cli.support import (
     verbose_logging,
 )
 from ema_pipeline.data import EMAError
+from ema_pipeline.threads import owned_blas_threads, thread_environment
 
 __all__ = ["main"]
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run ``ema-pipeline ARGV`` (default ``sys.argv[1:]``) and return its exit status."""
+    """Run ``ema-pipeline ARGV`` (default ``sys.argv[1:]``) and return its exit status.
+
+    The command owns its threads (:mod:`ema_pipeline.threads`): one BLAS
+    thread in this process and its workers, whatever the environment's
+    ``OPENBLAS_NUM_THREADS`` and its kind say, unless ``$EMA_PIPELINE_BLAS_THREADS``
+    overrides; the libraries loaded later read the variables set here."""
     capture_warnings()
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -29,7 +36,9 @@ def main(argv: list[str] | None = None) -> int:
         verbose_logging()
     func: Callable[[argparse.Namespace], int] = args.func
     try:
-        return func(args)
+        os.environ.update(thread_environment())
+        with owned_blas_threads():
+            return func(args)
     except EMAError as exc:  # bad input or settings (DataError, ConfigError)
         print(f"ema-pipeline {args.command}: error: {_one_line(exc)}", file=sys.stderr)
         return EXIT_USAGE

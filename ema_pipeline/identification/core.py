@@ -29,6 +29,7 @@ from ema_pipeline.identification.picks import Picks, identify_picks
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult
 from ema_pipeline.identification.sdypy_backend import identify_sdypy
+from ema_pipeline.threads import owned_blas_threads
 
 Backend = Callable[[FRFSet, IdentificationOptions], IdentificationResult]
 
@@ -127,9 +128,11 @@ def identify(
             f"expected frequencies {expect_hz} must lie inside the band [{lo:g}, {hi:g}] Hz"
         )
     checked = replace(options, band_hz=(lo, hi), expect_hz=tuple(expect_hz))
+    with owned_blas_threads():  # small linear algebra: one BLAS thread (ema_pipeline.threads)
+        result = (identify_picks(frf, checked, picks) if picks is not None
+                  else backend(frf, checked))
     if picks is not None:
-        return identify_picks(frf, checked, picks)
-    result = backend(frf, checked)
+        return result
     if expect_hz.size:  # a guess no mode answers: say so (UserWarning)
         message = not_found_message(expect_hz, match_expected(result.fn_hz, expect_hz))
         if message:

@@ -41,13 +41,15 @@ Atomic writes and resume by content hash
     writing into one ``OUT`` at the same time.
 
 Local processes
-    By default tasks run in ``os.cpu_count()`` worker processes
-    (:class:`concurrent.futures.ProcessPoolExecutor`, forked by a fork server
-    that imported the worker code once, see :mod:`.local`: no fork of a parent
+    By default tasks run in one worker process per core (``$EMA_PIPELINE_WORKERS``
+    caps them; :mod:`ema_pipeline.threads`), in a
+    :class:`concurrent.futures.ProcessPoolExecutor` forked by a fork server
+    that imported the worker code once (see :mod:`.local`: no fork of a parent
     that has h5py open and threads running, no import per worker). Workers are
-    started with single-threaded BLAS (``OMP_NUM_THREADS=1`` etc., unless
-    already set): N processes with N BLAS threads each would oversubscribe the
-    cores, and the results do not depend on the number of workers. Workers
+    started with single-threaded BLAS (``OMP_NUM_THREADS=1`` etc., whatever
+    the environment says, unless ``$EMA_PIPELINE_BLAS_THREADS`` overrides):
+    N processes with N BLAS threads each would oversubscribe the cores, and
+    the results do not depend on the number of workers. Workers
     ignore SIGINT (the parent coordinates the stop) and exit when the parent
     dies. A worker that dies (crash, out of memory) breaks the pool: it is
     restarted, the files then in progress are retried once, and a file in

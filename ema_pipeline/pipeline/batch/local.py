@@ -30,20 +30,12 @@ from collections.abc import Callable, Iterator
 from ema_pipeline.io import FORK_SAFE_THREAD_NAME, pid_alive
 from ema_pipeline.pipeline.batch.tasks import FileRecord, FileTask, process_file
 from ema_pipeline.pipeline.logs import verbose_logging
+from ema_pipeline.threads import available_cores, thread_environment, worker_count
 
-__all__ = ["PRELOAD", "THREAD_VARIABLES", "LocalBackend", "default_workers"]
+__all__ = ["PRELOAD", "LocalBackend", "default_workers"]
 
 #: Modules the fork server imports before it forks the workers (the worker code).
 PRELOAD = ("ema_pipeline.pipeline.batch.tasks",)
-
-#: Environment variables that make BLAS/OpenMP single-threaded in the workers.
-THREAD_VARIABLES = (
-    "OMP_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "VECLIB_MAXIMUM_THREADS",
-    "NUMEXPR_NUM_THREADS",
-)
 
 
 def _init_worker(parent_pid: int, environ: dict[str, str], log_level: int) -> None:
@@ -86,15 +78,19 @@ def _exit_with_parent(parent_pid: int) -> None:
 
 @contextlib.contextmanager
 def _single_threaded_children() -> Iterator[None]:
-    """Set the BLAS/OpenMP thread variables to 1 (unless set) while workers start."""
-    added = [name for name in THREAD_VARIABLES if name not in os.environ]
-    for name in added:
-        os.environ[name] = "1"
+    """Set the BLAS/OpenMP thread variables (:func:`ema_pipeline.threads.thread_environment`:
+    1 unless ``$EMA_PIPELINE_BLAS_THREADS`` says otherwise) while workers start."""
+    wanted = thread_environment()
+    before = {name: os.environ.get(name) for name in wanted}
+    os.environ.update(wanted)
     try:
         yield
     finally:
-        for name in added:
-            os.environ.pop(name, None)
+        for name, value in before.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def _worker_context() -> multiprocessing.context.BaseContext:
@@ -156,8 +152,6 @@ class LocalBackend:
 
 
 def default_workers() -> int:
-    """The cores this process may use (at least 1)."""
-    try:
-        return max(len(os.sched_getaffinity(0)), 1)
-    except AttributeError:  # pragma: no cover - not Linux
-        return os.cpu_count() or 1
+    """The worker processes of a batch without ``--workers``: the cores this
+    process may use, or ``$EMA_PIPELINE_WORKERS``."""
+    return worker_count(available_cores())

@@ -1,0 +1,166 @@
+"""The tool's own thread and process counts: one BLAS thread per process, and
+worker processes over the machine's cores.
+
+Identification makes hundreds of thousands of small linear-algebra calls
+(companion eigenvalues, QR and solves of a few dozen columns). A threaded
+BLAS (OpenBLAS starts one thread per core) splits each of them over its
+threads, which spin, wait for each other and fight every other process on
+the machine: on a quiet 2-core machine the measured beam took 2.7x as long
+as on one thread, on a busy one 25x. So every stage runs its linear algebra
+on one BLAS thread whatever ``OPENBLAS_NUM_THREADS`` and its kind say, and
+the cores are used by worker processes where the work splits into
+independent pieces (several files, the windows of a dense band).
+
+The one override is the environment variable :data:`BLAS_THREADS_ENV`
+(``EMA_PIPELINE_BLAS_THREADS``): a positive integer sets the BLAS threads
+of each process, ``auto`` leaves them to BLAS and its own variables.
+:data:`WORKERS_ENV` (``EMA_PIPELINE_WORKERS``) caps the worker processes
+(default: the cores this process may use; 1 runs everything in the process
+itself). Both are read when a stage starts, never stored.
+
+Why threadpoolctl: it is the maintained way (scikit-learn's) to set the
+thread count of BLAS libraries already loaded into the process, which the
+environment variables cannot do once numpy is imported.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Callable, Iterator
+from functools import wraps
+from typing import ParamSpec, TypeVar
+
+from ema_pipeline.data import ConfigError
+
+__all__ = [
+    "BLAS_THREADS_ENV",
+    "THREAD_VARIABLES",
+    "WORKERS_ENV",
+    "available_cores",
+    "blas_threads",
+    "owned_blas_threads",
+    "single_blas_thread",
+    "worker_count",
+]
+
+#: Environment variable: BLAS threads per process (a positive integer, or
+#: ``auto`` to leave them to BLAS); default 1.
+BLAS_THREADS_ENV = "EMA_PIPELINE_BLAS_THREADS"
+
+#: Environment variable: the most worker processes a command starts (default:
+#: the cores this process may use).
+WORKERS_ENV = "EMA_PIPELINE_WORKERS"
+
+#: The variables BLAS and OpenMP libraries read when they are loaded (set in a
+#: process before it loads them, and so in worker processes).
+THREAD_VARIABLES = (
+    "OMP_NUM_THREADS",
+    "OPENBLAS_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "VECLIB_MAXIMUM_THREADS",
+    "NUMEXPR_NUM_THREADS",
+)
+
+P = ParamSpec("P")
+R = TypeVar("R")
+
+
+def _positive_int(name: str, text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise ConfigError(f"${name} must be a positive integer, got {text!r}")
+    return value
+
+
+def blas_threads() -> int | None:
+    """BLAS threads per process: 1, or ``$EMA_PIPELINE_BLAS_THREADS``
+    (``None`` for ``auto``: leave them to BLAS).
+
+    Examples
+    --------
+    >>> import os
+    >>> blas_threads() if BLAS_THREADS_ENV not in os.environ else 1
+    1
+    """
+    text = os.environ.get(BLAS_THREADS_ENV, "").strip()
+    if not text:
+        return 1
+    if text.lower() == "auto":
+        return None
+    return _positive_int(BLAS_THREADS_ENV, text)
+
+
+def available_cores() -> int:
+    """The cores this process may use (its CPU affinity; at least 1)."""
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
+def worker_count(n_tasks: int, requested: int | None = None) -> int:
+    """Worker processes for ``n_tasks`` independent pieces of work.
+
+    ``requested`` (e.g. ``--workers``) wins; else ``$EMA_PIPELINE_WORKERS``,
+    else :func:`available_cores`; never more than ``n_tasks``, at least 1.
+
+    Examples
+    --------
+    >>> worker_count(1)
+    1
+    >>> worker_count(10, requested=3)
+    3
+    """
+    if requested is None:
+        text = os.environ.get(WORKERS_ENV, "").strip()
+        requested = _positive_int(WORKERS_ENV, text) if text else available_cores()
+    return max(1, min(int(requested), int(n_tasks)))
+
+
+@contextlib.contextmanager
+def owned_blas_threads() -> Iterator[None]:
+    """Run the block with :func:`blas_threads` BLAS threads in every BLAS
+    library loaded into the process (restored after it).
+
+    Libraries loaded inside the block keep their own count: callers import
+    their numerics (numpy, scipy.linalg) before entering it.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> with owned_blas_threads():
+    ...     float(np.linalg.det(np.eye(3)))
+    1.0
+    """
+    n = blas_threads()
+    if n is None:
+        yield
+        return
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(limits=n):
+        yield
+
+
+def single_blas_thread(func: Callable[P, R]) -> Callable[P, R]:
+    """Decorator: ``func`` runs inside :func:`owned_blas_threads` (a stage's
+    public entry point)."""
+
+    @wraps(func)
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
+        with owned_blas_threads():
+            return func(*args, **kwargs)
+
+    return wrapper
+
+
+def thread_environment() -> dict[str, str]:
+    """The thread variables for a process that loads BLAS after this call
+    (a child process, or this one before it imports numpy): each of
+    :data:`THREAD_VARIABLES` at :func:`blas_threads` (none for ``auto``)."""
+    n = blas_threads()
+    return {} if n is None else {name: str(n) for name in THREAD_VARIABLES}

@@ -1,0 +1,97 @@
+"""The tool owns its threads (issue 37): one BLAS thread per process whatever
+the environment, ``$EMA_PIPELINE_BLAS_THREADS`` and ``$EMA_PIPELINE_WORKERS``
+as the documented overrides."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from threadpoolctl import threadpool_info, threadpool_limits
+
+from ema_pipeline.cli import main
+from ema_pipeline.data import ConfigError, FRFSet, ModalParameters
+from ema_pipeline.identification import core
+from ema_pipeline.identification.core import identify
+from ema_pipeline.threads import (
+    BLAS_THREADS_ENV,
+    WORKERS_ENV,
+    blas_threads,
+    owned_blas_threads,
+    thread_environment,
+    worker_count,
+)
+
+
+def _blas_counts() -> set[int]:
+    return {int(lib["num_threads"]) for lib in threadpool_info() if lib["user_api"] == "blas"}
+
+
+def _two_mode_frf() -> FRFSet:
+    from ema_pipeline.acquisition import modal_frf
+
+    f = np.linspace(0.0, 100.0, 401)
+    truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    return FRFSet(freq_hz=f, H=H)
+
+
+def test_owned_blas_threads_sets_one_thread_and_the_override(monkeypatch):
+    if not _blas_counts():
+        pytest.skip("threadpoolctl finds no BLAS library in this process")
+    monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
+    with threadpool_limits(limits=2):  # as a user's machine: several threads
+        assert _blas_counts() == {2}
+        with owned_blas_threads():
+            assert _blas_counts() == {1}
+        assert _blas_counts() == {2}  # restored after the block
+        monkeypatch.setenv(BLAS_THREADS_ENV, "3")
+        with owned_blas_threads():
+            assert _blas_counts() == {3}
+        monkeypatch.setenv(BLAS_THREADS_ENV, "auto")
+        with owned_blas_threads():
+            assert _blas_counts() == {2}
+
+
+def test_identify_runs_on_one_blas_thread(monkeypatch):
+    """The library's entry point owns the threads too, not only the CLI."""
+    if not _blas_counts():
+        pytest.skip("threadpoolctl finds no BLAS library in this process")
+    monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
+    seen: list[set[int]] = []
+    backend = core.METHODS["plscf"]
+
+    def recording(frf, options):
+        seen.append(_blas_counts())
+        return backend(frf, options)
+
+    monkeypatch.setitem(core.METHODS, "plscf", recording)
+    with threadpool_limits(limits=2):
+        result = identify(_two_mode_frf())
+    assert seen == [{1}]
+    np.testing.assert_allclose(result.fn_hz, [30.0, 70.0], rtol=1e-6)
+
+
+@pytest.mark.parametrize("text", ["0", "-2", "two", "1.5"])
+def test_bad_thread_variables_are_refused_by_name(monkeypatch, text, capsys):
+    monkeypatch.setenv(BLAS_THREADS_ENV, text)
+    with pytest.raises(ConfigError, match=BLAS_THREADS_ENV):
+        blas_threads()
+    assert main(["identify", "missing.uff", "--out", "/tmp/x"]) == 2
+    assert BLAS_THREADS_ENV in capsys.readouterr().err
+    monkeypatch.delenv(BLAS_THREADS_ENV)
+    monkeypatch.setenv(WORKERS_ENV, text)
+    with pytest.raises(ConfigError, match=WORKERS_ENV):
+        worker_count(4)
+
+
+def test_worker_count_and_thread_environment(monkeypatch):
+    monkeypatch.delenv(WORKERS_ENV, raising=False)
+    monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
+    assert worker_count(1) == 1
+    assert worker_count(5, requested=2) == 2
+    assert worker_count(2, requested=8) == 2  # never more than the tasks
+    monkeypatch.setenv(WORKERS_ENV, "1")
+    assert worker_count(12) == 1
+    assert thread_environment()["OPENBLAS_NUM_THREADS"] == "1"
+    monkeypatch.setenv(BLAS_THREADS_ENV, "auto")
+    assert thread_environment() == {}
