@@ -95,3 +95,50 @@ def test_worker_count_and_thread_environment(monkeypatch):
     assert thread_environment()["OPENBLAS_NUM_THREADS"] == "1"
     monkeypatch.setenv(BLAS_THREADS_ENV, "auto")
     assert thread_environment() == {}
+
+
+def _fake_identify_one(path, job):
+    import os
+
+    from ema_pipeline.pipeline.single import FileOutcome
+
+    return FileOutcome(path=path, reason=str(os.getpid())), None
+
+
+def test_identify_files_runs_in_worker_processes_in_order(monkeypatch, tmp_path):
+    import os
+    from pathlib import Path
+
+    from ema_pipeline.identification import IdentificationOptions
+    from ema_pipeline.pipeline import many
+
+    monkeypatch.setattr(many, "identify_one", _fake_identify_one)
+    paths = [Path(f"f{i}.uff") for i in range(6)]
+    job = many.FileJob(tmp_path, IdentificationOptions())
+    outcomes = [o for o, _ in many.identify_files(paths, job, workers=2)]
+    assert [o.path for o in outcomes] == paths  # the files' order
+    pids = {o.reason for o in outcomes}
+    assert str(os.getpid()) not in pids and 1 <= len(pids) <= 2
+    serial = [o.reason for o, _ in many.identify_files(paths, job, workers=1)]
+    assert set(serial) == {str(os.getpid())}
+    with pytest.raises(ConfigError, match="same outputs"):
+        list(many.identify_files([Path("a/x.uff"), Path("b/x.h5")], job))
+
+
+def test_identify_several_files_in_workers_equals_serial(monkeypatch, tmp_path, example_dir,
+                                                         capsys):
+    """The outputs of ``identify`` on three files, in two workers and in one
+    process: byte-identical modes tables, the same lines in the same order."""
+    files = [str(example_dir / name) for name in ("genuine.uff", "smaller_tank.uff",
+                                                  "larger_tank.h5")]
+    assert len(files) == 3
+    runs = {}
+    for workers in ("1", "2"):
+        monkeypatch.setenv(WORKERS_ENV, workers)
+        out = tmp_path / f"w{workers}"
+        assert main(["identify", *files, "--out", str(out)]) == 0
+        lines = [line.split(" (")[0] for line in capsys.readouterr().out.splitlines()]
+        tables = {p.name: p.read_bytes() for p in sorted(out.glob("*_modes.csv"))}
+        runs[workers] = ([line.replace(str(out), "OUT") for line in lines], tables)
+    assert len(runs["1"][1]) == 3
+    assert runs["1"] == runs["2"]

@@ -233,7 +233,9 @@ def _geometry(args: argparse.Namespace) -> Geometry | None:
 
 
 def cmd_identify(args: argparse.Namespace) -> int:
-    """``identify``: modal parameters of each FRF file, one after the other.
+    """``identify``: modal parameters of each FRF file, several files side by
+    side in worker processes (:mod:`ema_pipeline.pipeline.many`), printed in
+    their order.
 
     Inputs that are not readable files are reported before the readers and the
     identification chain are imported, so a mistyped name fails right away."""
@@ -248,7 +250,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
             print(f"ema-pipeline identify: error: {exc}", file=sys.stderr)
     if not readable:
         return EXIT_USAGE
-    from ema_pipeline.pipeline.single import identify_file
+    from ema_pipeline.pipeline.many import FileJob, identify_files
     from ema_pipeline.report.wording import plural
 
     options = _identify_options(args)
@@ -259,28 +261,22 @@ def cmd_identify(args: argparse.Namespace) -> int:
         from ema_pipeline import io
 
         picks = io.read_picks(args.picks)
+    job = FileJob(args.out, options, report=args.report, figures=not args.no_figures,
+                  uff=args.uff, picks=picks, geometry=geometry)
     failed, runtime = len(args.files) - len(readable), 0
-    for path in readable:
-        outcome = identify_file(path, args.out, options, keep=args.report, uff=args.uff,
-                                picks=picks)
+    for outcome, page in identify_files(readable, job):
         if outcome.status == "failed":
             failed += 1
             runtime += outcome.runtime
             print(f"ema-pipeline identify: error: {outcome.reason}", file=sys.stderr)
             continue
-        page = None
-        if args.report:
-            from ema_pipeline.pipeline.reports import write_identify_report
-
-            page = write_identify_report(outcome, args.out, options, figures=not args.no_figures,
-                                         geometry=geometry)
         for warning in outcome.warnings:  # shown even with --quiet
             print(f"ema-pipeline identify: warning: {warning}", file=sys.stderr)
         if not args.quiet:
             freqs = ", ".join(f"{f:.3f}" for f in outcome.fn_hz)
             print(
-                f"{path}: {plural(outcome.n_modes, 'mode')} [{freqs}] Hz -> {outcome.modes_csv} "
-                + (f"and {page} " if page else "")
+                f"{outcome.path}: {plural(outcome.n_modes, 'mode')} [{freqs}] Hz -> "
+                f"{outcome.modes_csv} " + (f"and {page} " if page else "")
                 + f"({outcome.seconds:.1f} s)"
             )
             print(f"  model: {outcome.model}")

@@ -1,0 +1,96 @@
+"""Several FRF files of one ``identify`` command, identified side by side in
+worker processes, with the results given back in the order of the files.
+
+Each file is independent (its own outputs, its own identification), so the
+outputs are those of a serial run, byte for byte; only the wall time changes.
+Workers are forked from the command's process, which has imported the
+identification chain and opened no file by then (a fork costs milliseconds,
+a fresh interpreter 2-3 s of imports), and inherit its one BLAS thread
+(:mod:`ema_pipeline.threads`). ``$EMA_PIPELINE_WORKERS=1`` runs the files in
+the process itself.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures as cf
+import multiprocessing
+import signal
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from ema_pipeline.data import ConfigError, Geometry
+from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.picks import Picks
+from ema_pipeline.pipeline.reports import write_identify_report
+from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
+from ema_pipeline.threads import worker_count
+
+__all__ = ["FileJob", "identify_files"]
+
+
+@dataclass(frozen=True)
+class FileJob:
+    """What ``identify`` does with each file: identification options, and
+    which outputs beside ``<stem>_modes.csv`` and ``<stem>_result.h5``."""
+
+    out_dir: Path
+    options: IdentificationOptions
+    report: bool = False  # <stem>_report.html
+    figures: bool = True  # the report's figures
+    uff: bool = False  # <stem>_modes.uff
+    picks: Picks | None = None
+    geometry: Geometry | None = None
+
+
+def identify_one(path: Path, job: FileJob) -> tuple[FileOutcome, Path | None]:
+    """One file: identified, its outputs written, its report page when asked.
+
+    Returns the outcome without the FRFs and the result (what the caller
+    prints) and the report page (``None`` without one)."""
+    outcome = identify_file(path, job.out_dir, job.options, keep=job.report, uff=job.uff,
+                            picks=job.picks)
+    page = None
+    if job.report and outcome.status != "failed":
+        page = write_identify_report(outcome, job.out_dir, job.options, figures=job.figures,
+                                     geometry=job.geometry)
+    return replace(outcome, frf=None, result=None), page
+
+
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the pool
+
+
+def identify_files(
+    paths: list[Path], job: FileJob, workers: int | None = None,
+) -> Iterator[tuple[FileOutcome, Path | None]]:
+    """:func:`identify_one` for each file, in ``workers`` processes (default
+    :func:`ema_pipeline.threads.worker_count`), yielded in the files' order.
+
+    Raises
+    ------
+    ConfigError
+        Two files whose outputs would overwrite each other (the same stem).
+    """
+    by_output: dict[Path, Path] = {}
+    for path in paths:
+        key = output_paths(Path(path), job.out_dir)[0].resolve()
+        if key in by_output:
+            raise ConfigError(f"{by_output[key]} and {path} would write the same outputs "
+                              f"({key.name}); identify them into different --out folders")
+        by_output[key] = Path(path)
+    n = worker_count(len(paths), workers)
+    if n == 1 or "fork" not in multiprocessing.get_all_start_methods():
+        for path in paths:
+            yield identify_one(path, job)
+        return
+    context = multiprocessing.get_context("fork")
+    with cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
+                                initializer=_ignore_sigint) as pool:
+        futures = [pool.submit(identify_one, path, job) for path in paths]
+        try:
+            for future in futures:
+                yield future.result()
+        finally:  # an error or Ctrl-C in the parent: no file starts after it
+            for future in futures:
+                future.cancel()
