@@ -38,9 +38,38 @@ def source_prefix(frf: FRFSet) -> str:
     return f"{frf.source.path}: " if frf.source.path else ""
 
 
+def usable_top_hz(frf: FRFSet) -> float | None:
+    """The top of the hammer's usable band: the last line at or below the
+    force spectrum's -20 dB point (``frf.acquisition.force_band_hz[1]``, FRFs
+    made by ``ema-pipeline frf``), where that lies inside the axis and leaves
+    :data:`~ema_pipeline.data.MIN_FRF_LINES` lines above the default band's
+    start; else ``None`` (the whole axis is used).
+
+    Examples
+    --------
+    >>> from dataclasses import replace
+    >>> from ema_pipeline.data import AcquisitionInfo
+    >>> frf = FRFSet(freq_hz=np.arange(0.0, 100.0), H=np.ones(100, complex))
+    >>> usable_top_hz(frf) is None
+    True
+    >>> usable_top_hz(replace(frf, acquisition=AcquisitionInfo(force_band_hz=(30.0, 60.5))))
+    60.0
+    """
+    band = frf.acquisition.force_band_hz
+    f = frf.freq_hz
+    if band is None or not np.isfinite(band[1]) or band[1] >= f[-1]:
+        return None
+    below = np.flatnonzero(f <= band[1] * (1 + 1e-12))
+    if below.size == 0 or below[-1] - min(5, f.size - 2) + 1 < MIN_FRF_LINES:
+        return None
+    return float(f[below[-1]])
+
+
 def resolve_band(frf: FRFSet, band_hz: tuple[float, float] | None) -> tuple[float, float]:
     """The band (lo, hi) in Hz: ``band_hz`` checked against the axis, or by default
-    from the 6th line (skipping 0 Hz and the first lines) to the last line.
+    from the 6th line (skipping 0 Hz and the first lines) to the last line, or
+    to the hammer's usable band (:func:`usable_top_hz`) for FRFs that carry one:
+    past the force's -20 dB point the FRFs are mostly noise.
 
     Examples
     --------
@@ -50,7 +79,8 @@ def resolve_band(frf: FRFSet, band_hz: tuple[float, float] | None) -> tuple[floa
     """
     f = frf.freq_hz
     if band_hz is None:
-        return float(f[min(5, f.size - 2)]), float(f[-1])
+        top = usable_top_hz(frf)
+        return float(f[min(5, f.size - 2)]), float(f[-1]) if top is None else top
     lo, hi = (float(b) for b in band_hz)
     if not (np.isfinite(lo) and np.isfinite(hi)) or not lo < hi:
         raise DataError(f"band {band_hz} Hz is not an interval lo < hi")
@@ -59,6 +89,20 @@ def resolve_band(frf: FRFSet, band_hz: tuple[float, float] | None) -> tuple[floa
             f"band [{lo:g}, {hi:g}] Hz lies outside the frequency axis [{f[0]:g}, {f[-1]:g}] Hz"
         )
     return lo, hi
+
+
+def ends_at_usable_top(frf: FRFSet, band_hz: tuple[float, float]) -> bool:
+    """Whether the identified band ``band_hz`` ends at the hammer's usable band
+    (:func:`usable_top_hz`), as the default band of FRFs from ``frf`` does.
+
+    Examples
+    --------
+    >>> frf = FRFSet(freq_hz=np.arange(0.0, 100.0), H=np.ones(100, complex))
+    >>> ends_at_usable_top(frf, (5.0, 99.0))
+    False
+    """
+    top = usable_top_hz(frf)
+    return top is not None and abs(band_hz[1] - top) <= 1e-9 * top
 
 
 def check_band_data(sub: FRFSet, max_order: int, where: str) -> None:

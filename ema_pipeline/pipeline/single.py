@@ -25,6 +25,7 @@ from ema_pipeline.identification import (
     identify,
     modes_table,
 )
+from ema_pipeline.identification.common import ends_at_usable_top
 from ema_pipeline.identification.expect import (
     match_expected,
     not_found_message,
@@ -216,7 +217,8 @@ def identify_file(
         outcome.fit_frac = float(np.mean(result.frac))
         outcome.fit_error = float(np.mean(result.error))
         st = result.settings
-        outcome.model = model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual)
+        outcome.model = model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual,
+                                   to_usable_top=ends_at_usable_top(frf, st.band_hz))
         outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
         if keep:
             outcome.frf, outcome.result = frf, result

@@ -15,6 +15,7 @@ import pandas as pd
 
 from ema_pipeline.added_mass.modal import pair_modes as pair_configurations
 from ema_pipeline.data import FRFSet, Geometry
+from ema_pipeline.identification.common import ends_at_usable_top
 from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.report import figures as figs
 from ema_pipeline.report.htmlparts import (
@@ -339,7 +340,8 @@ def render_identify_html(
                  "model"],
             "value": [frf.source.path, frf.configuration, str(m.n_modes),
                       ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)), fit_verdict(error),
-                      model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual)],
+                      model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual,
+                                 to_usable_top=ends_at_usable_top(frf, st.band_hz))],
         }
     )
     up = (f'<p><a class="batch-page" href="{esc(batch_page)}">Back to the batch report</a>'

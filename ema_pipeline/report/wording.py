@@ -104,12 +104,15 @@ def fit_verdict(error: float, limits: FitLimits = FIT_LIMITS) -> str:
 
 
 def model_text(band_hz: tuple[float, float], orders: Sequence[int] | np.ndarray,
-               lower_residual: bool, upper_residual: bool) -> str:
+               lower_residual: bool, upper_residual: bool, *,
+               to_usable_top: bool = False) -> str:
     """The model an identification fitted, in words: its band, the orders of its
     stabilization diagram and its residual terms
     (:class:`~ema_pipeline.identification.result.ResolvedSettings`). The band
     changes the model (the adaptive order search stops at another order in
-    another band), and this says so beside the modes.
+    another band), and this says so beside the modes. ``to_usable_top``: the
+    band ends where the force spectrum is 20 dB down (the default band of
+    FRFs made from hammer recordings), and the text says so.
 
     Examples
     --------
@@ -117,6 +120,8 @@ def model_text(band_hz: tuple[float, float], orders: Sequence[int] | np.ndarray,
     'band 5-400 Hz, diagram orders 2-98, lower and upper residual terms'
     >>> model_text((0.6103515625, 1000.0), [40], False, True)
     'band 0.6104-1000 Hz, diagram order 40, upper residual term'
+    >>> model_text((10.0, 7000.0), [2, 64], False, False, to_usable_top=True)
+    "band 10-7000 Hz (up to the force's -20 dB point), diagram orders 2-64, no residual terms"
     """
     lo, hi = (float(x) for x in band_hz)
     o = [int(x) for x in orders]
@@ -125,4 +130,5 @@ def model_text(band_hz: tuple[float, float], orders: Sequence[int] | np.ndarray,
     terms = [name for name, on in (("lower", lower_residual), ("upper", upper_residual)) if on]
     residual = (f", {' and '.join(terms)} residual term{'s' if len(terms) > 1 else ''}"
                 if terms else ", no residual terms")
-    return f"band {lo:.4g}-{hi:.4g} Hz{span}{residual}"
+    usable = " (up to the force's -20 dB point)" if to_usable_top else ""
+    return f"band {lo:.4g}-{hi:.4g} Hz{usable}{span}{residual}"
