@@ -40,6 +40,10 @@ tqdm.tqdm.monitor_interval = 0
 REPO = Path(__file__).resolve().parents[1]
 SHARED_DATA = REPO.parent / "shared" / "data"
 REAL_UFF = SHARED_DATA / "ufsc-beam-hammer.uff"
+#: pyFRF's showcase recording (five hits, LGPL-3.0; ../shared/data/README.md).
+PYFRF_UFF = SHARED_DATA / "pyfrf-impact.uff"
+#: Three of pyuff's public test files, with pyuff's MIT licence.
+PYUFF_DIR = SHARED_DATA / "pyuff"
 
 
 @pytest.fixture(scope="session")
@@ -48,6 +52,22 @@ def real_uff() -> Path:
     if not REAL_UFF.is_file():
         pytest.skip(f"measured data not available at {REAL_UFF}")
     return REAL_UFF
+
+
+@pytest.fixture(scope="session")
+def pyfrf_uff() -> Path:
+    """pyFRF's real five-hit recording in ../shared/data (skipped where absent)."""
+    if not PYFRF_UFF.is_file():
+        pytest.skip(f"pyFRF's recording not available at {PYFRF_UFF}")
+    return PYFRF_UFF
+
+
+@pytest.fixture(scope="session")
+def pyuff_dir() -> Path:
+    """The folder of pyuff's test files in ../shared/data (skipped where absent)."""
+    if not PYUFF_DIR.is_dir():
+        pytest.skip(f"pyuff's test files not available at {PYUFF_DIR}")
+    return PYUFF_DIR
 
 
 @pytest.fixture(scope="session")

@@ -1,6 +1,7 @@
 """Issue 26 on a real impact recording: pyFRF's showcase measurements (five hits on a
-24-bit DAQ at 25.6 kHz, 1 s records; ``examples/pyfrf-impact.uff``, provenance in
-``examples/make_pyfrf_example.py``).
+24-bit DAQ at 25.6 kHz, 1 s records; ``../shared/data/pyfrf-impact.uff`` beside the
+repository, provenance and LGPL-3.0 licence in ``../shared/data/README.md``). Every test
+is skipped, naming the file, where it is absent.
 
 The truth here is independent of the package: the records are read with pyuff, the
 windows written out below, the textbook H1 = sum conj(F) X / sum |F|^2 computed with
@@ -13,24 +14,22 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from conftest import REPO
 
 from ema_pipeline.cli import main
 from ema_pipeline.io.recording import read_recording
 from ema_pipeline.pipeline.frf import FRFSettings, frf_from_files
 
-EXAMPLE = REPO / "examples" / "pyfrf-impact.uff"
 FS = 25600.0
 #: Force peaks (N) of the five hits in the original float64 arrays (max of row 1).
 PEAKS_N = np.array([68.6402148, 83.6667928, 85.4136761, 88.8822150, 76.4844159])
 
 
 @pytest.fixture(scope="module")
-def raw() -> tuple[np.ndarray, np.ndarray]:
+def raw(pyfrf_uff: Path) -> tuple[np.ndarray, np.ndarray]:
     """(force, acceleration), each (5, 25600), read with pyuff, by load case."""
     import pyuff
 
-    sets = pyuff.UFF(str(EXAMPLE)).read_sets()
+    sets = pyuff.UFF(str(pyfrf_uff)).read_sets()
     force = np.zeros((5, 25600))
     acc = np.zeros((5, 25600))
     for s in sets:
@@ -58,8 +57,8 @@ def windows(n: int, pretrigger_s: float, force_window_s: float | None, tau_s: fl
     return w_f * w_exp, w_exp
 
 
-def test_read_recording_reads_the_five_records(raw):
-    rec = read_recording(EXAMPLE)
+def test_read_recording_reads_the_five_records(pyfrf_uff, raw):
+    rec = read_recording(pyfrf_uff)
     assert rec.sample_rate_hz == FS
     assert rec.segment_starts == (0, 25600, 51200, 76800, 102400)
     assert [c.quantity for c in rec.channels] == ["force", "acceleration"]
@@ -67,8 +66,8 @@ def test_read_recording_reads_the_five_records(raw):
     np.testing.assert_array_equal(rec.signals[1].reshape(5, -1), raw[1])
 
 
-def test_frf_finds_the_five_hits(tmp_path):
-    assert main(["frf", str(EXAMPLE), "--out", str(tmp_path / "real.h5"), "--quiet"]) == 0
+def test_frf_finds_the_five_hits(tmp_path, pyfrf_uff):
+    assert main(["frf", str(pyfrf_uff), "--out", str(tmp_path / "real.h5"), "--quiet"]) == 0
     table = np.genfromtxt(tmp_path / "real_hits.csv", delimiter=",", names=True, dtype=None,
                           encoding="utf-8")
     assert table["hit"].tolist() == [1, 2, 3, 4, 5]
@@ -84,11 +83,11 @@ def test_frf_finds_the_five_hits(tmp_path):
     FRFSettings(force_window_s=0.02, exp_window_tau=0.08),
     FRFSettings(force_window_s=0.0, exp_window_tau=0.2, pretrigger_s=0.0),
 ], ids=["default", "windows", "exp_only"])
-def test_our_h1_is_the_textbook_h1(tmp_path, raw, settings):
+def test_our_h1_is_the_textbook_h1(tmp_path, pyfrf_uff, raw, settings):
     """On the same cut records (the first n samples of each 1 s record: pre-cut records
     are kept from their start, n the longest power of two they hold) with the same
     windows, to 1e-6 relative."""
-    out = frf_from_files([EXAMPLE], tmp_path / "real.h5", settings)
+    out = frf_from_files([pyfrf_uff], tmp_path / "real.h5", settings)
     n = out.n_samples
     assert n == 16384 and out.n_accepted == 5
     pre = out.records.trigger_s
@@ -99,13 +98,13 @@ def test_our_h1_is_the_textbook_h1(tmp_path, raw, settings):
     np.testing.assert_allclose(ours, h1, rtol=1e-6, atol=1e-9 * scale.max())
 
 
-def test_our_h1_agrees_with_pyfrf(tmp_path, raw):
+def test_our_h1_agrees_with_pyfrf(tmp_path, pyfrf_uff, raw):
     """pyFRF (exponential windows on force and response, no force window; it removes
     each record's mean, which changes the DC line only) on the same cut records: equal
     to 1e-6 relative on every line above DC where our coherence exceeds 0.9."""
     pyFRF = pytest.importorskip("pyFRF")
     tau = 0.2
-    out = frf_from_files([EXAMPLE], tmp_path / "real.h5",
+    out = frf_from_files([pyfrf_uff], tmp_path / "real.h5",
                          FRFSettings(force_window_s=0.0, exp_window_tau=tau))
     n = out.n_samples
     end = float(np.exp(-(n - 1) / FS / tau))  # exponential:END: END at the last sample
@@ -121,5 +120,7 @@ def test_our_h1_agrees_with_pyfrf(tmp_path, raw):
     np.testing.assert_allclose(out.frf.freq_hz, frf.get_f_axis(), rtol=1e-12)
 
 
-def test_example_is_small():
-    assert Path(EXAMPLE).stat().st_size < 1.5e6
+def test_example_is_small(pyfrf_uff):
+    """The recording is the float32 one of ../shared/data/README.md (10 records of
+    25600 values, 4 bytes each, plus headers); a float64 copy would be 2 MB."""
+    assert pyfrf_uff.stat().st_size < 1.5e6

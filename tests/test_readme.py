@@ -16,8 +16,8 @@ Convention, in README.md and the docs pages: an HTML comment on the line before 
 * ``<!-- readme-test: reduce 'OLD' 'NEW' REASON -->`` runs the block with the
   text OLD replaced by NEW (smaller arguments for a block that runs long).
 
-The reason must be given. Blocks that need ``../shared/data`` are skipped where
-it is absent.
+The reason must be given. Blocks that need files of ``../shared/data`` are
+skipped, naming them, where they are absent.
 """
 
 from __future__ import annotations
@@ -106,8 +106,10 @@ def test_readme_block_runs(lang, body, directive, line, sandbox, monkeypatch):
     if directive.startswith("reduce"):
         _, old, new, *_reason = shlex.split(directive)
         body = body.replace(old, new)
-    if "../shared" in body and not SHARED.is_dir():
-        pytest.skip(f"{line} needs {SHARED}")
+    needed = sorted({m.rstrip(".") for m in re.findall(r"\.\./shared[\w./-]*", body)})
+    missing = [name for name in needed if not (REPO / name).exists()]
+    if missing:
+        pytest.skip(f"{line} needs {', '.join(missing)} beside the repository (absent here)")
     monkeypatch.chdir(sandbox)
     scratch = sandbox.parent / "scratch"
     if lang == "python":

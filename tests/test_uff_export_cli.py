@@ -19,7 +19,6 @@ from ema_pipeline import io
 from ema_pipeline.cli import main
 
 REPO = Path(__file__).resolve().parents[1]
-DATA = Path(__file__).resolve().parent / "data"
 
 
 def _modes_55(path: Path) -> list[dict]:
@@ -72,9 +71,10 @@ def test_run_uff_carries_the_beam_geometry(example_study_uff_no_figures: Path) -
                                    rtol=1e-5)
 
 
-def test_verbose_names_skipped_datasets(tmp_path: Path,
-                                        capsys: pytest.CaptureFixture[str]) -> None:
-    path = DATA / "pyuff" / "testlab_164_18_15_82.uff"
+def test_verbose_names_skipped_datasets(tmp_path: Path, capsys: pytest.CaptureFixture[str],
+                                        pyuff_dir: Path) -> None:
+    """On pyuff's Testlab export (``../shared/data/pyuff``; skipped where absent)."""
+    path = pyuff_dir / "testlab_164_18_15_82.uff"
     assert main(["identify", str(path), "--out", str(tmp_path), "--verbose", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "skipped datasets not needed for FRFs: 18\n" in err  # 15, 82: the geometry reader's

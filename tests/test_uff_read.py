@@ -1,6 +1,7 @@
 """UFF reading: the variants real writers produce (files in tests/data/uff, made by
 tests/data/make_uff_test_files.py) and a few of pyuff's public test files
-(tests/data/pyuff, MIT licence beside them). Every test checks values read."""
+(``../shared/data/pyuff`` beside the repository, MIT licence there; those tests are
+skipped, naming the folder, where it is absent). Every test checks values read."""
 
 from __future__ import annotations
 
@@ -18,7 +19,6 @@ from ema_pipeline.data import DOF, DataError, EMAError
 
 DATA = Path(__file__).parent / "data"
 UFF = DATA / "uff"
-PYUFF = DATA / "pyuff"
 IN_LBF = 0.0254 / 4.4482216152605  # (in/s^2)/lbf in (m/s^2)/N
 
 _spec = importlib.util.spec_from_file_location("make_uff", DATA / "make_uff_test_files.py")
@@ -217,9 +217,9 @@ def test_truncated_binary_record(tmp_path):
 # ---------------------------------------------------------------- pyuff's test data
 
 
-def test_pyuff_non_ascii_header_latin1_units():
+def test_pyuff_non_ascii_header_latin1_units(pyuff_dir: Path):
     """'(1/N)*(m/s²)' with a Latin-1 superscript two; pyuff reads the same values."""
-    path = PYUFF / "non_ascii_header.uff"
+    path = pyuff_dir / "non_ascii_header.uff"
     frf = io.read_frf(path)
     ref = pyuff.UFF(str(path)).read_sets(0)
     assert frf.quantity == "accelerance" and frf.H.shape == (1, 1, 6)
@@ -227,8 +227,8 @@ def test_pyuff_non_ascii_header_latin1_units():
     np.testing.assert_allclose(frf.freq_hz, ref["x"], rtol=1e-12)
 
 
-def test_pyuff_binary_8_byte_time_record():
-    path = PYUFF / "binary8byte.uff"
+def test_pyuff_binary_8_byte_time_record(pyuff_dir: Path):
+    path = pyuff_dir / "binary8byte.uff"
     rec = io.read_uff(path).records[0]
     ref = pyuff.UFF(str(path)).read_sets(0)
     assert rec.binary and rec.func_type == 1 and rec.n_values == 250
@@ -237,8 +237,8 @@ def test_pyuff_binary_8_byte_time_record():
         io.read_frf(path)
 
 
-def test_pyuff_testlab_project_without_functions():
-    path = PYUFF / "testlab_164_18_15_82.uff"
+def test_pyuff_testlab_project_without_functions(pyuff_dir: Path):
+    path = pyuff_dir / "testlab_164_18_15_82.uff"
     contents = io.read_uff(path)
     assert contents.records == [] and contents.skipped == {18: 1}  # 15, 82: geometry
     assert contents.unit_systems[0].code == 9  # user defined, factors 1
