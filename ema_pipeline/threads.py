@@ -25,9 +25,13 @@ environment variables cannot do once numpy is imported.
 
 from __future__ import annotations
 
+import concurrent.futures as cf
 import contextlib
+import multiprocessing
 import os
-from collections.abc import Callable, Iterator
+import signal
+import threading
+from collections.abc import Callable, Iterable, Iterator
 from functools import wraps
 from typing import ParamSpec, TypeVar
 
@@ -39,7 +43,10 @@ __all__ = [
     "WORKERS_ENV",
     "available_cores",
     "blas_threads",
+    "can_fork",
+    "init_worker_process",
     "owned_blas_threads",
+    "process_map",
     "single_blas_thread",
     "worker_count",
 ]
@@ -64,6 +71,10 @@ THREAD_VARIABLES = (
 
 P = ParamSpec("P")
 R = TypeVar("R")
+T = TypeVar("T")
+
+#: ``map_(func, items)``: ``[func(item) for item in items]``, maybe in worker processes.
+Mapper = Callable[[Callable[[T], R], Iterable[T]], list[R]]
 
 
 def _positive_int(name: str, text: str) -> int:
@@ -164,3 +175,53 @@ def thread_environment() -> dict[str, str]:
     :data:`THREAD_VARIABLES` at :func:`blas_threads` (none for ``auto``)."""
     n = blas_threads()
     return {} if n is None else {name: str(n) for name in THREAD_VARIABLES}
+
+
+def _serial_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
+    return [func(item) for item in items]
+
+
+def init_worker_process() -> None:
+    """A worker process: SIGINT is the parent's business, and it starts no
+    workers of its own (one level of processes, never cores x cores)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    os.environ[WORKERS_ENV] = "1"
+
+
+def can_fork() -> bool:
+    """Whether worker processes may be forked from this process: the
+    platform forks, and this process runs no other thread (a fork copies a
+    lock another thread holds, locked forever)."""
+    return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
+
+
+@contextlib.contextmanager
+def process_map(n_tasks: int, workers: int | None = None) -> Iterator[Mapper]:
+    """A map over worker processes forked from this one, for ``n_tasks``
+    independent pieces of work (:func:`worker_count` processes): the block
+    gets ``map_(func, items)``, which returns ``[func(item) for item in
+    items]`` in the items' order, the same numbers as a serial loop (each
+    worker has one BLAS thread, as this process). Serial in this process
+    with one worker, or where it cannot fork (:func:`can_fork`). ``func``
+    and the items travel to the workers by reference to module-level
+    functions and as copies of their data (a forked worker already has the
+    code).
+
+    Examples
+    --------
+    >>> with process_map(3, workers=1) as map_:
+    ...     map_(abs, [-1, 2, -3])
+    [1, 2, 3]
+    """
+    n = worker_count(n_tasks, workers)
+    if n == 1 or not can_fork():
+        yield _serial_map
+        return
+    context = multiprocessing.get_context("fork")
+    with cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
+                                initializer=init_worker_process) as pool:
+
+        def map_(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
+            return list(pool.map(func, items))
+
+        yield map_

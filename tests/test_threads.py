@@ -142,3 +142,44 @@ def test_identify_several_files_in_workers_equals_serial(monkeypatch, tmp_path, 
         runs[workers] = ([line.replace(str(out), "OUT") for line in lines], tables)
     assert len(runs["1"][1]) == 3
     assert runs["1"] == runs["2"]
+
+
+def test_window_searches_in_workers_give_the_serial_numbers(monkeypatch):
+    """A noisy twelve-mode FRF, whose dense band is searched again in windows:
+    the windows' searches in two worker processes give exactly the numbers of
+    the serial loop (each window's search is the same arithmetic on one BLAS
+    thread), and they did run in a pool."""
+    from ema_pipeline import threads
+    from ema_pipeline.acquisition import modal_frf
+
+    if not threads.can_fork():
+        pytest.skip("this process cannot fork workers (another thread is running)")
+    twelve = ModalParameters(fn_hz=[40.0, 85.0, 130.0, 180.0, 225.0, 270.0, 330.0, 380.0,
+                                    430.0, 490.0, 545.0, 610.0], zeta=[0.01] * 12)
+    f = np.linspace(0.0, 800.0, 2049)
+    rng = np.random.default_rng(5)
+    phi = rng.standard_normal((3, 12))
+    H = modal_frf(f, twelve, phi, phi[:1], quantity="receptance")
+    H = H + 0.002 * np.std(H) * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+    frf = FRFSet(freq_hz=f, H=H, quantity="receptance")
+    pools = []
+
+    class Counted(threads.cf.ProcessPoolExecutor):
+        def __init__(self, *args, **kwargs):
+            pools.append(kwargs.get("max_workers"))
+            super().__init__(*args, **kwargs)
+
+    monkeypatch.setattr(threads.cf, "ProcessPoolExecutor", Counted)
+    results = {}
+    for workers in ("1", "2"):
+        monkeypatch.setenv(WORKERS_ENV, workers)
+        results[workers] = identify(frf)
+    assert pools == [2]  # the windows' pool, with two workers
+    a, b = results["1"], results["2"]
+    assert a.fn_hz.size == 12
+    np.testing.assert_allclose(np.sort(a.fn_hz), twelve.fn_hz, rtol=2e-3)
+    for name in ("fn_hz", "zeta", "fn_std_hz", "zeta_std"):
+        np.testing.assert_array_equal(getattr(a.modes, name), getattr(b.modes, name),
+                                      err_msg=name)
+    np.testing.assert_array_equal(a.band_support, b.band_support)
+    assert a.band_support[:, 0].max() >= 2  # the windows held modes

@@ -46,6 +46,7 @@ of ten it does. The added candidates pass the same tests as all others.
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import partial
 
 import numpy as np
 
@@ -64,6 +65,7 @@ from ema_pipeline.identification.selection import (
 from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, poles_overlap
+from ema_pipeline.threads import process_map
 
 
 def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarray:
@@ -437,8 +439,13 @@ def add_window_modes(
     >>> add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60)).pole.size
     0
     """
-    for window in mode_windows(pole_fd_hz(sel.pole), band, search.thresholds):
-        wsel = search_window(search, freq, Hn, window)
+    windows = mode_windows(pole_fd_hz(sel.pole), band, search.thresholds)
+    # the windows' searches are independent: side by side in worker processes
+    # (ema_pipeline.threads.process_map), folded in in the windows' order as a
+    # serial loop would
+    with process_map(len(windows)) as map_:
+        found = map_(partial(search_window, search, freq, Hn), windows)
+    for window, wsel in zip(windows, found, strict=True):
         if searched is not None:
             searched.append((window, wsel, covered_candidates(sel, wsel)))
         sel = add_uncovered(sel, wsel)

@@ -6,15 +6,15 @@ outputs are those of a serial run, byte for byte; only the wall time changes.
 Workers are forked from the command's process, which has imported the
 identification chain and opened no file by then (a fork costs milliseconds,
 a fresh interpreter 2-3 s of imports), and inherit its one BLAS thread
-(:mod:`ema_pipeline.threads`). ``$EMA_PIPELINE_WORKERS=1`` runs the files in
-the process itself.
+(:mod:`ema_pipeline.threads`); a worker starts no workers of its own (the
+windows of a dense band are searched in the process that has the file).
+``$EMA_PIPELINE_WORKERS=1`` runs the files in the process itself.
 """
 
 from __future__ import annotations
 
 import concurrent.futures as cf
 import multiprocessing
-import signal
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -24,7 +24,7 @@ from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.picks import Picks
 from ema_pipeline.pipeline.reports import write_identify_report
 from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
-from ema_pipeline.threads import worker_count
+from ema_pipeline.threads import can_fork, init_worker_process, worker_count
 
 __all__ = ["FileJob", "identify_files"]
 
@@ -57,10 +57,6 @@ def identify_one(path: Path, job: FileJob) -> tuple[FileOutcome, Path | None]:
     return replace(outcome, frf=None, result=None), page
 
 
-def _ignore_sigint() -> None:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the pool
-
-
 def identify_files(
     paths: list[Path], job: FileJob, workers: int | None = None,
 ) -> Iterator[tuple[FileOutcome, Path | None]]:
@@ -80,13 +76,13 @@ def identify_files(
                               f"({key.name}); identify them into different --out folders")
         by_output[key] = Path(path)
     n = worker_count(len(paths), workers)
-    if n == 1 or "fork" not in multiprocessing.get_all_start_methods():
+    if n == 1 or not can_fork():
         for path in paths:
             yield identify_one(path, job)
         return
     context = multiprocessing.get_context("fork")
     with cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
-                                initializer=_ignore_sigint) as pool:
+                                initializer=init_worker_process) as pool:
         futures = [pool.submit(identify_one, path, job) for path in paths]
         try:
             for future in futures:

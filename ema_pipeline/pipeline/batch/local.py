@@ -30,7 +30,12 @@ from collections.abc import Callable, Iterator
 from ema_pipeline.io import FORK_SAFE_THREAD_NAME, pid_alive
 from ema_pipeline.pipeline.batch.tasks import FileRecord, FileTask, process_file
 from ema_pipeline.pipeline.logs import verbose_logging
-from ema_pipeline.threads import available_cores, thread_environment, worker_count
+from ema_pipeline.threads import (
+    WORKERS_ENV,
+    available_cores,
+    thread_environment,
+    worker_count,
+)
 
 __all__ = ["PRELOAD", "LocalBackend", "default_workers"]
 
@@ -122,7 +127,9 @@ class LocalBackend:
             max_workers=self.concurrency,
             mp_context=_worker_context(),
             initializer=_init_worker,
-            initargs=(os.getpid(), dict(os.environ), logging.getLogger("ema_pipeline").level),
+            # one level of processes: a worker searches a file's windows itself
+            initargs=(os.getpid(), {**os.environ, WORKERS_ENV: "1"},
+                      logging.getLogger("ema_pipeline").level),
         )
 
     def submit(self, task: FileTask) -> cf.Future[FileRecord]:
