@@ -33,7 +33,7 @@ import signal
 import threading
 from collections.abc import Callable, Iterable, Iterator
 from functools import wraps
-from typing import ParamSpec, TypeVar
+from typing import ParamSpec, Protocol, TypeVar
 
 from ema_pipeline.data import ConfigError
 
@@ -46,7 +46,10 @@ __all__ = [
     "can_fork",
     "init_worker_process",
     "owned_blas_threads",
+    "Mapper",
+    "SerialMap",
     "process_map",
+    "split",
     "single_blas_thread",
     "worker_count",
 ]
@@ -73,8 +76,16 @@ P = ParamSpec("P")
 R = TypeVar("R")
 T = TypeVar("T")
 
-#: ``map_(func, items)``: ``[func(item) for item in items]``, maybe in worker processes.
-Mapper = Callable[[Callable[[T], R], Iterable[T]], list[R]]
+
+
+class Mapper(Protocol):
+    """``map_(func, items)``: ``[func(item) for item in items]``, maybe in
+    ``map_.workers`` worker processes (callers split their work in that
+    many pieces)."""
+
+    workers: int
+
+    def __call__(self, func: Callable[[T], R], items: Iterable[T]) -> list[R]: ...
 
 
 def _positive_int(name: str, text: str) -> int:
@@ -177,10 +188,6 @@ def thread_environment() -> dict[str, str]:
     return {} if n is None else {name: str(n) for name in THREAD_VARIABLES}
 
 
-def _serial_map(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
-    return [func(item) for item in items]
-
-
 def init_worker_process() -> None:
     """A worker process: SIGINT is the parent's business, and it starts no
     workers of its own (one level of processes, never cores x cores)."""
@@ -195,17 +202,41 @@ def can_fork() -> bool:
     return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
 
 
+class _LazyPool:
+    """The :class:`Mapper` of :func:`process_map`: forks its workers at the
+    first map of two or more items (a file with little work forks none)."""
+
+    def __init__(self, workers: int) -> None:
+        self.workers = workers
+        self.pool: cf.ProcessPoolExecutor | None = None
+
+    def __call__(self, func: Callable[[T], R], items: Iterable[T]) -> list[R]:
+        items = list(items)
+        if len(items) < 2:
+            return [func(item) for item in items]
+        if self.pool is None:
+            self.pool = cf.ProcessPoolExecutor(max_workers=self.workers,
+                                               mp_context=multiprocessing.get_context("fork"),
+                                               initializer=init_worker_process)
+        return list(self.pool.map(func, items))
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(wait=True, cancel_futures=True)
+
+
 @contextlib.contextmanager
 def process_map(n_tasks: int, workers: int | None = None) -> Iterator[Mapper]:
-    """A map over worker processes forked from this one, for ``n_tasks``
-    independent pieces of work (:func:`worker_count` processes): the block
-    gets ``map_(func, items)``, which returns ``[func(item) for item in
-    items]`` in the items' order, the same numbers as a serial loop (each
-    worker has one BLAS thread, as this process). Serial in this process
-    with one worker, or where it cannot fork (:func:`can_fork`). ``func``
-    and the items travel to the workers by reference to module-level
-    functions and as copies of their data (a forked worker already has the
-    code).
+    """A map over worker processes forked from this one, for up to
+    ``n_tasks`` independent pieces of work at a time (:func:`worker_count`
+    processes): the block gets ``map_(func, items)``, which returns
+    ``[func(item) for item in items]`` in the items' order, the same numbers
+    as a serial loop (each worker has one BLAS thread, as this process). The
+    workers are forked at the first map of two or more items and serve every
+    later map of the block. Serial in this process with one worker, or where
+    it cannot fork (:func:`can_fork`). ``func`` and the items travel to the
+    workers by reference to module-level functions and as copies of their
+    data (a forked worker already has the code).
 
     Examples
     --------
@@ -215,13 +246,38 @@ def process_map(n_tasks: int, workers: int | None = None) -> Iterator[Mapper]:
     """
     n = worker_count(n_tasks, workers)
     if n == 1 or not can_fork():
-        yield _serial_map
+        yield SerialMap()
         return
-    context = multiprocessing.get_context("fork")
-    with cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
-                                initializer=init_worker_process) as pool:
+    lazy = _LazyPool(n)
+    try:
+        yield lazy
+    finally:
+        lazy.close()
 
-        def map_(func: Callable[[T], R], items: Iterable[T]) -> list[R]:
-            return list(pool.map(func, items))
 
-        yield map_
+class SerialMap:
+    """The :class:`Mapper` of one process: ``[func(item) for item in items]``.
+
+    Examples
+    --------
+    >>> serial_map = SerialMap()
+    >>> serial_map(abs, [-1, 2]), serial_map.workers
+    ([1, 2], 1)
+    """
+
+    workers = 1
+
+    def __call__(self, func: Callable[[T], R], items: Iterable[T]) -> list[R]:
+        return [func(item) for item in items]
+
+
+def split(items: list[T], n: int) -> list[list[T]]:
+    """``items`` dealt round-robin into at most ``n`` non-empty lists (similar
+    shares of work where the items grow or shrink along the list).
+
+    Examples
+    --------
+    >>> split([1, 2, 3, 4, 5], 2)
+    [[1, 3, 5], [2, 4]]
+    """
+    return [items[k::n] for k in range(min(n, len(items)))]

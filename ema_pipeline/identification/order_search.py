@@ -65,7 +65,7 @@ from ema_pipeline.identification.selection import (
 from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, poles_overlap
-from ema_pipeline.threads import process_map
+from ema_pipeline.threads import Mapper, SerialMap
 
 
 def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarray:
@@ -148,6 +148,9 @@ class OrderSearch:
     expect: bool
     thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
     tolerances: tuple[float, float, float] | None = None
+    #: worker processes for the diagrams' eigenvalues and the windows'
+    #: searches (:func:`ema_pipeline.threads.process_map`; None: this process)
+    map_: Mapper | None = field(default=None, compare=False, repr=False)
 
     def run(
         self,
@@ -175,7 +178,8 @@ class OrderSearch:
         while True:
             orders = diagram_orders(p, n_in, th.diagram_orders)
             try:
-                poles = plscf(freq, Hn, max_order=p, orders=orders, weights=weights)
+                poles = plscf(freq, Hn, max_order=p, orders=orders, weights=weights,
+                              map_=self.map_)
             except (np.linalg.LinAlgError, DataError):
                 if best is None:
                     raise DataError(
@@ -440,11 +444,12 @@ def add_window_modes(
     0
     """
     windows = mode_windows(pole_fd_hz(sel.pole), band, search.thresholds)
-    # the windows' searches are independent: side by side in worker processes
-    # (ema_pipeline.threads.process_map), folded in in the windows' order as a
-    # serial loop would
-    with process_map(len(windows)) as map_:
-        found = map_(partial(search_window, search, freq, Hn), windows)
+    # the windows' searches are independent: side by side in the worker
+    # processes of search.map_, folded in in the windows' order as a serial
+    # loop would
+    local = replace(search, map_=None)  # a worker's search runs in the worker
+    map_ = search.map_ if search.map_ is not None else SerialMap()
+    found = map_(partial(search_window, local, freq, Hn), windows)
     for window, wsel in zip(windows, found, strict=True):
         if searched is not None:
             searched.append((window, wsel, covered_candidates(sel, wsel)))

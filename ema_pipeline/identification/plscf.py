@@ -43,12 +43,15 @@ participation vector ``l_r`` of pole ``z_r`` is the null vector of
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 from scipy import linalg
 
 from ema_pipeline.data import DataError
+from ema_pipeline.threads import Mapper, split
 
 
 @dataclass(frozen=True)
@@ -235,6 +238,26 @@ def companion_poles(alpha: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarra
     return z, lam
 
 
+#: The companion eigenvalues of a diagram go to worker processes when the sum
+#: of their sizes cubed reaches this (about 0.1 s of LAPACK; below it the
+#: processes' round trips cost more than they save).
+PARALLEL_MIN_SIZE3 = 2e7
+
+
+def _order_poles(alpha: np.ndarray, dt: float, f_top: float) -> tuple[np.ndarray, np.ndarray]:
+    """One order's poles below the band top ``f_top`` (Hz) and their participation vectors."""
+    z, lam = companion_poles(alpha, dt)
+    keep = np.isfinite(lam) & (lam.imag > 0) & (lam.imag < 2 * np.pi * f_top * 0.9999)
+    return lam[keep], participation_vectors(alpha, z[keep])
+
+
+def _orders_poles(
+    alphas: list[np.ndarray], solve: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
+) -> list[tuple[np.ndarray, np.ndarray]]:
+    """:func:`_order_poles` of several orders (one worker's share)."""
+    return [solve(alpha) for alpha in alphas]
+
+
 def participation_vectors(alpha: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Unit participation vectors l_r with l_r^T A(z_r) = 0 (null vector of A^T)."""
     n_in = alpha.shape[1]
@@ -254,6 +277,7 @@ def plscf(
     orders: np.ndarray | None = None,
     weights: np.ndarray | None = None,
     dt: float | None = None,
+    map_: Mapper | None = None,
 ) -> PoleSet:
     """pLSCF poles of every model order from one normal-matrix build.
 
@@ -265,6 +289,9 @@ def plscf(
     orders : orders to solve (default 1..p).
     weights : (n_freq,) or (n_out, n_freq) line weights, optional.
     dt : z-domain sampling time; default 1 / (2 * freq_hz[-1]) (band top).
+    map_ : a :class:`~ema_pipeline.threads.Mapper` of worker processes: the
+        companion eigenvalues of the orders, shared out among them when they
+        are worth it (:data:`PARALLEL_MIN_SIZE3`); the same numbers.
 
     Returns
     -------
@@ -277,15 +304,22 @@ def plscf(
     orders = np.arange(1, p + 1) if orders is None else np.asarray(orders, dtype=int)
     M = plscf_normal_matrix(freq_hz, H, p, dt, weights)
     alphas = plscf_denominators(M, n_in, orders)
-    f_top = freq_hz[-1]
+    solve = partial(_order_poles, dt=float(dt), f_top=float(freq_hz[-1]))
+    work = sum(float(a.shape[0] * n_in) ** 3 for a in alphas)
+    if map_ is None or map_.workers < 2 or work < PARALLEL_MIN_SIZE3:
+        per_order = [solve(alpha) for alpha in alphas]
+    else:  # round-robin shares of the orders, put back in their order
+        shares = split(list(range(len(alphas))), map_.workers)
+        solved = map_(partial(_orders_poles, solve=solve),
+                      [[alphas[i] for i in share] for share in shares])
+        by_index = {i: r for share, rs in zip(shares, solved, strict=True)
+                    for i, r in zip(share, rs, strict=True)}
+        per_order = [by_index[i] for i in range(len(alphas))]
     o_list, l_list, p_list = [], [], []
-    for n, alpha in zip(orders, alphas, strict=True):
-        z, lam = companion_poles(alpha, dt)
-        keep = np.isfinite(lam) & (lam.imag > 0) & (lam.imag < 2 * np.pi * f_top * 0.9999)
-        z, lam = z[keep], lam[keep]
+    for n, (lam, part) in zip(orders, per_order, strict=True):
         o_list.append(np.full(lam.size, n))
         l_list.append(lam)
-        p_list.append(participation_vectors(alpha, z))
+        p_list.append(part)
     return PoleSet(
         order=np.concatenate(o_list),
         pole=np.concatenate(l_list),

@@ -67,6 +67,7 @@ from ema_pipeline.identification.selection import (
 )
 from ema_pipeline.identification.stabilization import StabilizationData, stabilization
 from ema_pipeline.modal import poles_overlap
+from ema_pipeline.threads import Mapper, available_cores, process_map
 
 
 def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
@@ -75,8 +76,19 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     Called by :func:`ema_pipeline.identification.identify`, which checks the
     FRF set and the options first (band, order, coherence, ``expect_hz``
     sorted and inside the band) and applies ``options.exp_window_tau_s``;
-    call that, not this, with unchecked input.
+    call that, not this, with unchecked input. Independent work (the
+    companion eigenvalues of a large diagram, the searches of a dense band's
+    windows, the local fits of the modes) is shared out among worker
+    processes (:func:`ema_pipeline.threads.process_map`: the cores, or
+    ``$EMA_PIPELINE_WORKERS``); the numbers are those of one process.
     """
+    with process_map(available_cores()) as map_:
+        return identify_with(frf, options, map_)
+
+
+def identify_with(frf: FRFSet, options: IdentificationOptions,
+                  map_: Mapper) -> IdentificationResult:
+    """:func:`identify_plscf` with the worker processes of ``map_``."""
     lo, hi = resolve_band(frf, options.band_hz)
     sub = frf.band(lo, hi)
     n_out, n_in, n_freq = sub.H.shape
@@ -101,7 +113,8 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     link_freq, link_zeta, link_mac = options.link_tolerances()
     search = OrderSearch(weights=weights, window_decay_rate=decay, min_peak=min_peak,
                          min_fraction=options.min_fraction, expect=expect_hz is not None,
-                         thresholds=th, tolerances=(link_freq, link_zeta, link_mac))
+                         thresholds=th, tolerances=(link_freq, link_zeta, link_mac),
+                         map_=map_)
     sel, traj, poles = search.run(freq, Hn, (lo, hi), p, cap, fixed)
     # the narrower searches: bands, candidates, those covered by one already there
     searched: list[SearchedBand] = []
@@ -123,7 +136,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     if expect_hz is not None:
         sel = select_expected(sel, expect_hz, decay, thresholds=th)
         if options.refine:
-            auto = identify_plscf(frf, replace(options, expect_hz=()))
+            auto = identify_with(frf, replace(options, expect_hz=()), map_)
             auto_start = auto.stabilization.mode_pole
             sel, rest = expected_from_automatic(sel, expect_hz, auto.fn_hz, auto_start, decay,
                                                 thresholds=th)
@@ -143,7 +156,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     if options.refine and sel.pole.size:
         ref = refine_poles(freq, Hc, np.concatenate([sel.pole, neighbours]),
                            quantity=sub.quantity, window_tau_s=tau, force_window_s=force_s,
-                           thresholds=th)
+                           thresholds=th, map_=map_)
         m = sel.pole.size
         near = ref.pole[m : m + n_kept_neighbours]  # the automatic modes' refined poles
         ref = RefinedPoles(*(np.asarray(a)[:m] for a in (
@@ -154,7 +167,7 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
             def retest(c: SelectedPoles, partner: np.ndarray,
                        strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
                 r = refine_poles(freq, Hc, c.pole, quantity=sub.quantity, window_tau_s=tau,
-                                 force_window_s=force_s, thresholds=th)
+                                 force_window_s=force_s, thresholds=th, map_=map_)
                 ok = final_tests(freq, Hc, Hn_c, r, sub.quantity, c.n_members,
                                  partner=partner, strict=strict, thresholds=th)
                 rejected.append(r.pole[~ok & decay_determined(r.pole, r.cov, th)])
@@ -189,7 +202,8 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         # the local model's own error (band choice), added in quadrature
         cov = cov + band_sensitivity(freq, Hc, np.concatenate([sel.pole, near]),
                                      quantity=sub.quantity, window_tau_s=tau,
-                                     force_window_s=force_s, thresholds=th)[: sel.pole.size]
+                                     force_window_s=force_s, thresholds=th,
+                                     map_=map_)[: sel.pole.size]
     result = finish_identification(
         sub,
         sel.pole,

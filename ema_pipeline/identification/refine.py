@@ -47,6 +47,7 @@ from ema_pipeline.identification.uncertainty import (
     residual_correlation,
 )
 from ema_pipeline.numerics import MarquardtDamping, marquardt_step
+from ema_pipeline.threads import Mapper, split
 
 
 @dataclass(frozen=True)
@@ -325,6 +326,7 @@ def refine_poles(
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
     thresholds: SelectionThresholds | None = None,
+    map_: Mapper | None = None,
 ) -> RefinedPoles:
     """Local nonlinear least-squares refinement of each pole, with its covariance.
 
@@ -355,11 +357,63 @@ def refine_poles(
     ----------
     freq_hz : (n_freq,) Hz.   H : (n_ch, n_freq) complex FRFs (any quantity).
     poles : (n_modes,) identified poles (rad/s, Im > 0).
+    map_ : a :class:`~ema_pipeline.threads.Mapper` of worker processes: the
+        modes' local fits (independent of each other) shared out among them
+        from :data:`PARALLEL_MIN_MODES` modes on; the same numbers.
     """
     th = thresholds or SelectionThresholds()
     half_width = th.local_half_width if half_width is None else half_width
     return _refine(freq_hz, H, poles, half_width, max_iter, quantity, window_tau_s,
-                   force_window_s, th, covariance=True)
+                   force_window_s, th, covariance=True, map_=map_)
+
+
+#: Refinements of this many modes or more share their local fits out among
+#: worker processes (fewer: the round trips cost more than they save).
+PARALLEL_MIN_MODES = 6
+
+
+@dataclass(frozen=True)
+class LocalFits:
+    """What one local fit of :func:`_refine` needs besides the mode's index."""
+
+    freq_hz: np.ndarray
+    H: np.ndarray
+    poles: np.ndarray
+    a_all: np.ndarray | None
+    half_width: float
+    max_iter: int
+    window_tau_s: float | None
+    force_window_s: float | None
+    thresholds: SelectionThresholds
+    covariance: bool
+
+    def fit(self, r: int) -> tuple[complex, np.ndarray, np.ndarray, np.ndarray, int] | None:
+        """Mode ``r``'s refined pole, covariance (2, 2), noise std (n_ch,),
+        band (2,) and iterations; None when it has no local problem."""
+        th = self.thresholds
+        freq_hz, H, poles = self.freq_hz, self.H, self.poles
+        df = freq_hz[1] - freq_hz[0]
+        local = local_problem(freq_hz, H, poles, r, self.half_width, th.local_min_lines,
+                              self.a_all)
+        if local is None:
+            return None
+        f, Y, members, background, k, band = local
+        fit = vp_fit(f, Y, poles[members], background, self.max_iter)
+        lam_r = fit.lam[k]
+        if abs(lam_r - poles[r]) > th.refine_max_shift * abs(poles[r].real) + 2 * np.pi * df:
+            # refinement wandered off: keep the start pole, covariance there
+            fit = vp_fit(f, Y, poles[members], background, 0)
+            lam_r = poles[r]
+        cov = np.full((2, 2), np.nan)
+        if self.covariance:
+            Finv = vp_covariance(fit, self.window_tau_s, self.force_window_s)
+            cov = Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
+        noise = np.sqrt(np.mean(fit.noise_std**2, axis=0))
+        return complex(lam_r), cov, noise, np.asarray(band, float), int(fit.n_iter)
+
+    def fit_all(self, modes: list[int]) -> list[tuple | None]:
+        """:meth:`fit` of each of ``modes`` (one worker's share)."""
+        return [self.fit(r) for r in modes]
 
 
 def _refine(
@@ -373,42 +427,35 @@ def _refine(
     force_window_s: float | None,
     th: SelectionThresholds,
     covariance: bool,
+    map_: Mapper | None = None,
 ) -> RefinedPoles:
     """:func:`refine_poles`; without ``covariance`` the poles only (cov NaN):
     :func:`band_sensitivity` needs no covariance of its narrower fits, which
     saves the sandwich of :func:`vp_covariance` on every mode. A refinement
     that wanders off gets the covariance of its start pole only, not also
     that of the discarded fit."""
-    min_lines, max_shift = th.local_min_lines, th.refine_max_shift
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
     n_ch = H.shape[0]
     m = poles.size
-    df = freq_hz[1] - freq_hz[0]
     out = poles.copy()
     cov = np.full((m, 2, 2), np.nan)
     noise = np.full((m, n_ch), np.nan)
     bands = np.zeros((m, 2))
     iters = np.zeros(m, dtype=int)
-    a_all = global_residues(freq_hz, H, poles, quantity)
-    for r in range(m):
-        local = local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
-        if local is None:
-            continue
-        f, Y, members, background, k, band = local
-        bands[r] = band
-        fit = vp_fit(f, Y, poles[members], background, max_iter)
-        lam_r = fit.lam[k]
-        if abs(lam_r - poles[r]) > max_shift * abs(poles[r].real) + 2 * np.pi * df:
-            # refinement wandered off: keep the start pole, covariance there
-            fit = vp_fit(f, Y, poles[members], background, 0)
-            lam_r = poles[r]
-        out[r] = lam_r
-        if covariance:
-            Finv = vp_covariance(fit, window_tau_s, force_window_s)
-            cov[r] = Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
-        noise[r] = np.sqrt(np.mean(fit.noise_std**2, axis=0))
-        iters[r] = fit.n_iter
+    fits = LocalFits(freq_hz, H, poles, global_residues(freq_hz, H, poles, quantity),
+                     half_width, max_iter, window_tau_s, force_window_s, th, covariance)
+    if map_ is None or map_.workers < 2 or m < PARALLEL_MIN_MODES:
+        results = fits.fit_all(list(range(m)))
+    else:  # round-robin shares of the modes, put back in their order
+        shares = split(list(range(m)), map_.workers)
+        done = map_(fits.fit_all, shares)
+        by_mode = {r: res for share, rs in zip(shares, done, strict=True)
+                   for r, res in zip(share, rs, strict=True)}
+        results = [by_mode[r] for r in range(m)]
+    for r, res in enumerate(results):
+        if res is not None:
+            out[r], cov[r], noise[r], bands[r], iters[r] = res
     return RefinedPoles(pole=out, cov=cov, noise_std=noise, band_hz=bands, n_iter=iters)
 
 
@@ -422,6 +469,7 @@ def band_sensitivity(
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
     thresholds: SelectionThresholds | None = None,
+    map_: Mapper | None = None,
 ) -> np.ndarray:
     """Model-choice covariance of refined poles, (n_modes, 2, 2) in (sigma, omega_d).
 
@@ -437,7 +485,7 @@ def band_sensitivity(
     bracket the error, and d also holds the extra noise of the narrower fit),
     returned as d d^T / 4, to be added to the noise covariance. Modes whose
     local band is set by its minimum number of lines get 0. ``quantity``,
-    ``window_tau_s`` and ``force_window_s`` as in :func:`refine_poles`.
+    ``window_tau_s``, ``force_window_s`` and ``map_`` as in :func:`refine_poles`.
 
     Examples
     --------
@@ -452,7 +500,7 @@ def band_sensitivity(
     half_width = th.local_half_width / 2 if half_width is None else half_width
     # the poles only: the narrower fit's covariance is not used
     other = _refine(freq_hz, H, poles, half_width, 10, quantity, window_tau_s, force_window_s,
-                    th, covariance=False)
+                    th, covariance=False, map_=map_)
     d = np.stack([other.pole.real - poles.real, poles.imag - other.pole.imag], axis=1)
     d = np.nan_to_num(d)
     return d[:, :, None] * d[:, None, :] / 4.0
