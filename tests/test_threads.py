@@ -183,3 +183,39 @@ def test_window_searches_in_workers_give_the_serial_numbers(monkeypatch):
                                       err_msg=name)
     np.testing.assert_array_equal(a.band_support, b.band_support)
     assert a.band_support[:, 0].max() >= 2  # the windows held modes
+
+
+def _same_modes(a, b) -> None:
+    assert a.fn_hz.size == b.fn_hz.size
+    np.testing.assert_allclose(np.sort(a.fn_hz), np.sort(b.fn_hz), rtol=0, atol=0.01)
+
+
+def test_same_modes_whatever_the_blas_threads(monkeypatch):
+    """Close modes at one reference: the modes at two BLAS threads
+    (``EMA_PIPELINE_BLAS_THREADS=2``) are those of one, within 0.01 Hz."""
+    from hardcases import make_case
+
+    case = make_case("close_1ref", 7)
+    monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
+    base = identify(case.frf, band_hz=case.band_hz)
+    assert base.fn_hz.size == case.fn_hz.size
+    monkeypatch.setenv(BLAS_THREADS_ENV, "2")
+    _same_modes(base, identify(case.frf, band_hz=case.band_hz))
+
+
+def test_same_modes_whatever_the_last_bits():
+    """An impact hard case (dense band searched in windows, adaptive order):
+    the FRFs changed by a relative 1e-12 give the same modes within 0.01 Hz
+    (the measured beam in 5-790 Hz is the known exception,
+    docs/guide/identification.md)."""
+    from dataclasses import replace
+
+    from hardcases import make_case
+
+    case = make_case("impact", 7)
+    base = identify(case.frf, band_hz=case.band_hz)
+    assert base.fn_hz.size == case.fn_hz.size
+    assert base.band_support[:, 0].max() >= 2  # the windows were searched
+    rng = np.random.default_rng(1)
+    H = case.frf.H * (1 + 1e-12 * rng.standard_normal(case.frf.H.shape))
+    _same_modes(base, identify(replace(case.frf, H=H), band_hz=case.band_hz))
