@@ -109,7 +109,7 @@ def cmd_frf(args: argparse.Namespace) -> int:
         hits_report_path,
     )
 
-    check_output(args.out)  # before any work
+    check_output(args.out, list(args.inputs), report=args.report)  # before any work
     for name, value, lo in (("--pretrigger-s", args.pretrigger_s, 0.0),
                             ("--force-window-s", args.force_window_s, 0.0)):
         if value is not None and not (math.isfinite(value) and value >= lo):

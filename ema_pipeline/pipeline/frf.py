@@ -49,6 +49,7 @@ __all__ = [
     "configuration_frf",
     "hits_page_input",
     "hits_report_path",
+    "frf_output_paths",
     "identify_recording",
     "impact_frf",
 ]
@@ -367,15 +368,55 @@ def hits_page_input(result: ImpactFRF) -> HitsPageInput:
     )
 
 
-def check_output(out: str | os.PathLike[str]) -> str:
+def frf_output_paths(out: str | os.PathLike[str], report: bool = False) -> dict[str, Path]:
+    """What ``frf --out OUT`` writes, as {what it is: path}: the FRF file, the hit
+    table and (``report``) the hit page.
+
+    Examples
+    --------
+    >>> sorted(p.name for p in frf_output_paths("o/t.h5", report=True).values())
+    ['t.h5', 't_hits.csv', 't_hits.html']
+    """
+    out = Path(out)
+    paths = {"--out": out, f"the hit table of --out {out}": hits_csv_path(out)}
+    if report:
+        paths[f"the hit page of --out {out}"] = hits_report_path(out)
+    return paths
+
+
+def check_output(
+    out: str | os.PathLike[str],
+    inputs: list[str | os.PathLike[str]] | list[Path] | tuple[Path, ...] = (),
+    *,
+    report: bool = False,
+) -> str:
     """The FRF format of ``out`` (by suffix), refused before any work when the
-    suffix is unknown or ``out`` is a folder."""
+    suffix is unknown, when ``out``, its hit table or (``report``) its hit page is
+    a folder, or is one of the ``inputs`` (the same file by resolved path or hard
+    link: :func:`ema_pipeline.io.same_file`), so that no input is ever overwritten.
+
+    Examples
+    --------
+    >>> check_output("a/rec.uff", ["a/rec.uff"])
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: a/rec.uff: --out would overwrite the input a/rec.uff; ...
+    >>> check_output("a/rec.h5", ["a/rec_hits.csv"])
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: a/rec_hits.csv: the hit table of --out a/rec.h5 would
+    overwrite the input a/rec_hits.csv; ...
+    """
     out = Path(out)
     fmt = io.frf_format_for_writing(out)
-    if out.is_dir():
-        raise DataError(f"{out}: is a folder; --out needs an FRF file name (.h5 or .uff)")
+    targets = frf_output_paths(out, report)
+    for what, path in targets.items():
+        if path.is_dir():
+            raise DataError(f"{path}: is a folder; {what} must be a file (choose another "
+                            "--out)")
     if out.parent.exists() and not out.parent.is_dir():
         raise DataError(f"{out.parent}: not a folder")
+    io.check_not_inputs(targets, [Path(p) for p in inputs])
     return fmt
 
 
@@ -449,20 +490,26 @@ def frf_from_files(
 ) -> ImpactFRF:
     """Read the recordings ``paths`` (segments of one test), run
     :func:`frf_from_recording`, and write the FRFs to ``out`` (``.h5`` or ``.uff``)
-    and the hit table to ``<stem>_hits.csv`` beside it (each atomically; on an
-    error nothing is written). ``report``: also the hit page ``<stem>_hits.html``
+    and the hit table to ``<stem>_hits.csv`` beside it. ``report``: also the hit
+    page ``<stem>_hits.html``
     (:func:`ema_pipeline.report.hits_page.render_hits_html`). ``force_channel``,
     ``scale`` and ``units`` go to the reader
-    (:func:`ema_pipeline.io.recording.read_recording`)."""
-    fmt = check_output(out)
+    (:func:`ema_pipeline.io.recording.read_recording`).
+
+    An output that is an input, or a folder, is refused before any work
+    (:func:`check_output`). The outputs are written to temporaries and replace
+    their targets together (:func:`ema_pipeline.io.replace_together`): on any
+    error none is replaced and no temporary is left."""
+    fmt = check_output(out, paths, report=report)
     result = impact_frf(paths, settings, force_channel=force_channel, scale=scale,
                         units=units, configuration=configuration)
     frf = result.frf
     page = render_hits_html(hits_page_input(result)) if report else None
-    io.write_csv(result.hits_table(), hits_csv_path(out))
-    io.write_frf(frf, out, fmt)
-    if page is not None:
-        io.write_text(page, hits_report_path(out))
+    with io.replace_together():
+        io.write_csv(result.hits_table(), hits_csv_path(out))
+        io.write_frf(frf, out, fmt)
+        if page is not None:
+            io.write_text(page, hits_report_path(out))
     return result
 
 
@@ -490,9 +537,11 @@ def identify_recording(
         if not force and io.completed_result_sha256(result_h5) == sha:  # done: skipped
             return identify_file(frf_path, out_dir, options, force=False, sha256=sha)
         out_dir.mkdir(parents=True, exist_ok=True)
+        check_output(frf_path, [path])
         result = impact_frf([path], configuration=path.stem)
-        io.write_csv(result.hits_table(), hits_csv_path(frf_path))
-        io.write_frf(result.frf, frf_path, "h5")
+        with io.replace_together():
+            io.write_csv(result.hits_table(), hits_csv_path(frf_path))
+            io.write_frf(result.frf, frf_path, "h5")
     except EMAError as exc:
         return FileOutcome(path=path, status="failed", reason=str(exc),
                            seconds=time.perf_counter() - start)
