@@ -230,3 +230,96 @@ def test_valid_recording_gives_the_same_frf_as_frf_from_recording(rec, tmp_path,
     written = io.read_frf(tmp_path / "o.uff")
     direct = frf_from_recording(read_recording(src)).frf
     np.testing.assert_allclose(written.H, direct.H, rtol=1e-11)
+
+
+# ---------------------------------------------------------------- 2. UFF ID lines
+def id_lines(path: Path) -> list[str]:
+    """ID lines 1-5 of every dataset 58 of an ASCII UFF file."""
+    lines = path.read_text().splitlines()
+    return [ln for k, ln in enumerate(lines) if k >= 2 and lines[k - 2].strip() == "-1"
+            and lines[k - 1].strip() == "58" for ln in lines[k:k + 5]]
+
+
+@pytest.mark.parametrize("cfg_chars", [0, 40, 63])
+def test_uff_id_lines_hold_every_field_at_its_longest(tmp_path, cfg_chars):
+    """Every field at its longest (17-digit floats in both forms, large counts, the
+    longest force window text, a 63-character configuration) stays within 80
+    characters and reads back (floats to 10 significant digits)."""
+    from ema_pipeline.data import DOF, AcquisitionInfo, FRFSet
+
+    fs = 1.0 / 3.0 * 1e5  # 33333.333333333336: 18 characters as repr
+    info = AcquisitionInfo(sample_rate_hz=fs, n_samples=2**40, n_averages=999_999_999,
+                           exp_window_tau_s=1.2345678901234567e-05,
+                           force_window="rect 1.23457e-05 s", estimator="Hv",
+                           response_window="exponential")
+    f = np.arange(40) * fs / 2**40
+    H = np.ones((12, 1, 40), complex) * (1 + 2j)
+    cfg = ("c" * cfg_chars)
+    frf = FRFSet(freq_hz=f, H=H, coherence=np.full(H.shape, 0.5),
+                 response_dofs=tuple(DOF(100000 + k) for k in range(12)),
+                 reference_dofs=(DOF(999999),), acquisition=info, configuration=cfg)
+    out = io.write_frf_uff(frf, tmp_path / "long.uff", coherence=True)
+    ids = id_lines(out)
+    assert len(ids) == 5 * 24
+    assert max(len(x.rstrip()) for x in ids) <= 80, max(ids, key=len)
+    back = io.read_frf_uff(out)
+    a = back.acquisition
+    assert a.sample_rate_hz == pytest.approx(fs, rel=1e-9)
+    assert a.n_samples == 2**40 and a.n_averages == 999_999_999
+    assert a.exp_window_tau_s == pytest.approx(1.2345678901234567e-05, rel=1e-9)
+    assert a.force_window == "rect 1.23457e-05 s" and a.estimator == "Hv"
+    assert back.configuration == cfg
+    np.testing.assert_allclose(back.H, H, rtol=1e-12)
+
+
+def test_uff_id_lines_short_numbers_are_exact_and_a_too_long_name_is_named(tmp_path):
+    from ema_pipeline.data import AcquisitionInfo, DataError, FRFSet
+
+    info = AcquisitionInfo(sample_rate_hz=2048.0, n_samples=4096, n_averages=5,
+                           exp_window_tau_s=0.5405591056902891, force_window="rect 0.06 s")
+    frf = FRFSet(freq_hz=np.arange(2049) * 0.5, H=np.ones((1, 1, 2049), complex),
+                 acquisition=info, configuration="x" * 64)
+    with pytest.raises(DataError, match=r"too\.long\.uff: configuration name of 64 characters "
+                                        r"is too long for a UFF ID line \(at most 63\)"):
+        io.write_frf_uff(frf, tmp_path / "too.long.uff")
+    assert not list(tmp_path.iterdir())
+    out = io.write_frf_uff(replace_cfg(frf, "genuine"), tmp_path / "ok.uff")
+    back = io.read_frf_uff(out).acquisition
+    assert back.sample_rate_hz == 2048.0 and back.exp_window_tau_s == 0.5405591057
+
+
+def replace_cfg(frf, name):
+    from dataclasses import replace
+    return replace(frf, configuration=name)
+
+
+def test_uff_output_with_the_automatic_window(tmp_path, capsys):
+    """The issue's case: a lightly damped recording, short records, auto tau, .uff out:
+    exit 0, and the file holds the same FRF as the .h5 (tau to 10 digits)."""
+    rec = make_recording(2, n_double=1, n_overload=1)
+    src = write_uff(rec, tmp_path / "rec.uff")
+    for out in ("o.uff", "o.h5"):
+        assert run(capsys, str(src), "--record-length-s", "0.25", "--out",
+                   str(tmp_path / out))[0] == 0
+    u, h = io.read_frf(tmp_path / "o.uff"), io.read_frf(tmp_path / "o.h5")
+    assert h.acquisition.exp_window_tau_s is not None
+    assert u.acquisition.exp_window_tau_s == pytest.approx(h.acquisition.exp_window_tau_s,
+                                                           rel=1e-9)
+    np.testing.assert_allclose(u.H, h.H, rtol=1e-11, atol=1e-12 * np.abs(h.H).max())
+    np.testing.assert_array_equal(u.freq_hz, h.freq_hz)
+    assert all(len(x.rstrip()) <= 80 for x in id_lines(tmp_path / "o.uff"))
+
+
+def test_time_records_keep_their_configuration_within_80_characters(tmp_path):
+    from ema_pipeline.data import TimeRecords
+
+    name = "c" * 63
+    records = TimeRecords(force=np.eye(2, 64), response=np.ones((2, 1, 64)),
+                          sample_rate_hz=1 / 3 * 1e4, trigger_s=0.0123456789012345,
+                          configuration=name)
+    out = io.write_time_uff(records, tmp_path / "t.uff")
+    assert max(len(x.rstrip()) for x in id_lines(out)) <= 80
+    back = io.read_time_uff(out)
+    assert back.configuration == name
+    assert back.trigger_s == pytest.approx(0.0123456789012345, rel=1e-9)
+    assert back.sample_rate_hz == pytest.approx(1 / 3 * 1e4, rel=1e-9)
