@@ -323,3 +323,159 @@ def test_time_records_keep_their_configuration_within_80_characters(tmp_path):
     assert back.configuration == name
     assert back.trigger_s == pytest.approx(0.0123456789012345, rel=1e-9)
     assert back.sample_rate_hz == pytest.approx(1 / 3 * 1e4, rel=1e-9)
+
+
+# ---------------------------------------------------------------- 3. ranges
+def write_tdms_step(rec, path: Path, step_s: float) -> Path:
+    from nptdms import ChannelObject, TdmsWriter
+
+    with TdmsWriter(str(path)) as writer:
+        writer.write_segment([
+            ChannelObject("g", "Hammer force", rec.force_n,
+                          properties={"unit_string": "N", "wf_increment": step_s}),
+            ChannelObject("g", "Acc", rec.response[0],
+                          properties={"unit_string": "m/s^2", "wf_increment": step_s}),
+        ])
+    return path
+
+
+def write_uff_step(rec, path: Path, step_s: float) -> Path:
+    import pyuff
+
+    sets = []
+    for data, dtype, unit, node in ((rec.force_n, 13, "N", 1), (rec.response[0], 12, "m/s^2", 2)):
+        sets.append(pyuff.prepare_58(
+            binary=0, id1="x", func_type=1, rsp_node=node, rsp_dir=3, ref_node=1, ref_dir=3,
+            ord_data_type=4, num_pts=data.size, abscissa_spacing=1, abscissa_min=0.0,
+            abscissa_inc=step_s, abscissa_spec_data_type=17, abscissa_axis_units_lab="s",
+            ordinate_spec_data_type=dtype, ordinate_axis_units_lab=unit,
+            orddenom_spec_data_type=0, data=data, x=np.arange(data.size) * step_s))
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    return path
+
+
+@pytest.mark.parametrize("step_s", [1e-300, 1e296, 1e-310, 1e-9, 10.0])
+@pytest.mark.parametrize("fmt", ["csv", "tdms", "uff"])
+def test_absurd_time_steps_are_refused_naming_file_and_field(rec, tmp_path, capsys, fmt,
+                                                            step_s):
+    """Time steps whose sample rate is outside 1 Hz - 20 MHz (an FRF file could not
+    hold the lines): exit 2 naming the file, the field and the step; no traceback,
+    no FRF file that read_frf would then refuse."""
+    path = tmp_path / f"rec.{fmt}"
+    if fmt == "csv":
+        rows = "\n".join(f"{k * step_s!r},{b:.9g},{c:.9g}" for k, (b, c) in
+                         enumerate(zip(rec.force_n, rec.response[0], strict=True)))
+        path.write_text(f"time_s,force [N],acc [m/s^2]\n{rows}\n")
+        field = "time column"
+    elif fmt == "tdms":
+        write_tdms_step(rec, path, step_s)
+        field = "wf_increment"
+    else:
+        write_uff_step(rec, path, step_s)
+        field = "abscissa increment"
+    out = tmp_path / "out" / "o.h5"
+    code, err = run(capsys, str(path), "--out", str(out))
+    assert code == 2
+    one_line(err, f"rec.{fmt}", field, f"time step {step_s:g} s")
+    assert not out.parent.exists()
+
+
+def test_sample_rate_limits_hold_at_the_boundary(tmp_path):
+    """1 Hz and 20 MHz are accepted (by the reader's check); just outside is not."""
+    from ema_pipeline.acquisition.channels import (
+        MAX_SAMPLE_RATE_HZ,
+        MIN_SAMPLE_RATE_HZ,
+        check_sample_rate,
+    )
+    from ema_pipeline.data import DataError
+
+    assert check_sample_rate(MIN_SAMPLE_RATE_HZ) == 1.0
+    assert check_sample_rate(MAX_SAMPLE_RATE_HZ) == 2e7
+    for bad in (np.nextafter(1.0, 0.0), np.nextafter(2e7, np.inf), np.nan, np.inf, 0.0, -1.0):
+        with pytest.raises(DataError, match="outside 1-2e\\+07 Hz"):
+            check_sample_rate(bad, "f.wav", "header")
+    # an FRF at the highest rate stays readable: Nyquist = MAX_AXIS_HZ
+    assert MAX_SAMPLE_RATE_HZ / 2 == io.MAX_AXIS_HZ
+
+
+@pytest.mark.parametrize("option, value, expected", [
+    ("--record-length-s", "1e16", "record_length_s (--record-length-s) must be > 0 and at "
+                                  "most 10000 s, got 1e+16"),
+    ("--record-length-s", "100", "rec.csv: record length (record_length_s / "
+                                 "--record-length-s) 100 s is longer than the recording"),
+    ("--record-length-s", "0.005", "leaves no samples after the pretrigger (--pretrigger-s)"),
+    ("--pretrigger-s", "1e300", "pretrigger_s (--pretrigger-s) must be 0 to 1000 s, got "
+                                "1e+300"),
+    ("--pretrigger-s", "3", "rec.csv: the pretrigger (--pretrigger-s) 3 s is not shorter than "
+                            "the records, 1 s (2048 samples"),
+    ("--pretrigger-s", "9", "rec.csv: pretrigger (pretrigger_s / --pretrigger-s) 9 s is not "
+                            "shorter than the recording"),
+    ("--pretrigger-s", "nan", "pretrigger_s (--pretrigger-s) must be 0 to 1000 s, got nan"),
+    ("--force-window-s", "0.005", "rec.csv: --force-window-s 0.005 s ends before the force "
+                                  "pulse does"),
+    ("--force-window-s", "1e-9", "rec.csv: --force-window-s 1e-09 s ends before the force "
+                                 "pulse does"),
+    ("--force-window-s", "1e300", "force_window_s (--force-window-s) must be 0 (none) to "
+                                  "10000 s"),
+    ("--exp-window-tau", "1e-5", "rec.csv: exponential window time constant (exp_window_tau "
+                                 "/ --exp-window-tau) 1e-05 s is too short for records of 1 s"),
+    ("--exp-window-tau", "1e302", "exp_window_tau (--exp-window-tau) must be auto, none or a "
+                                  "time constant > 0 and at most 10000 s, got 1e+302"),
+    ("--scale", "force=1e308", "rec.csv: channel 'force': scale 1e+308 (x 1 to SI) overflows "
+                               "its samples to inf"),
+    ("--scale", "acc=-1e307", "rec.csv: channel 'acc': scale -1e+307"),
+])
+def test_numeric_options_out_of_range_name_the_option(rec, tmp_path, capsys, option, value,
+                                                     expected):
+    src = tmp_path / "rec.csv"
+    src.write_text(csv_text(rec))
+    out = tmp_path / "out" / "o.h5"
+    code, err = run(capsys, str(src), "--out", str(out), option, value)
+    assert code == 2
+    one_line(err, expected)
+    assert not out.parent.exists()
+
+
+def test_the_force_window_may_end_where_the_pulse_ends(rec, tmp_path, capsys):
+    """The limit is the pulse's end: a window that long keeps the FRF of a longer one
+    (|H| within 1 % near the modes), one sample shorter is refused."""
+    from ema_pipeline.io.recording import read_recording
+    from ema_pipeline.pipeline.frf import FRFSettings, frf_from_recording
+
+    src = tmp_path / "rec.csv"
+    src.write_text(csv_text(rec))
+    recording = read_recording(src)
+    base = frf_from_recording(recording, FRFSettings(force_window_s=0.05))
+    from ema_pipeline.acquisition import hits as hitlib
+
+    found = hitlib.find_hits(recording, 0, pretrigger_s=0.01)
+    accepted = [h.index - 1 for h in base.hits if h.accepted]
+    end_s = hitlib.pulse_end_s(recording, 0, found, accepted)
+    assert 0.01 < end_s < 0.01 + 0.005  # the pretrigger + a pulse of 0.5-2 ms
+    tight = frf_from_recording(recording, FRFSettings(force_window_s=end_s))
+    f = base.frf.freq_hz
+    near = np.zeros(f.size, bool)
+    for fn in rec.fn_hz:
+        near |= np.abs(f - fn) < 2.0
+    ratio = np.abs(tight.frf.H[0, 0, near]) / np.abs(base.frf.H[0, 0, near])
+    assert np.all(np.abs(ratio - 1) < 0.01), ratio
+    code, err = run(capsys, str(src), "--out", str(tmp_path / "o.h5"), "--force-window-s",
+                    f"{end_s - 1 / rec.sample_rate_hz!r}")
+    assert code == 2 and "ends before the force pulse does" in err
+
+
+def test_the_shortest_exponential_window_is_accepted(rec, tmp_path):
+    """tau at its lower limit gives a finite FRF; the limit spans the float range."""
+    from ema_pipeline import acquisition
+    from ema_pipeline.io.recording import read_recording
+    from ema_pipeline.pipeline.frf import FRFSettings, frf_from_recording
+
+    src = tmp_path / "rec.csv"
+    src.write_text(csv_text(rec))
+    recording = read_recording(src)
+    shortest = acquisition.shortest_exp_window_tau(2048, rec.sample_rate_hz, 20 / 2048)
+    out = frf_from_recording(recording, FRFSettings(exp_window_tau=shortest * (1 + 1e-12)))
+    assert out.n_samples == 2048 and out.records.trigger_s == 20 / 2048
+    assert np.all(np.isfinite(out.frf.H))
+    w = acquisition.exponential_window(2048, rec.sample_rate_hz, shortest, 20 / 2048)
+    assert w[-1] == pytest.approx(np.finfo(float).eps, rel=1e-9)

@@ -75,10 +75,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.data import DataError, Recording, TimeRecords
+from ema_pipeline.data import MIN_DF_HZ, DataError, Recording, TimeRecords
 
 __all__ = [
     "AUTO_TAU_LEVEL",
+    "MAX_EXP_WINDOW_TAU_S",
+    "MAX_PRETRIGGER_S",
+    "MAX_RECORD_LENGTH_S",
     "REASONS",
     "Hit",
     "HitSearch",
@@ -88,6 +91,7 @@ __all__ = [
     "find_hits",
     "force_band",
     "hits_columns",
+    "pulse_end_s",
 ]
 
 TRIGGER_FRACTION = 0.05
@@ -106,6 +110,12 @@ LOW_FORCE_FRACTION = 0.25
 OUTLIER_Z = 5.0
 OUTLIER_RATIO = 2.0
 AUTO_TAU_LEVEL = 0.01
+#: Longest pretrigger, record length (also force window) and exponential window
+#: time constant (s) a setting may give: the limits of the experiment file's ``frf``
+#: table and of ``ema-pipeline frf``'s options.
+MAX_PRETRIGGER_S = 1e3
+MAX_RECORD_LENGTH_S = 1e4
+MAX_EXP_WINDOW_TAU_S = 1e4
 
 #: The fixed vocabulary of rejection reasons, in the order they are reported.
 REASONS = ("past_end", "double_hit", "overload", "not_decayed", "low_force", "outlier")
@@ -206,8 +216,23 @@ def find_hits(
     """
     where = f"{recording.source.path}: " if recording.source.path else ""
     fs = recording.sample_rate_hz
-    if not (np.isfinite(pretrigger_s) and pretrigger_s >= 0):
-        raise DataError(f"pretrigger must be >= 0 s, got {pretrigger_s}")
+    if not (np.isfinite(pretrigger_s) and 0 <= pretrigger_s <= MAX_PRETRIGGER_S):
+        raise DataError(f"{where}pretrigger (pretrigger_s / --pretrigger-s) must be 0 to "
+                        f"{MAX_PRETRIGGER_S:g} s, got {pretrigger_s:g}")
+    if record_length_s is not None and not (
+        np.isfinite(record_length_s) and 0 < record_length_s <= MAX_RECORD_LENGTH_S
+    ):
+        raise DataError(f"{where}record length (record_length_s / --record-length-s) must be "
+                        f"> 0 and at most {MAX_RECORD_LENGTH_S:g} s, got {record_length_s:g}")
+    longest = max(b - a for a, b in _segments(recording))  # samples
+    span = f"{longest / fs:g} s" + (" (its longest segment)" if recording.segment_starts[1:]
+                                    else "")
+    if pretrigger_s * fs >= longest - 1:
+        raise DataError(f"{where}pretrigger (pretrigger_s / --pretrigger-s) {pretrigger_s:g} s "
+                        f"is not shorter than the recording, {span}; it is in seconds")
+    if record_length_s is not None and record_length_s * fs > longest:
+        raise DataError(f"{where}record length (record_length_s / --record-length-s) "
+                        f"{record_length_s:g} s is longer than the recording, {span}")
     g, offsets, polarity = _centred_force(recording, force_index)
     peak_max = float(g.max())
     trigger = max(TRIGGER_FRACTION * peak_max, NOISE_FACTOR * _noise_std(g))
@@ -257,16 +282,29 @@ def find_hits(
             raise DataError(f"record length must be > 0 s, got {record_length_s}")
         n_samples = int(round(record_length_s * fs))
         if n_samples <= n_pre + 1:
-            raise DataError(f"record length {record_length_s:g} s leaves no samples after the "
-                            f"pretrigger ({pretrigger_s:g} s)")
+            raise DataError(f"{where}record length (--record-length-s) {record_length_s:g} s "
+                            f"leaves no samples after the pretrigger (--pretrigger-s) "
+                            f"{pretrigger_s:g} s")
     seg_starts = np.array(recording.segment_starts)
     start = cross - n_pre
     n_seg = len(recording.segment_starts)
-    if record_length_s is None and n_seg > 1 and np.array_equal(seg_arr, np.arange(n_seg)):
-        # pre-cut records, one hit each: kept as cut (from their start), not shortened
+    precut = record_length_s is None and n_seg > 1 and np.array_equal(seg_arr,
+                                                                       np.arange(n_seg))
+    if precut:  # pre-cut records, one hit each: kept as cut (from their start), not shortened
         start = seg_starts.copy()
         n_samples = 2 ** int(np.floor(np.log2(np.min(ends - seg_starts))))
         n_pre = int(np.median(cross - seg_starts))
+    if n_pre >= n_samples - 1:  # the trigger would lie at or past the record's end
+        if precut:
+            raise DataError(f"{where}the hits lie {n_pre / fs:g} s into their pre-cut records, "
+                            f"not before the end of the {n_samples / fs:g} s they all hold")
+        raise DataError(f"{where}the pretrigger (--pretrigger-s) {pretrigger_s:g} s is not "
+                        f"shorter than the records, {n_samples / fs:g} s ({n_samples} samples: "
+                        "the longest power of two between hits); it is in seconds")
+    if n_samples / fs > 1.0 / MIN_DF_HZ:
+        raise DataError(f"{where}records of {n_samples / fs:g} s would give FRF lines "
+                        f"{fs / n_samples:.3g} Hz apart, finer than the {MIN_DF_HZ:g} Hz an FRF "
+                        "file may hold; give a shorter --record-length-s")
     fits = (start >= seg_starts[seg_arr]) & (start + n_samples <= ends[seg_arr])
     return HitSearch(
         cross=cross,
@@ -350,6 +388,48 @@ def _flat_top(x: np.ndarray, q: float) -> bool:
     return max(counts) >= (2 if fine else CLIP_RUN)
 
 
+def _found_force(recording: Recording, force_index: int, found: HitSearch) -> np.ndarray:
+    """The force centred and turned as :func:`find_hits` did (its offsets, polarity)."""
+    g = recording.signals[force_index].copy()
+    for (a, b), offset in zip(_segments(recording), found.offset_n, strict=True):
+        g[a:b] -= offset
+    return g * found.polarity
+
+
+def pulse_end_s(
+    recording: Recording,
+    force_index: int,
+    found: HitSearch,
+    which: np.ndarray | list[int],
+) -> float:
+    """Latest end of the main force pulse, in s from the record start, over the hits
+    ``which`` (0-based indices into ``found``, hits with a record): where the force
+    has fallen back below the trigger for ``PULSE_GAP_S`` (as the ``double_hit``
+    check reads the pulse). A force window shorter than this cuts a pulse.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import Channel
+    >>> force = np.zeros((1, 4096))
+    >>> force[0, 500:510] = 100.0  # a 10-sample pulse, 10 samples of pretrigger
+    >>> rec = Recording(force, 1000.0, (Channel("hammer", "force"),))
+    >>> found = find_hits(rec, 0, pretrigger_s=0.01)
+    >>> pulse_end_s(rec, 0, found, [0])  # 10 ms pretrigger + 10 ms pulse
+    0.02
+    """
+    g = _found_force(recording, force_index, found)
+    fs, n = recording.sample_rate_hz, found.n_samples
+    latest = 0.0
+    for k in np.asarray(which, dtype=int):
+        a = int(found.start[k])
+        if a < 0:
+            continue
+        c = int(found.cross[k])
+        end = _pulse_end(g, c, found.trigger_n, a + n, fs)
+        latest = max(latest, (end - a) / fs)
+    return latest
+
+
 def tail_level(response: np.ndarray, n_pretrigger: int) -> tuple[np.ndarray, np.ndarray]:
     """Level at the record end relative to the peak, and pretrigger level relative
     to the peak, per record and response.
@@ -401,10 +481,7 @@ def check_hits(
     [(1, True, ()), (2, False, ('double_hit',)), (3, False, ('past_end',))]
     """
     fs = recording.sample_rate_hz
-    g = recording.signals[force_index].copy()  # centred as find_hits did (its offsets)
-    for (a, b), offset in zip(_segments(recording), found.offset_n, strict=True):
-        g[a:b] -= offset
-    g *= found.polarity
+    g = _found_force(recording, force_index, found)
     n, n_pre = found.n_samples, found.n_pretrigger
     guard = max(1, int(round(GUARD_S * fs)))
     responses = [k for k in range(len(recording.channels)) if k != force_index]

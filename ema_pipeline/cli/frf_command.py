@@ -110,15 +110,7 @@ def cmd_frf(args: argparse.Namespace) -> int:
     )
 
     check_output(args.out, list(args.inputs), report=args.report)  # before any work
-    for name, value, lo in (("--pretrigger-s", args.pretrigger_s, 0.0),
-                            ("--force-window-s", args.force_window_s, 0.0)):
-        if value is not None and not (math.isfinite(value) and value >= lo):
-            raise ConfigError(f"{name} must be a finite number >= 0, got {value:g}")
-    if args.record_length_s is not None and not (
-        math.isfinite(args.record_length_s) and args.record_length_s > 0
-    ):
-        raise ConfigError(f"--record-length-s must be > 0, got {args.record_length_s:g}")
-    settings = FRFSettings(
+    settings = FRFSettings(  # ranges checked here, before any work
         pretrigger_s=DEFAULT_PRETRIGGER_S if args.pretrigger_s is None else args.pretrigger_s,
         record_length_s=args.record_length_s,
         force_window_s=args.force_window_s,

@@ -21,7 +21,14 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ema_pipeline.data import MIN_FRF_LINES, DataError, FRFSet, axis_is_uniform
+from ema_pipeline.data import (
+    MAX_AXIS_HZ,
+    MIN_DF_HZ,
+    MIN_FRF_LINES,
+    DataError,
+    FRFSet,
+    axis_is_uniform,
+)
 from ema_pipeline.io.experiment import experiment_file_path, read_experiment
 from ema_pipeline.io.files import (
     atomic_path,
@@ -140,11 +147,6 @@ def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     return frf
 
 
-#: Plausible frequency axes: line spacing at least this (Hz; a 11.6-day record) ...
-MIN_DF_HZ = 1e-6
-#: ... and no line above this (Hz).
-MAX_AXIS_HZ = 1e7
-
 
 def check_frequency_axis(freq_hz: object, source: str = "") -> None:
     """Refuse an implausible frequency axis: not finite, negative, not strictly
@@ -220,6 +222,8 @@ __all__ = [
     "FRF_SUFFIXES",
     "HDF5_SUFFIXES",
     "MIN_FRF_LINES",
+    "MIN_DF_HZ",
+    "MAX_AXIS_HZ",
     "SCHEMA_FRF",
     "SCHEMA_RESULTS",
     "SCHEMA_VERSION",

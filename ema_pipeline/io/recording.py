@@ -55,6 +55,7 @@ import numpy as np
 from ema_pipeline.acquisition.channels import (
     ChannelData,
     assemble_recording,
+    check_sample_rate,
     match_channel,
     nice_rate,
     rate_from_time,
@@ -188,6 +189,9 @@ def _uff_rate(path: Path, rec: Record58) -> float:
         if not (np.isfinite(rec.dx) and rec.dx > 0):
             raise DataError(f"{path}: record {rec.record} ({rec.at}): abscissa increment "
                             f"{rec.dx} is not a time step")
+        with np.errstate(all="ignore"):
+            check_sample_rate(1.0 / rec.dx, str(path), f"record {rec.record} abscissa "
+                              "increment", step_s=rec.dx)
         return nice_rate(1.0 / rec.dx)
     return rate_from_time(rec.x, f"{path}: record {rec.record}")
 
@@ -309,7 +313,11 @@ def _read_tdms(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
                 step = float(props["wf_increment"])
             except (TypeError, ValueError):
                 step = np.nan
-            rate = nice_rate(1.0 / step) if np.isfinite(step) and step > 0 else np.nan
+            if np.isfinite(step) and step > 0:
+                with np.errstate(all="ignore"):
+                    check_sample_rate(1.0 / step, str(path),
+                                      f"channel {full_name!r} wf_increment", step_s=step)
+                rate = nice_rate(1.0 / step)
         channels.append((full_name, data, rate, label))
     out = []
     for full_name, data, rate, label in channels:
@@ -420,7 +428,8 @@ def _read_csv(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
                         f"got unit {t_label!r}")
     if not np.all(np.isfinite(values[:, 0])):
         raise DataError(f"{path}: time column has NaN/inf values")
-    rate = rate_from_time(values[:, 0] * t_unit.factor, str(path))
+    rate = rate_from_time(values[:, 0] * t_unit.factor, str(path),
+                          f"time column {time_name!r}")
     channels = []
     for k, field in enumerate(fields[1:], start=1):
         m = _HEADER_UNIT.match(field)

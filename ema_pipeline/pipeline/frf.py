@@ -12,7 +12,6 @@ that a report or a batch run can use them.
 
 from __future__ import annotations
 
-import math
 import os
 import time
 from dataclasses import dataclass, replace
@@ -23,6 +22,7 @@ import pandas as pd
 
 from ema_pipeline import acquisition, io
 from ema_pipeline.acquisition import hits as hitlib
+from ema_pipeline.acquisition.channels import check_sample_rate
 from ema_pipeline.data import (
     ConfigError,
     DataError,
@@ -87,23 +87,30 @@ class FRFSettings:
 
     def __post_init__(self) -> None:
         def bad(name: str, value: object, rule: str) -> ConfigError:
-            return ConfigError(f"{name} must be {rule}, got {value!r}")
+            option = "--" + name.replace("_", "-")
+            shown = f"{value:g}" if isinstance(value, float) else repr(value)
+            return ConfigError(f"{name} ({option}) must be {rule}, got {shown}")
 
-        if not (math.isfinite(self.pretrigger_s) and self.pretrigger_s >= 0):
-            raise bad("pretrigger_s", self.pretrigger_s, "a finite number >= 0 s")
+        def seconds(value: object) -> bool:
+            return isinstance(value, int | float) and not isinstance(value, bool)
+
+        top_pre, top_len = hitlib.MAX_PRETRIGGER_S, hitlib.MAX_RECORD_LENGTH_S
+        if not (seconds(self.pretrigger_s) and 0 <= self.pretrigger_s <= top_pre):
+            raise bad("pretrigger_s", self.pretrigger_s, f"0 to {top_pre:g} s")
         if self.record_length_s is not None and not (
-            math.isfinite(self.record_length_s) and self.record_length_s > 0
+            seconds(self.record_length_s) and 0 < self.record_length_s <= top_len
         ):
-            raise bad("record_length_s", self.record_length_s, "a finite number > 0 s")
+            raise bad("record_length_s", self.record_length_s, f"> 0 and at most {top_len:g} s")
         if self.force_window_s is not None and not (
-            math.isfinite(self.force_window_s) and self.force_window_s >= 0
+            seconds(self.force_window_s) and 0 <= self.force_window_s <= top_len
         ):
-            raise bad("force_window_s", self.force_window_s, "a finite number >= 0 s (0: none)")
+            raise bad("force_window_s", self.force_window_s, f"0 (none) to {top_len:g} s")
         tau = self.exp_window_tau
         if not (tau is None or tau == "auto" or (
-            isinstance(tau, int | float) and math.isfinite(tau) and tau > 0
+            seconds(tau) and 0 < tau <= hitlib.MAX_EXP_WINDOW_TAU_S  # type: ignore[operator]
         )):
-            raise bad("exp_window_tau", tau, "'auto', None or a time constant > 0 s")
+            raise bad("exp_window_tau", tau, "auto, none or a time constant > 0 and at most "
+                      f"{hitlib.MAX_EXP_WINDOW_TAU_S:g} s")
         if self.estimator not in ("H1", "H2", "Hv"):
             raise bad("estimator", self.estimator, "H1, H2 or Hv")
 
@@ -188,6 +195,7 @@ def frf_from_recording(
     """
     settings = FRFSettings() if settings is None else settings
     where = recording.source.path or "recording"
+    check_sample_rate(recording.sample_rate_hz, recording.source.path)
     k_force = _force_index(recording, force_channel, where)
     keep = [k_force] + [k for k, ch in enumerate(recording.channels)
                         if k != k_force and ch.quantity != "force"]
@@ -214,12 +222,27 @@ def frf_from_recording(
     tau: float | None
     if settings.exp_window_tau == "auto":
         tau = hitlib.auto_exp_window_tau(records)
+        shortest = acquisition.shortest_exp_window_tau(n, fs, records.trigger_s)
+        if tau is not None and not tau >= shortest:
+            raise DataError(f"{where}: the automatic exponential window (tau {tau:.4g} s) "
+                            f"would overflow before the trigger: the pretrigger "
+                            f"({records.trigger_s:g} s) takes most of the {n / fs:g} s records; "
+                            "give a shorter --pretrigger-s or --exp-window-tau")
     else:
         tau = None if settings.exp_window_tau is None else float(settings.exp_window_tau)
     force_window_s = settings.force_window_s
     if force_window_s is None:
         force_window_s = records.trigger_s + AUTO_FORCE_WINDOW_S  # the pretrigger used
     force_window_s = force_window_s or None
+    if force_window_s is not None:
+        pulse_end = hitlib.pulse_end_s(rec, 0, found, accepted)
+        if force_window_s < pulse_end:
+            what = ("--force-window-s" if settings.force_window_s is not None else
+                    f"the default force window (the pretrigger + {AUTO_FORCE_WINDOW_S:g} s)")
+            raise DataError(f"{where}: {what} {force_window_s:g} s ends before the force pulse "
+                            f"does ({pulse_end:.4g} s into the record, pretrigger "
+                            f"{records.trigger_s:g} s): it would cut the pulse; give at least "
+                            f"{pulse_end:.4g} s, or 0 for no force window")
     frf = acquisition.estimate_frf(records, force_window_s=force_window_s,
                                    exp_window_tau_s=tau, estimator=settings.estimator)
     w = np.ones(n)
@@ -466,7 +489,7 @@ def configuration_frf(
     >>> configuration_frf([], {"estimator": "H9"})
     Traceback (most recent call last):
     ...
-    ema_pipeline.data.ConfigError: estimator must be H1, H2 or Hv, got 'H9'
+    ema_pipeline.data.ConfigError: estimator (--estimator) must be H1, H2 or Hv, got 'H9'
     """
     values = dict(items)
     reader: dict = {k: values.pop(k) for k in READER_KEYS if k in values}
