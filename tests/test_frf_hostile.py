@@ -479,3 +479,220 @@ def test_the_shortest_exponential_window_is_accepted(rec, tmp_path):
     assert np.all(np.isfinite(out.frf.H))
     w = acquisition.exponential_window(2048, rec.sample_rate_hz, shortest, 20 / 2048)
     assert w[-1] == pytest.approx(np.finfo(float).eps, rel=1e-9)
+
+
+# ---------------------------------------------------------------- 4. read whole or refuse
+WAV_SETTINGS = {"units": {"0": "N", "1": "m/s^2"}, "scale": {"0": 100.0, "1": 10.0}}
+
+
+@pytest.fixture(scope="module")
+def wav_bytes(rec) -> bytes:
+    """A valid int16 WAV of 2 channels (44-byte header, 4-byte frames) and a LIST
+    chunk after the data, as recorders write."""
+    import io as bytes_io
+
+    from scipy.io import wavfile
+
+    buf = bytes_io.BytesIO()
+    pcm = np.vstack([rec.force_n / rec.full_scale[0], rec.response[0] / rec.full_scale[1]]).T
+    wavfile.write(buf, 2048, np.round(pcm[:6000] * 32000).astype(np.int16))
+    raw = buf.getvalue()
+    assert raw[36:40] == b"data" and len(raw) == 44 + 4 * 6000
+    return raw + b"LIST\x04\x00\x00\x00INFO"
+
+
+def test_wav_cut_anywhere_is_refused_as_truncated(wav_bytes, tmp_path):
+    """Every cut of the header (0-44 bytes) and cuts in the data, on and off frame
+    boundaries: a DataError naming the file and saying truncated (or empty); the
+    whole file, and the file without its trailing LIST chunk, read as 6000 frames."""
+    from ema_pipeline.data import DataError
+    from ema_pipeline.io.recording import read_recording
+
+    path = tmp_path / "cut.wav"
+    for n in [*range(0, 45), 46, 44 + 4 * 3000, 44 + 4 * 3000 + 1, 44 + 4 * 6000 - 2]:
+        path.write_bytes(wav_bytes[:n])
+        with pytest.raises(DataError) as caught:
+            read_recording(path, **WAV_SETTINGS)
+        msg = str(caught.value)
+        assert msg.startswith(f"{path}: "), msg
+        assert ("truncated" in msg or "empty file" in msg or "not a WAV" in msg), (n, msg)
+        if n >= 44:
+            held = n - 44
+            assert (f"declares 24000 bytes (6000 frames of 2 channels) but the file holds "
+                    f"{held} ({held // 4} frames)") in msg
+    for n in (44 + 4 * 6000, len(wav_bytes)):
+        path.write_bytes(wav_bytes[:n])
+        assert read_recording(path, **WAV_SETTINGS).n_samples == 6000
+
+
+@pytest.mark.parametrize("offset, fmt, value, expected", [
+    (22, "<H", 0, "declares 0 channels (1 to 1024 expected)"),
+    (22, "<H", 65535, "declares 65535 channels"),
+    (22, "<H", 3, "frames of 4 bytes for 3 channels"),
+    (24, "<I", 0, "WAV header: time step inf s (sample rate 0 Hz)"),
+    (24, "<I", 4_000_000_000, "sample rate 4e+09 Hz"),
+    (32, "<H", 0, "frames of 0 bytes"),
+    (40, "<I", 0xFFFFFFFF, "declares 4294967295 bytes (1073741823 frames of 2 channels) but "
+                           "the file holds 24012 (6003 frames)"),
+    (40, "<I", 24001, "data chunk of 24001 bytes is not a whole number of 4-byte frames"),
+    (40, "<I", 0, "holds no samples"),
+    (0, "<4s", b"RIFX", "truncated WAV"),  # big-endian sizes: absurd
+    (36, "<4s", b"junk", "truncated WAV header: the file ends at byte 24056 before its data"),
+])
+def test_wav_header_damage_is_refused(wav_bytes, tmp_path, capsys, offset, fmt, value,
+                                      expected):
+    import struct
+
+    raw = bytearray(wav_bytes)
+    raw[offset:offset + struct.calcsize(fmt)] = struct.pack(fmt, value)
+    path = tmp_path / "bad.wav"
+    path.write_bytes(bytes(raw))
+    out = tmp_path / "out" / "o.h5"
+    code, err = run(capsys, str(path), "--out", str(out), "--unit", "0=N", "--unit",
+                    "1=m/s^2", "--scale", "0=100", "--scale", "1=10")
+    assert code == 2
+    one_line(err, "bad.wav", expected)
+    assert not out.parent.exists()
+
+
+def time_uff(tmp_path: Path) -> tuple[Path, list[int]]:
+    """Simulated impact records (4 hits, force + 2 responses) written by our writer,
+    and the offset of each of its 12 dataset-58 records."""
+    import re
+
+    from ema_pipeline import acquisition
+    from ema_pipeline.pipeline.simulate import paper_modes
+
+    setup = acquisition.TestSetup(n_samples=2048)
+    records = acquisition.simulate_time_records(paper_modes("genuine", setup), setup,
+                                                snr_db=50, seed=3)
+    path = io.write_time_uff(records, tmp_path / "sim.uff")
+    starts = [m.start() for m in re.finditer(rb"(?m)^    -1\r?\n    58", path.read_bytes())]
+    assert len(starts) == 12
+    return path, starts
+
+
+def test_uff_cut_at_every_record_boundary_is_truncated(tmp_path, capsys):
+    """Our time-record file says how many records it holds: cut at any record
+    boundary it is refused (before: 2 of 4 hits averaged), also by read_time_uff."""
+    from ema_pipeline.data import DataError
+    from ema_pipeline.io.recording import read_recording
+
+    path, starts = time_uff(tmp_path)
+    raw = path.read_bytes()
+    full = read_recording(path)
+    assert full.segment_starts == (0, 2048, 4096, 6144)
+    cut = tmp_path / "cut.uff"
+    for k in range(1, 12):
+        cut.write_bytes(raw[:starts[k]])
+        with pytest.raises(DataError, match=f"cut.uff: truncated Universal File: {k} of 12 "
+                                            "dataset-58 records"):
+            read_recording(cut)
+        with pytest.raises(DataError, match="truncated"):
+            io.read_time_uff(cut)
+    cut.write_bytes(raw[:starts[6]])
+    code, err = run(capsys, str(cut), "--out", str(tmp_path / "o.h5"))
+    assert code == 2
+    one_line(err, "cut.uff: truncated Universal File: 6 of 12")
+
+
+def test_uff_cut_inside_a_record_names_the_file(tmp_path):
+    from ema_pipeline.data import DataError
+    from ema_pipeline.io.recording import read_recording
+
+    path, starts = time_uff(tmp_path)
+    raw = path.read_bytes()
+    cut = tmp_path / "mid.uff"
+    for n in (starts[3] + 40, starts[3] + 700, (starts[3] + starts[4]) // 2, len(raw) - 9):
+        cut.write_bytes(raw[:n])
+        with pytest.raises(DataError, match="mid.uff: "):
+            read_recording(cut)
+
+
+def test_complex_time_records_are_refused(tmp_path):
+    import pyuff
+
+    from ema_pipeline.data import DataError
+    from ema_pipeline.io.recording import read_recording
+
+    sets = [pyuff.prepare_58(
+        binary=0, func_type=1, rsp_node=node, rsp_dir=3, ref_node=1, ref_dir=3,
+        ord_data_type=6, num_pts=64, abscissa_spacing=1, abscissa_min=0.0,
+        abscissa_inc=1e-3, abscissa_spec_data_type=17, ordinate_spec_data_type=dtype,
+        ordinate_axis_units_lab=unit, orddenom_spec_data_type=0, data=np.ones(64) * (1 + 1j),
+        x=np.arange(64) * 1e-3)
+        for node, dtype, unit in ((1, 13, "N"), (2, 12, "m/s^2"))]
+    path = tmp_path / "cplx.uff"
+    pyuff.UFF(str(path)).write_sets(sets, mode="add")
+    with pytest.raises(DataError, match=r"cplx.uff: record 1 .* holds complex values "
+                                        r"\(ordinate data type 6\)"):
+        read_recording(path)
+
+
+@pytest.mark.parametrize("extra, expected", [
+    ("complex", "channel 'g/Z' holds complex numbers (complex128)"),
+    ("text", "channel 'g/Note' holds text or objects"),
+    ("empty", "channel 'g/Nothing' is empty (no samples)"),
+    ("bool", "channel 'g/Flag' holds booleans"),
+])
+def test_tdms_channels_that_are_not_samples_are_refused_by_name(rec, tmp_path, capsys, extra,
+                                                               expected):
+    from nptdms import ChannelObject, TdmsWriter
+
+    more = {
+        "complex": ChannelObject("g", "Z", rec.response[0] * (1 + 1j),
+                                 properties={"unit_string": "m/s^2", "wf_increment": 1 / 2048}),
+        "text": ChannelObject("g", "Note", np.array(["a", "b"]), properties={}),
+        "empty": ChannelObject("g", "Nothing", np.array([], dtype=float),
+                               properties={"unit_string": "m/s^2"}),
+        "bool": ChannelObject("g", "Flag", np.ones(8, dtype=bool), properties={}),
+    }[extra]
+    path = tmp_path / "x.tdms"
+    with TdmsWriter(str(path)) as writer:
+        writer.write_segment([
+            ChannelObject("g", "Hammer force", rec.force_n,
+                          properties={"unit_string": "N", "wf_increment": 1 / 2048}),
+            ChannelObject("g", "Acc", rec.response[0],
+                          properties={"unit_string": "m/s^2", "wf_increment": 1 / 2048}),
+            more])
+    code, err = run(capsys, str(path), "--out", str(tmp_path / "o.h5"))
+    assert code == 2
+    one_line(err, "x.tdms", expected)
+
+
+def test_tdms_time_stamps_are_not_a_signal(rec, tmp_path):
+    """A channel of absolute time stamps is left out: the same recording as without."""
+    from nptdms import ChannelObject, TdmsWriter
+
+    from ema_pipeline.io.recording import read_recording
+
+    def write(path: Path, stamps: bool) -> Path:
+        objs = [ChannelObject("g", "Hammer force", rec.force_n,
+                              properties={"unit_string": "N", "wf_increment": 1 / 2048}),
+                ChannelObject("g", "Acc", rec.response[0],
+                              properties={"unit_string": "m/s^2", "wf_increment": 1 / 2048})]
+        if stamps:
+            objs.append(ChannelObject("g", "Stamp", np.array(["2024-01-01T00:00"] * 3,
+                                                             dtype="datetime64[us]")))
+        with TdmsWriter(str(path)) as writer:
+            writer.write_segment(objs)
+        return path
+
+    a = read_recording(write(tmp_path / "a.tdms", True))
+    b = read_recording(write(tmp_path / "b.tdms", False))
+    assert [c.name for c in a.channels] == ["Hammer force", "Acc"]
+    np.testing.assert_array_equal(a.signals, b.signals)
+
+
+def test_uff_record_7_with_touching_fields_is_read_by_columns():
+    """A 10-digit count fills its I10 field and touches the data type before it: read
+    by the fixed columns, not split at blanks (which gave data type 41234567890)."""
+    from ema_pipeline.io.uff_format import _header
+
+    dof = ("    1         0    0         0       NONE         1   3       NONE         1"
+           "   3")
+    axis = "        17    0    0    0                 NONE                 s"
+    lines = ["NONE"] * 5 + [dof, "         41234567890         1  0.00000E+00  1.00000E-03"
+                            "  0.00000E+00"] + [axis] * 4
+    head = _header(lines, "x.uff")
+    assert (head["ord_data_type"], head["n_values"], head["dx"]) == (4, 1234567890, 1e-3)

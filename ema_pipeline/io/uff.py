@@ -440,6 +440,15 @@ def _check_record_count(path: Path, meta: Mapping[str, str], n_found: int) -> No
         )
 
 
+def check_record_count(path: str | os.PathLike[str], records: Sequence[Record58]) -> None:
+    """DataError naming ``path`` (``truncated``, with the numbers) when a file of ours
+    holds another number of ``records`` than the count ID line 4 or 5 of the first
+    one states (a file cut exactly at a record boundary); foreign files state none.
+    ``records``: those the count is of (time records: the time records)."""
+    if records:
+        _check_record_count(Path(path), _metadata_from_id(records[0]), len(records))
+
+
 #: Characters of an ID line (UFF dataset 58, records 1-5: format 80A1).
 ID_LINE_CHARS = 80
 
