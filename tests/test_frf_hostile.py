@@ -696,3 +696,83 @@ def test_uff_record_7_with_touching_fields_is_read_by_columns():
                             "  0.00000E+00"] + [axis] * 4
     head = _header(lines, "x.uff")
     assert (head["ord_data_type"], head["n_values"], head["dx"]) == (4, 1234567890, 1e-3)
+
+
+# ---------------------------------------------------------------- 5. two-level clipping
+def test_a_square_wave_force_is_an_overload_of_the_force_channel(rec, tmp_path, capsys):
+    """A force at +-1000 N (its quantization step is its whole swing, so the flat-top
+    rule saw no flat top): every transition is an overload of 'force', none averaged."""
+    from ema_pipeline.io.recording import read_recording
+    from ema_pipeline.pipeline.frf import FRFSettings, frf_from_recording
+
+    fs = rec.sample_rate_hz
+    t = rec.time_s
+    square = np.where((t // 0.25) % 2 == 0, 1000.0, -1000.0)
+    rows = "\n".join(f"{a:.9g},{b:.9g},{c:.9g}" for a, b, c in
+                     zip(t, square, rec.response[0], strict=True))
+    src = tmp_path / "square.csv"
+    src.write_text(f"time_s,force [N],acc [m/s^2]\n{rows}\n")
+    code, err = run(capsys, str(src), "--out", str(tmp_path / "o.h5"))
+    assert code == 2
+    one_line(err, "square.csv: every hit rejected", "overload ('force')")
+    recording = read_recording(src)
+    from ema_pipeline.acquisition import hits as hitlib
+
+    found = hitlib.find_hits(recording, 0, pretrigger_s=0.01)
+    hits = hitlib.check_hits(recording, 0, found, exp_window=True)
+    assert found.n_hits == int(t[-1] // 0.5)  # one per upward step
+    assert all("overload" in h.reasons and h.overloaded[:1] == ("force",) for h in hits)
+    assert not any(h.accepted for h in hits)
+    assert fs == 2048.0
+    with pytest.raises(Exception, match="every hit rejected"):
+        frf_from_recording(recording, FRFSettings())
+
+
+def test_two_level_clipping_of_a_response_names_the_channel(rec, tmp_path):
+    """One hit whose response sits at +-its peak (a clipped amplifier): that hit is an
+    overload of 'acc' and is named so on the hit page; the others are kept."""
+    from ema_pipeline.acquisition import hits as hitlib
+    from ema_pipeline.io.recording import read_recording
+    from ema_pipeline.pipeline.frf import frf_from_recording
+    from ema_pipeline.report.hits_page import verdict_text
+
+    src = tmp_path / "rec.csv"
+    src.write_text(csv_text(rec))
+    recording = read_recording(src)
+    found = hitlib.find_hits(recording, 0, pretrigger_s=0.01)
+    a = int(found.start[2])
+    b = a + found.n_samples
+    peak = np.abs(recording.signals[1]).max()
+    signals = recording.signals.copy()
+    signals[1, a:b] = np.where(signals[1, a:b] >= 0, peak, -peak)
+    from dataclasses import replace
+
+    clipped = replace(recording, signals=signals)
+    out = frf_from_recording(clipped)
+    assert [h.accepted for h in out.hits] == [True, True, False, True, True]
+    assert out.hits[2].reasons == ("overload",) and out.hits[2].overloaded == ("acc",)
+    assert "overload: a channel reaches its full scale or has flat tops (clipped) " \
+           "(channel acc)" in verdict_text(out.hits[2])
+    assert out.hits[2].reasons_text() == "overload ('acc')"
+
+
+def test_a_quiet_record_toggling_between_two_codes_is_no_overload(rec):
+    """A response that saw nothing of one hit toggles between +-half a quantization
+    step in its record (a mid-rise converter, little noise): two values of opposite
+    sign too, but far below the channel's peak (the other hits), so not clipping."""
+    from ema_pipeline.acquisition import hits as hitlib
+    from ema_pipeline.data import Channel, Recording
+
+    lsb = np.abs(rec.response[0]).max() / 2**12
+    resp = (np.floor(rec.response[0] / lsb) + 0.5) * lsb  # mid-rise: no zero code
+    recording = Recording(np.vstack([rec.force_n, resp]), rec.sample_rate_hz,
+                          (Channel("force", "force"), Channel("acc", "acceleration")))
+    found = hitlib.find_hits(recording, 0, pretrigger_s=0.01)
+    a = int(found.start[2])
+    b = a + found.n_samples
+    resp[a:b] = np.where(np.arange(b - a) % 3 == 0, 0.5, -0.5) * lsb
+    recording = Recording(np.vstack([rec.force_n, resp]), rec.sample_rate_hz,
+                          recording.channels)
+    hits = hitlib.check_hits(recording, 0, found, exp_window=True)
+    assert "overload" not in hits[2].reasons
+    assert [h.reasons for k, h in enumerate(hits) if k != 2] == [()] * 4

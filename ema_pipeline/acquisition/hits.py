@@ -51,7 +51,13 @@ Checks (the reasons, :data:`REASONS`)
     when the record's largest magnitude is at least ``FINE_STEPS`` (2^15)
     quantization steps (finer than 16 bits: a tie by chance is then very
     unlikely), e.g. a short force pulse clipped on 2 samples. A channel clipped
-    on a single sample is seen only through its full scale.
+    on a single sample is seen only through its full scale. Two-level clipping
+    (the channel sits at two values, e.g. a square wave at +-1000 N, whose
+    quantization step is its whole swing) is an overload as well: at least half
+    the record's samples exactly at its maximum or its minimum, at least
+    ``CLIP_RUN`` at each, one positive and one negative, both at least half the
+    channel's largest magnitude over the recording. The hit names the channels
+    (``Hit.overloaded``).
     ``not_decayed`` (only when no exponential window is allowed): some
     response's level at the record end (sqrt(2) times its RMS over the last
     1/16 of the record) is above ``NOT_DECAYED_LEVEL`` (5 %) of its peak after
@@ -126,7 +132,8 @@ class Hit:
     """One hit: ``index`` (1-based), ``time_s`` (trigger crossing from the start of
     the recording), ``force_peak_n``, ``accepted`` and ``reasons`` (of
     :data:`REASONS`; a hit kept by ``keep_all`` is accepted with its reasons).
-    ``record_start`` is the first sample of its record (-1: none, ``past_end``)."""
+    ``record_start`` is the first sample of its record (-1: none, ``past_end``);
+    ``overloaded`` names the channels of an ``overload``."""
 
     index: int
     time_s: float
@@ -134,6 +141,20 @@ class Hit:
     accepted: bool
     reasons: tuple[str, ...] = ()
     record_start: int = -1
+    #: Names of the channels that made it an ``overload``.
+    overloaded: tuple[str, ...] = ()
+
+    def reasons_text(self) -> str:
+        """The reasons for a console line, the overloaded channels named.
+
+        Examples
+        --------
+        >>> Hit(3, 2.5, 900.0, False, ("double_hit", "overload"), 10, ("force",)).reasons_text()
+        "double_hit, overload ('force')"
+        """
+        return ", ".join(
+            f"{r} ({', '.join(repr(c) for c in self.overloaded)})"
+            if r == "overload" and self.overloaded else r for r in self.reasons)
 
 
 @dataclass(frozen=True)
@@ -362,6 +383,15 @@ def _quantization_step(full_x: np.ndarray) -> float:
     return float(nonzero.min()) if nonzero.size else 0.0
 
 
+def _two_levels(x: np.ndarray, channel_peak: float) -> bool:
+    """Record ``x`` sits at two values: two-level clipping (module doc, ``overload``)."""
+    top, bottom = float(x.max()), float(x.min())
+    if not (top > 0 > bottom and min(top, -bottom) >= 0.5 * channel_peak):
+        return False
+    n_top, n_bottom = int(np.count_nonzero(x == top)), int(np.count_nonzero(x == bottom))
+    return min(n_top, n_bottom) >= CLIP_RUN and n_top + n_bottom >= 0.5 * x.size
+
+
 def _flat_top(x: np.ndarray, q: float) -> bool:
     """Flat tops (clipping) in record ``x`` of a channel whose quantization step is
     ``q`` (:func:`_quantization_step`); the rule is in the module doc (``overload``)."""
@@ -492,6 +522,8 @@ def check_hits(
     seg_starts = np.array(recording.segment_starts)
     seg_ends = np.append(seg_starts[1:], recording.n_samples)
     steps = [_quantization_step(x) for x in recording.signals]  # once per channel
+    channel_peaks = np.abs(recording.signals).max(axis=1)
+    overloaded: list[list[str]] = [[] for _ in range(found.n_hits)]
     for k in range(found.n_hits):
         c, peak = found.cross[k], found.peak_n[k]
         a, b = found.start[k], found.start[k] + n
@@ -505,8 +537,9 @@ def check_hits(
             full = channel.full_scale
             if (full is not None and np.abs(x).max() >= FULL_SCALE_FRACTION * full) or _flat_top(
                 x, steps[ch]
-            ):
+            ) or _two_levels(x, float(channel_peaks[ch])):
                 reasons[k].add("overload")
+                overloaded[k].append(channel.name)
                 force_clipped = force_clipped or ch == force_index
         p0, p1 = _main_pulse(g, c, found.trigger_n, a, b, guard, fs)
         outside = np.concatenate([g[a:p0], g[p1:b]])
@@ -557,6 +590,7 @@ def check_hits(
             accepted=bool(has_record and (keep_all or not ordered)),
             reasons=ordered,
             record_start=int(found.start[k]),
+            overloaded=tuple(overloaded[k]),
         ))
     return tuple(hits)
 

@@ -129,7 +129,7 @@ def cmd_frf(args: argparse.Namespace) -> int:
               f"{result.n_samples} samples ({result.record_length_s:.4g} s)")
         for h in rejected:
             state = "kept (--keep-all)" if h.accepted else "rejected"
-            print(f"  hit {h.index} at {h.time_s:.3f} s: {state}: {', '.join(h.reasons)}")
+            print(f"  hit {h.index} at {h.time_s:.3f} s: {state}: {h.reasons_text()}")
         tau = result.exp_window_tau_s
         fw = result.force_window_s
         f10, f20 = result.force_band_hz

@@ -213,7 +213,7 @@ def frf_from_recording(
                              keep_all=settings.keep_all)
     accepted = [h.index - 1 for h in hits if h.accepted]
     if not accepted:
-        summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {','.join(h.reasons)}"
+        summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {h.reasons_text()}"
                             for h in hits)
         raise DataError(f"{where}: every hit rejected ({summary})")
     records = hitlib.cut_records(rec, 0, found, accepted)
