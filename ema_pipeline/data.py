@@ -37,6 +37,12 @@ QUANTITY_POWER: dict[str, int] = {"receptance": 0, "mobility": 1, "accelerance":
 #: mode (measured: a single-mode FRF is found from 32 lines, not from 24).
 MIN_FRF_LINES: int = 32
 
+#: Plausible frequency axes: line spacing at least this (Hz; a 11.6-day record) ...
+MIN_DF_HZ = 1e-6
+#: ... and no line above this (Hz). :func:`ema_pipeline.io.check_frequency_axis`
+#: refuses other axes; the acquisition keeps recordings within them.
+MAX_AXIS_HZ = 1e7
+
 
 class EMAError(Exception):
     """Base class of the errors ema-pipeline raises on bad input or settings."""

@@ -844,6 +844,156 @@ def recording_cases(root: Path) -> list[Case]:
     return cases
 
 
+def _folder_hashes(folder: Path) -> dict[str, str]:
+    return {str(q.relative_to(folder)): hashlib.sha256(q.read_bytes()).hexdigest()
+            for q in sorted(folder.rglob("*")) if q.is_file() and not q.is_symlink()}
+
+
+def _left_as_it_was(expected: dict[str, str]) -> Callable[[Path, Outcome], list[str]]:
+    """The case's folder after the run: every input byte-identical (else ``results``)
+    and nothing new (else ``litter``)."""
+    def check(folder: Path, out: Outcome) -> list[str]:
+        now = _folder_hashes(folder)
+        bad = ["results"] if any(now.get(k) != v for k, v in expected.items()) else []
+        return bad + (["litter"] if set(now) - set(expected) else [])
+
+    return check
+
+
+def hostile_recording_cases(root: Path) -> list[Case]:
+    """Issue 39: ``frf`` on hostile recordings, options and outputs: an output that is
+    an input, a hit page that is a folder, WAV headers cut or damaged, absurd time
+    steps, options out of range, a square-wave force, a time-record UFF cut at a
+    record boundary, a complex TDMS channel. Each must exit 2 naming the file or
+    option, write nothing and change no input."""
+    import struct
+
+    from impact_recordings import make_recording
+    from nptdms import ChannelObject, TdmsWriter
+    from scipy.io import wavfile
+
+    from ema_pipeline import acquisition
+    from ema_pipeline import io as ema_io
+
+    root.mkdir(parents=True)
+    rec = make_recording(5, n_hits=5, n_resp=1, last_hit_short=False)
+    n = 4 * int(rec.sample_rate_hz)
+    t = rec.time_s[:n]
+
+    def csv_text(force: np.ndarray, step: float | None = None) -> str:
+        times = t if step is None else np.arange(n) * step
+        rows = "\n".join(f"{float(a)!r},{b:.6e},{c:.6e}" for a, b, c in
+                         zip(times, force, rec.response[0, :n], strict=True))
+        return f"time_s,force [N],acc [m/s^2]\n{rows}\n"
+
+    pcm = np.vstack([rec.force_n[:n] / rec.full_scale[0],
+                     rec.response[0, :n] / rec.full_scale[1]]).T
+    wav_path = root / "full.wav"
+    wavfile.write(wav_path, 2048, np.round(pcm * 32000).astype(np.int16))
+    wav = wav_path.read_bytes()
+    wav_path.unlink()
+    wav_opts = ["--unit", "0=N", "--unit", "1=m/s^2", "--scale", f"0={rec.full_scale[0]}",
+                "--scale", f"1={rec.full_scale[1]}"]
+
+    def patched(offset: int, fmt: str, value: int) -> bytes:
+        raw = bytearray(wav)
+        raw[offset:offset + struct.calcsize(fmt)] = struct.pack(fmt, value)
+        return bytes(raw)
+
+    setup = acquisition.TestSetup(n_samples=2048)
+    from ema_pipeline.pipeline.simulate import paper_modes
+
+    records = acquisition.simulate_time_records(paper_modes("genuine", setup), setup,
+                                                snr_db=50, seed=3)
+    uff_path = ema_io.write_time_uff(records, root / "sim.uff")
+    uff = uff_path.read_bytes()
+    uff_path.unlink()
+    starts = [m.start() for m in re.finditer(rb"(?m)^    -1\r?\n    58", uff)]
+    square = np.where((t // 0.25) % 2 == 0, 1000.0, -1000.0)
+
+    # name: (files {name: bytes or text}, argv after "frf", names in stderr, quick)
+    specs: dict[str, tuple[dict[str, bytes | str], list[str], tuple[str, ...], bool]] = {
+        "h39_out_is_input": ({"rec.uff": uff}, ["rec.uff", "--out", "rec.uff"],
+                             ("rec.uff: --out would overwrite the input",), True),
+        "h39_hits_is_input": ({"rec_hits.csv": csv_text(rec.force_n[:n])},
+                              ["rec_hits.csv", "--out", "rec.h5"],
+                              ("rec_hits.csv: the hit table of --out",), True),
+        "h39_page_is_folder": ({"rec.csv": csv_text(rec.force_n[:n]), "o_hits.html/x": "x"},
+                               ["rec.csv", "--out", "o.h5", "--report"],
+                               ("o_hits.html: is a folder",), True),
+        "h39_wav_cut30": ({"rec.wav": wav[:30]}, ["rec.wav", *wav_opts],
+                          ("rec.wav: truncated WAV header",), True),
+        "h39_wav_0ch": ({"rec.wav": patched(22, "<H", 0)}, ["rec.wav", *wav_opts],
+                        ("rec.wav: WAV header declares 0 channels",), True),
+        "h39_wav_65535ch": ({"rec.wav": patched(22, "<H", 65535)}, ["rec.wav", *wav_opts],
+                            ("rec.wav: WAV header declares 65535 channels",), False),
+        "h39_wav_frames": ({"rec.wav": wav[:44 + 4 * 3000]}, ["rec.wav", *wav_opts],
+                           ("rec.wav: truncated WAV file",), True),
+        "h39_wav_4gb": ({"rec.wav": patched(40, "<I", 0xFFFFFFFF)}, ["rec.wav", *wav_opts],
+                        ("rec.wav: truncated WAV file",), False),
+        "h39_dt_tiny": ({"rec.csv": csv_text(rec.force_n[:n], 1e-300)}, ["rec.csv"],
+                        ("rec.csv: time column 'time_s': time step 1e-300 s",), True),
+        "h39_dt_huge": ({"rec.csv": csv_text(rec.force_n[:n], 1e296)}, ["rec.csv"],
+                        ("rec.csv: time column 'time_s': time step 1e+296 s",), True),
+        "h39_record_1e16": ({"rec.csv": csv_text(rec.force_n[:n])},
+                            ["rec.csv", "--record-length-s", "1e16"],
+                            ("--record-length-s",), False),
+        "h39_pretrigger_1e300": ({"rec.csv": csv_text(rec.force_n[:n])},
+                                 ["rec.csv", "--pretrigger-s", "1e300"], ("--pretrigger-s",),
+                                 False),
+        "h39_pretrigger_3": ({"rec.csv": csv_text(rec.force_n[:n])},
+                             ["rec.csv", "--pretrigger-s", "3"],
+                             ("rec.csv: the pretrigger (--pretrigger-s) 3 s",), True),
+        "h39_force_window": ({"rec.csv": csv_text(rec.force_n[:n])},
+                             ["rec.csv", "--force-window-s", "0.005"],
+                             ("rec.csv: --force-window-s 0.005 s ends before",), True),
+        "h39_tau": ({"rec.csv": csv_text(rec.force_n[:n])},
+                    ["rec.csv", "--exp-window-tau", "1e-5"],
+                    ("rec.csv: exponential window time constant",), False),
+        "h39_scale": ({"rec.csv": csv_text(rec.force_n[:n])},
+                      ["rec.csv", "--scale", "force=1e308"],
+                      ("rec.csv: channel 'force': scale 1e+308",), False),
+        "h39_square": ({"rec.csv": csv_text(square)}, ["rec.csv"],
+                       ("rec.csv: every hit rejected (hit 1 at 0.500 s: overload ('force')",),
+                       True),
+        "h39_uff_records": ({"rec.uff": uff[:starts[6]]}, ["rec.uff"],
+                            ("rec.uff: truncated Universal File: 6 of 12",), True),
+    }
+    cases = []
+    for name, (files, args, names, quick) in specs.items():
+        folder = root / name
+        folder.mkdir()
+        for rel, content in files.items():
+            target = folder / rel
+            target.parent.mkdir(parents=True, exist_ok=True)
+            if isinstance(content, bytes):
+                target.write_bytes(content)
+            else:
+                target.write_text(content)
+        argv = ["frf", *(str(folder / a) if a in files or (k and args[k - 1] == "--out")
+                         else a for k, a in enumerate(args))]
+        if "--out" not in argv:
+            argv += ["--out", str(folder / "frf.h5")]
+        argv.append("--quiet")
+        cases.append(Case(name, "recording", "recording_hostile", "solo", argv=argv,
+                          names=names, path=folder, quick=quick,
+                          check=_left_as_it_was(_folder_hashes(folder))))
+    tdms = root / "h39_tdms_complex"
+    tdms.mkdir()
+    with TdmsWriter(str(tdms / "rec.tdms")) as writer:
+        writer.write_segment([
+            ChannelObject("g", "Hammer force", rec.force_n[:n],
+                          properties={"unit_string": "N", "wf_increment": 1 / 2048}),
+            ChannelObject("g", "Acc", rec.response[0, :n] * (1 + 1j),
+                          properties={"unit_string": "m/s^2", "wf_increment": 1 / 2048})])
+    cases.append(Case("h39_tdms_complex", "recording", "recording_hostile", "solo",
+                      argv=["frf", str(tdms / "rec.tdms"), "--out", str(tdms / "frf.h5"),
+                            "--quiet"],
+                      names=("rec.tdms: channel 'g/Acc' holds complex",), path=tdms,
+                      check=_left_as_it_was(_folder_hashes(tdms))))
+    return cases
+
+
 def build_cases(root: Path) -> list[Case]:
     """The whole corpus, generated in ``root`` (deterministic)."""
     files = root / "files"
@@ -858,6 +1008,7 @@ def build_cases(root: Path) -> list[Case]:
     cases = h5 + uff + special + experiment_cases(root / "exp") + option_cases(root / "opt")
     cases += batch_cases(root, bad_for_batch) + disk_full_cases(root)
     cases += recording_cases(root / "rec")
+    cases += hostile_recording_cases(root / "rec39")
     names = [c.name for c in cases]
     assert len(names) == len(set(names)), "case names repeat"
     return cases if FULL else [c for c in cases if c.quick]

@@ -37,7 +37,7 @@ GROUPS = (
     "uff_header", "experiment_type", "experiment_range", "experiment_unknown",
     "experiment_float_node", "experiment_late", "experiment_name", "experiment_syntax",
     "cli_option", "batch", "disk_full_identify", "disk_full_run", "disk_full_batch",
-    "recording_bad",
+    "recording_bad", "recording_hostile",
 )
 XFAIL: dict[str, dict[str, str]] = {g: {} for g in GROUPS}
 

@@ -218,6 +218,26 @@ def exponential_window(
     return np.exp(-(t - t0_s) / tau_s)
 
 
+#: Largest exponent exp(-(t - t0)/tau) may reach over a record, either side of the
+#: trigger t0: the window stays between the float precision eps and 1/eps, so that it
+#: neither loses the record's end (underflow to 0) nor overflows before the trigger.
+EXP_WINDOW_MAX_EXPONENT = float(np.log(1.0 / np.finfo(float).eps))  # 36.04
+
+
+def shortest_exp_window_tau(n_samples: int, sample_rate_hz: float, t0_s: float = 0.0) -> float:
+    """Shortest time constant (s) of an exponential window over a record of
+    ``n_samples`` with the trigger at ``t0_s``: the longer of the spans after and
+    before the trigger over :data:`EXP_WINDOW_MAX_EXPONENT`.
+
+    Examples
+    --------
+    >>> round(shortest_exp_window_tau(1025, 1024.0, 0.01), 5)  # 0.99 s / 36.04
+    0.02747
+    """
+    after = (n_samples - 1) / sample_rate_hz - t0_s
+    return max(after, t0_s) / EXP_WINDOW_MAX_EXPONENT
+
+
 def estimate_frf(
     records: TimeRecords,
     *,
@@ -264,8 +284,14 @@ def estimate_frf(
     fs, n_samples = records.sample_rate_hz, records.n_samples
     w_exp = np.ones(n_samples)
     if exp_window_tau_s is not None:
-        if not exp_window_tau_s > 0:
-            raise DataError(f"exponential window time constant must be > 0, got {exp_window_tau_s}")
+        shortest = shortest_exp_window_tau(n_samples, fs, records.trigger_s)
+        if not (exp_window_tau_s > 0 and exp_window_tau_s >= shortest):
+            where = f"{records.source.path}: " if records.source.path else ""
+            raise DataError(
+                f"{where}exponential window time constant (exp_window_tau / --exp-window-tau) "
+                f"{exp_window_tau_s:g} s is too short for records of {n_samples / fs:g} s "
+                f"(trigger at {records.trigger_s:g} s): the window would leave the float range "
+                f"(1e-16 to 1e16); give at least {shortest:.4g} s, or none")
         w_exp = exponential_window(n_samples, fs, exp_window_tau_s, records.trigger_s)
     w_force = w_exp.copy()
     if force_window_s:

@@ -19,8 +19,12 @@ read_recording` for UFF, TDMS, WAV and CSV, :func:`ema_pipeline.acquisition.from
   name contains ``force``. No force channel, or several without a way to choose,
   is an error. Other channels in force units are left out (logged). The force
   comes first in the recording, then the responses in their order.
-* **Checks.** Every channel has the same sample rate (within 1e-9) and the same
-  length, at least 2 samples, no NaN or inf.
+* **Checks.** Every channel has the same sample rate (within 1e-9), between
+  :data:`MIN_SAMPLE_RATE_HZ` (1 Hz) and :data:`MAX_SAMPLE_RATE_HZ` (2e7 Hz, so that
+  the FRFs' lines stay within :data:`ema_pipeline.data.MAX_AXIS_HZ`): a time step of
+  1e-300 s or 1e296 s is a damaged header or a time column in the wrong unit. Every
+  channel has the same length, at least 2 samples, no NaN or inf; a ``scale`` that
+  overflows the samples to inf is named as such.
 """
 
 from __future__ import annotations
@@ -31,10 +35,43 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.data import DOF, Channel, DataError, Provenance, Recording
+from ema_pipeline.data import DOF, MAX_AXIS_HZ, Channel, DataError, Provenance, Recording
 from ema_pipeline.units import Unit, is_blank_label, parse_unit_label
 
 log = logging.getLogger("ema_pipeline.acquisition")
+
+#: Lowest sample rate (Hz) of a recording: impact tests sample at hundreds of Hz at
+#: least; below 1 Hz the time column is in the wrong unit or the header damaged.
+MIN_SAMPLE_RATE_HZ = 1.0
+#: Highest sample rate (Hz): twice the highest frequency line an FRF file may hold.
+MAX_SAMPLE_RATE_HZ = 2 * MAX_AXIS_HZ
+
+
+def check_sample_rate(rate_hz: float, where: str = "", what: str = "",
+                      step_s: float | None = None) -> float:
+    """``rate_hz`` when it lies between :data:`MIN_SAMPLE_RATE_HZ` and
+    :data:`MAX_SAMPLE_RATE_HZ`, else a DataError naming ``where`` (the file) and
+    ``what`` (the channel or header field) with the rate and its time step
+    (``step_s`` when the rate came from one, else 1 / ``rate_hz``).
+
+    Examples
+    --------
+    >>> check_sample_rate(1e300, "rec.csv", "time column")
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: rec.csv: time column: time step 1e-300 s (sample rate 1e+300
+    Hz) outside 1-2e+07 Hz: a damaged header or a time in the wrong unit?
+    """
+    rate = float(rate_hz)
+    if not MIN_SAMPLE_RATE_HZ <= rate <= MAX_SAMPLE_RATE_HZ:  # NaN too
+        if step_s is None:
+            with np.errstate(divide="ignore"):
+                step_s = float(np.divide(1.0, rate))
+        label = f"{what}: " if what else ""
+        raise DataError(f"{_prefix(where)}{label}time step {step_s:g} s (sample rate {rate:g} "
+                        f"Hz) outside {MIN_SAMPLE_RATE_HZ:g}-{MAX_SAMPLE_RATE_HZ:g} Hz: a "
+                        "damaged header or a time in the wrong unit?")
+    return rate
 
 
 @dataclass
@@ -59,11 +96,12 @@ class ChannelData:
     force_hint: bool = False
 
 
-def rate_from_time(time_s: np.ndarray, where: str = "") -> float:
+def rate_from_time(time_s: np.ndarray, where: str = "", what: str = "time vector") -> float:
     """Sample rate (Hz) of an equally spaced time vector; DataError when it is not
-    (a sample deviating by more than a quarter step from the straight line) or has
-    fewer than 2 values. Rounded to whole Hz when within 1e-4 of it (times printed
-    with few digits).
+    (a sample deviating by more than a quarter step from the straight line), has
+    fewer than 2 values or a step out of range (:func:`check_sample_rate`; ``what``
+    names the vector there). Rounded to whole Hz when within 1e-4 of it (times
+    printed with few digits).
 
     Examples
     --------
@@ -77,8 +115,10 @@ def rate_from_time(time_s: np.ndarray, where: str = "") -> float:
     step = (t[-1] - t[0]) / (t.size - 1)
     if not step > 0:
         raise DataError(f"{prefix}time vector does not increase")
-    if np.max(np.abs(t - t[0] - step * np.arange(t.size))) > 0.25 * step:
-        raise DataError(f"{prefix}time vector is not equally spaced (missing samples?)")
+    with np.errstate(all="ignore"):
+        check_sample_rate(1.0 / step, where, what, step_s=step)
+        if np.max(np.abs(t - t[0] - step * np.arange(t.size))) > 0.25 * step:
+            raise DataError(f"{prefix}time vector is not equally spaced (missing samples?)")
     return nice_rate(1.0 / step)
 
 
@@ -220,9 +260,7 @@ def assemble_recording(
     kinds = [u.signal or "" for u in si_units]
     rates = [float(c.sample_rate_hz) for c in channels]
     for c, fs in zip(channels, rates, strict=True):
-        if not (np.isfinite(fs) and fs > 0):
-            raise DataError(f"{_prefix(where)}channel {c.name!r}: sample rate {fs} Hz is not "
-                            "positive")
+        check_sample_rate(fs, where, f"channel {c.name!r}")
     if max(rates) - min(rates) > 1e-9 * max(rates):
         listed = ", ".join(f"{c.name!r} {fs:g} Hz" for c, fs in zip(channels, rates, strict=True))
         raise DataError(f"{_prefix(where)}channels have different sample rates ({listed}); "
@@ -243,13 +281,26 @@ def assemble_recording(
     rows, out_channels = [], []
     for k in order:
         c, unit = channels[k], si_units[k]
-        factor = float(factors.get(k, 1.0)) * unit.factor  # type: ignore[arg-type]
+        given = float(factors.get(k, 1.0))  # type: ignore[arg-type]
+        factor = given * unit.factor
+        stored = np.asarray(c.data).ravel()
+        if not np.issubdtype(stored.dtype, np.number) or np.iscomplexobj(stored):
+            kind = "complex" if np.iscomplexobj(stored) else f"non-numeric ({stored.dtype})"
+            raise DataError(f"{_prefix(where)}channel {c.name!r} holds {kind} samples; a "
+                            "recording needs real numbers")
         with np.errstate(all="ignore"):
-            data = np.real(np.asarray(c.data)).astype(float).ravel() * factor
+            raw = stored.astype(float)
+            data = raw * factor
         bad = ~np.isfinite(data)
         if bad.any():
-            raise DataError(f"{_prefix(where)}channel {c.name!r} has NaN/inf samples (first at "
-                            f"sample {int(np.argmax(bad))}, t = {np.argmax(bad) / rates[k]:g} s)")
+            first = int(np.argmax(bad))
+            at = f"first at sample {first}, t = {first / rates[k]:g} s"
+            if np.isfinite(raw[first]) and np.isfinite(factor):
+                raise DataError(
+                    f"{_prefix(where)}channel {c.name!r}: scale {given:g} (x {unit.factor:g} "
+                    f"to SI) overflows its samples to inf ({at}: {raw[first]:g} stored); "
+                    "check the scale (--scale)")
+            raise DataError(f"{_prefix(where)}channel {c.name!r} has NaN/inf samples ({at})")
         full = None if c.full_scale is None else abs(float(c.full_scale) * factor)
         rows.append(data)
         out_channels.append(Channel(c.name, kinds[k], c.dof, full))

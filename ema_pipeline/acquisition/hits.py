@@ -51,7 +51,13 @@ Checks (the reasons, :data:`REASONS`)
     when the record's largest magnitude is at least ``FINE_STEPS`` (2^15)
     quantization steps (finer than 16 bits: a tie by chance is then very
     unlikely), e.g. a short force pulse clipped on 2 samples. A channel clipped
-    on a single sample is seen only through its full scale.
+    on a single sample is seen only through its full scale. Two-level clipping
+    (the channel sits at two values, e.g. a square wave at +-1000 N, whose
+    quantization step is its whole swing) is an overload as well: at least half
+    the record's samples exactly at its maximum or its minimum, at least
+    ``CLIP_RUN`` at each, one positive and one negative, both at least half the
+    channel's largest magnitude over the recording. The hit names the channels
+    (``Hit.overloaded``).
     ``not_decayed`` (only when no exponential window is allowed): some
     response's level at the record end (sqrt(2) times its RMS over the last
     1/16 of the record) is above ``NOT_DECAYED_LEVEL`` (5 %) of its peak after
@@ -75,10 +81,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.data import DataError, Recording, TimeRecords
+from ema_pipeline.data import MIN_DF_HZ, DataError, Recording, TimeRecords
 
 __all__ = [
     "AUTO_TAU_LEVEL",
+    "MAX_EXP_WINDOW_TAU_S",
+    "MAX_PRETRIGGER_S",
+    "MAX_RECORD_LENGTH_S",
     "REASONS",
     "Hit",
     "HitSearch",
@@ -88,6 +97,7 @@ __all__ = [
     "find_hits",
     "force_band",
     "hits_columns",
+    "pulse_end_s",
 ]
 
 TRIGGER_FRACTION = 0.05
@@ -106,6 +116,12 @@ LOW_FORCE_FRACTION = 0.25
 OUTLIER_Z = 5.0
 OUTLIER_RATIO = 2.0
 AUTO_TAU_LEVEL = 0.01
+#: Longest pretrigger, record length (also force window) and exponential window
+#: time constant (s) a setting may give: the limits of the experiment file's ``frf``
+#: table and of ``ema-pipeline frf``'s options.
+MAX_PRETRIGGER_S = 1e3
+MAX_RECORD_LENGTH_S = 1e4
+MAX_EXP_WINDOW_TAU_S = 1e4
 
 #: The fixed vocabulary of rejection reasons, in the order they are reported.
 REASONS = ("past_end", "double_hit", "overload", "not_decayed", "low_force", "outlier")
@@ -116,7 +132,8 @@ class Hit:
     """One hit: ``index`` (1-based), ``time_s`` (trigger crossing from the start of
     the recording), ``force_peak_n``, ``accepted`` and ``reasons`` (of
     :data:`REASONS`; a hit kept by ``keep_all`` is accepted with its reasons).
-    ``record_start`` is the first sample of its record (-1: none, ``past_end``)."""
+    ``record_start`` is the first sample of its record (-1: none, ``past_end``);
+    ``overloaded`` names the channels of an ``overload``."""
 
     index: int
     time_s: float
@@ -124,6 +141,20 @@ class Hit:
     accepted: bool
     reasons: tuple[str, ...] = ()
     record_start: int = -1
+    #: Names of the channels that made it an ``overload``.
+    overloaded: tuple[str, ...] = ()
+
+    def reasons_text(self) -> str:
+        """The reasons for a console line, the overloaded channels named.
+
+        Examples
+        --------
+        >>> Hit(3, 2.5, 900.0, False, ("double_hit", "overload"), 10, ("force",)).reasons_text()
+        "double_hit, overload ('force')"
+        """
+        return ", ".join(
+            f"{r} ({', '.join(repr(c) for c in self.overloaded)})"
+            if r == "overload" and self.overloaded else r for r in self.reasons)
 
 
 @dataclass(frozen=True)
@@ -206,8 +237,23 @@ def find_hits(
     """
     where = f"{recording.source.path}: " if recording.source.path else ""
     fs = recording.sample_rate_hz
-    if not (np.isfinite(pretrigger_s) and pretrigger_s >= 0):
-        raise DataError(f"pretrigger must be >= 0 s, got {pretrigger_s}")
+    if not (np.isfinite(pretrigger_s) and 0 <= pretrigger_s <= MAX_PRETRIGGER_S):
+        raise DataError(f"{where}pretrigger (pretrigger_s / --pretrigger-s) must be 0 to "
+                        f"{MAX_PRETRIGGER_S:g} s, got {pretrigger_s:g}")
+    if record_length_s is not None and not (
+        np.isfinite(record_length_s) and 0 < record_length_s <= MAX_RECORD_LENGTH_S
+    ):
+        raise DataError(f"{where}record length (record_length_s / --record-length-s) must be "
+                        f"> 0 and at most {MAX_RECORD_LENGTH_S:g} s, got {record_length_s:g}")
+    longest = max(b - a for a, b in _segments(recording))  # samples
+    span = f"{longest / fs:g} s" + (" (its longest segment)" if recording.segment_starts[1:]
+                                    else "")
+    if pretrigger_s * fs >= longest - 1:
+        raise DataError(f"{where}pretrigger (pretrigger_s / --pretrigger-s) {pretrigger_s:g} s "
+                        f"is not shorter than the recording, {span}; it is in seconds")
+    if record_length_s is not None and record_length_s * fs > longest:
+        raise DataError(f"{where}record length (record_length_s / --record-length-s) "
+                        f"{record_length_s:g} s is longer than the recording, {span}")
     g, offsets, polarity = _centred_force(recording, force_index)
     peak_max = float(g.max())
     trigger = max(TRIGGER_FRACTION * peak_max, NOISE_FACTOR * _noise_std(g))
@@ -257,16 +303,29 @@ def find_hits(
             raise DataError(f"record length must be > 0 s, got {record_length_s}")
         n_samples = int(round(record_length_s * fs))
         if n_samples <= n_pre + 1:
-            raise DataError(f"record length {record_length_s:g} s leaves no samples after the "
-                            f"pretrigger ({pretrigger_s:g} s)")
+            raise DataError(f"{where}record length (--record-length-s) {record_length_s:g} s "
+                            f"leaves no samples after the pretrigger (--pretrigger-s) "
+                            f"{pretrigger_s:g} s")
     seg_starts = np.array(recording.segment_starts)
     start = cross - n_pre
     n_seg = len(recording.segment_starts)
-    if record_length_s is None and n_seg > 1 and np.array_equal(seg_arr, np.arange(n_seg)):
-        # pre-cut records, one hit each: kept as cut (from their start), not shortened
+    precut = record_length_s is None and n_seg > 1 and np.array_equal(seg_arr,
+                                                                       np.arange(n_seg))
+    if precut:  # pre-cut records, one hit each: kept as cut (from their start), not shortened
         start = seg_starts.copy()
         n_samples = 2 ** int(np.floor(np.log2(np.min(ends - seg_starts))))
         n_pre = int(np.median(cross - seg_starts))
+    if n_pre >= n_samples - 1:  # the trigger would lie at or past the record's end
+        if precut:
+            raise DataError(f"{where}the hits lie {n_pre / fs:g} s into their pre-cut records, "
+                            f"not before the end of the {n_samples / fs:g} s they all hold")
+        raise DataError(f"{where}the pretrigger (--pretrigger-s) {pretrigger_s:g} s is not "
+                        f"shorter than the records, {n_samples / fs:g} s ({n_samples} samples: "
+                        "the longest power of two between hits); it is in seconds")
+    if n_samples / fs > 1.0 / MIN_DF_HZ:
+        raise DataError(f"{where}records of {n_samples / fs:g} s would give FRF lines "
+                        f"{fs / n_samples:.3g} Hz apart, finer than the {MIN_DF_HZ:g} Hz an FRF "
+                        "file may hold; give a shorter --record-length-s")
     fits = (start >= seg_starts[seg_arr]) & (start + n_samples <= ends[seg_arr])
     return HitSearch(
         cross=cross,
@@ -324,6 +383,15 @@ def _quantization_step(full_x: np.ndarray) -> float:
     return float(nonzero.min()) if nonzero.size else 0.0
 
 
+def _two_levels(x: np.ndarray, channel_peak: float) -> bool:
+    """Record ``x`` sits at two values: two-level clipping (module doc, ``overload``)."""
+    top, bottom = float(x.max()), float(x.min())
+    if not (top > 0 > bottom and min(top, -bottom) >= 0.5 * channel_peak):
+        return False
+    n_top, n_bottom = int(np.count_nonzero(x == top)), int(np.count_nonzero(x == bottom))
+    return min(n_top, n_bottom) >= CLIP_RUN and n_top + n_bottom >= 0.5 * x.size
+
+
 def _flat_top(x: np.ndarray, q: float) -> bool:
     """Flat tops (clipping) in record ``x`` of a channel whose quantization step is
     ``q`` (:func:`_quantization_step`); the rule is in the module doc (``overload``)."""
@@ -348,6 +416,48 @@ def _flat_top(x: np.ndarray, q: float) -> bool:
         counts.append(counts[0] + counts[1])
     fine = q == 0 or biggest >= FINE_STEPS * q  # a tie by chance is then very rare
     return max(counts) >= (2 if fine else CLIP_RUN)
+
+
+def _found_force(recording: Recording, force_index: int, found: HitSearch) -> np.ndarray:
+    """The force centred and turned as :func:`find_hits` did (its offsets, polarity)."""
+    g = recording.signals[force_index].copy()
+    for (a, b), offset in zip(_segments(recording), found.offset_n, strict=True):
+        g[a:b] -= offset
+    return g * found.polarity
+
+
+def pulse_end_s(
+    recording: Recording,
+    force_index: int,
+    found: HitSearch,
+    which: np.ndarray | list[int],
+) -> float:
+    """Latest end of the main force pulse, in s from the record start, over the hits
+    ``which`` (0-based indices into ``found``, hits with a record): where the force
+    has fallen back below the trigger for ``PULSE_GAP_S`` (as the ``double_hit``
+    check reads the pulse). A force window shorter than this cuts a pulse.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import Channel
+    >>> force = np.zeros((1, 4096))
+    >>> force[0, 500:510] = 100.0  # a 10-sample pulse, 10 samples of pretrigger
+    >>> rec = Recording(force, 1000.0, (Channel("hammer", "force"),))
+    >>> found = find_hits(rec, 0, pretrigger_s=0.01)
+    >>> pulse_end_s(rec, 0, found, [0])  # 10 ms pretrigger + 10 ms pulse
+    0.02
+    """
+    g = _found_force(recording, force_index, found)
+    fs, n = recording.sample_rate_hz, found.n_samples
+    latest = 0.0
+    for k in np.asarray(which, dtype=int):
+        a = int(found.start[k])
+        if a < 0:
+            continue
+        c = int(found.cross[k])
+        end = _pulse_end(g, c, found.trigger_n, a + n, fs)
+        latest = max(latest, (end - a) / fs)
+    return latest
 
 
 def tail_level(response: np.ndarray, n_pretrigger: int) -> tuple[np.ndarray, np.ndarray]:
@@ -401,10 +511,7 @@ def check_hits(
     [(1, True, ()), (2, False, ('double_hit',)), (3, False, ('past_end',))]
     """
     fs = recording.sample_rate_hz
-    g = recording.signals[force_index].copy()  # centred as find_hits did (its offsets)
-    for (a, b), offset in zip(_segments(recording), found.offset_n, strict=True):
-        g[a:b] -= offset
-    g *= found.polarity
+    g = _found_force(recording, force_index, found)
     n, n_pre = found.n_samples, found.n_pretrigger
     guard = max(1, int(round(GUARD_S * fs)))
     responses = [k for k in range(len(recording.channels)) if k != force_index]
@@ -415,6 +522,8 @@ def check_hits(
     seg_starts = np.array(recording.segment_starts)
     seg_ends = np.append(seg_starts[1:], recording.n_samples)
     steps = [_quantization_step(x) for x in recording.signals]  # once per channel
+    channel_peaks = np.abs(recording.signals).max(axis=1)
+    overloaded: list[list[str]] = [[] for _ in range(found.n_hits)]
     for k in range(found.n_hits):
         c, peak = found.cross[k], found.peak_n[k]
         a, b = found.start[k], found.start[k] + n
@@ -428,8 +537,9 @@ def check_hits(
             full = channel.full_scale
             if (full is not None and np.abs(x).max() >= FULL_SCALE_FRACTION * full) or _flat_top(
                 x, steps[ch]
-            ):
+            ) or _two_levels(x, float(channel_peaks[ch])):
                 reasons[k].add("overload")
+                overloaded[k].append(channel.name)
                 force_clipped = force_clipped or ch == force_index
         p0, p1 = _main_pulse(g, c, found.trigger_n, a, b, guard, fs)
         outside = np.concatenate([g[a:p0], g[p1:b]])
@@ -480,6 +590,7 @@ def check_hits(
             accepted=bool(has_record and (keep_all or not ordered)),
             reasons=ordered,
             record_start=int(found.start[k]),
+            overloaded=tuple(overloaded[k]),
         ))
     return tuple(hits)
 

@@ -109,16 +109,8 @@ def cmd_frf(args: argparse.Namespace) -> int:
         hits_report_path,
     )
 
-    check_output(args.out)  # before any work
-    for name, value, lo in (("--pretrigger-s", args.pretrigger_s, 0.0),
-                            ("--force-window-s", args.force_window_s, 0.0)):
-        if value is not None and not (math.isfinite(value) and value >= lo):
-            raise ConfigError(f"{name} must be a finite number >= 0, got {value:g}")
-    if args.record_length_s is not None and not (
-        math.isfinite(args.record_length_s) and args.record_length_s > 0
-    ):
-        raise ConfigError(f"--record-length-s must be > 0, got {args.record_length_s:g}")
-    settings = FRFSettings(
+    check_output(args.out, list(args.inputs), report=args.report)  # before any work
+    settings = FRFSettings(  # ranges checked here, before any work
         pretrigger_s=DEFAULT_PRETRIGGER_S if args.pretrigger_s is None else args.pretrigger_s,
         record_length_s=args.record_length_s,
         force_window_s=args.force_window_s,
@@ -137,7 +129,7 @@ def cmd_frf(args: argparse.Namespace) -> int:
               f"{result.n_samples} samples ({result.record_length_s:.4g} s)")
         for h in rejected:
             state = "kept (--keep-all)" if h.accepted else "rejected"
-            print(f"  hit {h.index} at {h.time_s:.3f} s: {state}: {', '.join(h.reasons)}")
+            print(f"  hit {h.index} at {h.time_s:.3f} s: {state}: {h.reasons_text()}")
         tau = result.exp_window_tau_s
         fw = result.force_window_s
         f10, f20 = result.force_band_hz

@@ -7,7 +7,8 @@ complete (:func:`atomic_path`), so an interrupted run never leaves a
 half-written result. Everything it reads is checked, and problems are raised as
 :class:`~ema_pipeline.data.DataError` naming the file.
 
-Modules: :mod:`.files` (hashes, atomic writes, CSV), :mod:`.folders` (the
+Modules: :mod:`.files` (hashes, atomic writes, several files replaced together,
+outputs that are inputs refused, CSV), :mod:`.folders` (the
 atomic results folder of ``run``), :mod:`.hdf5` (FRF files
 and results stores), :mod:`.uff` (dataset 58 in and out, modes out as datasets
 164/15/82/55), :mod:`.uff_format` (the dataset parser), :mod:`.uff_units` (unit
@@ -20,14 +21,24 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ema_pipeline.data import MIN_FRF_LINES, DataError, FRFSet, axis_is_uniform
+from ema_pipeline.data import (
+    MAX_AXIS_HZ,
+    MIN_DF_HZ,
+    MIN_FRF_LINES,
+    DataError,
+    FRFSet,
+    axis_is_uniform,
+)
 from ema_pipeline.io.experiment import experiment_file_path, read_experiment
 from ema_pipeline.io.files import (
     atomic_path,
+    check_not_inputs,
     check_readable,
     disk_full_error,
     open_regular,
     read_csv,
+    replace_together,
+    same_file,
     sha256_file,
     write_bytes,
     write_csv,
@@ -136,11 +147,6 @@ def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     return frf
 
 
-#: Plausible frequency axes: line spacing at least this (Hz; a 11.6-day record) ...
-MIN_DF_HZ = 1e-6
-#: ... and no line above this (Hz).
-MAX_AXIS_HZ = 1e7
-
 
 def check_frequency_axis(freq_hz: object, source: str = "") -> None:
     """Refuse an implausible frequency axis: not finite, negative, not strictly
@@ -216,6 +222,8 @@ __all__ = [
     "FRF_SUFFIXES",
     "HDF5_SUFFIXES",
     "MIN_FRF_LINES",
+    "MIN_DF_HZ",
+    "MAX_AXIS_HZ",
     "SCHEMA_FRF",
     "SCHEMA_RESULTS",
     "SCHEMA_VERSION",
@@ -227,6 +235,7 @@ __all__ = [
     "axis_is_uniform",
     "FORK_SAFE_THREAD_NAME",
     "check_hdf5",
+    "check_not_inputs",
     "check_readable",
     "completed_result_sha256",
     "disk_full_error",
@@ -256,8 +265,10 @@ __all__ = [
     "read_time_uff",
     "read_uff",
     "remove_stale_partials",
+    "replace_together",
     "result_details",
     "results_complete",
+    "same_file",
     "sha256_file",
     "swap_in",
     "table_from_results",

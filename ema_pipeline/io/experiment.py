@@ -28,6 +28,11 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from ema_pipeline.acquisition.hits import (
+    MAX_EXP_WINDOW_TAU_S,
+    MAX_PRETRIGGER_S,
+    MAX_RECORD_LENGTH_S,
+)
 from ema_pipeline.data import DOF, Beam, DataError
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.io.files import check_readable, read_toml
@@ -269,7 +274,7 @@ def _tau(v: Any) -> str | float | None:
         return None if v == "none" else "auto"
     if isinstance(v, str):
         raise ValueError(f"must be 'auto', 'none' or a time constant in s, got {v!r}")
-    return _number(0.0, 1e4)(v)
+    return _number(0.0, MAX_EXP_WINDOW_TAU_S)(v)
 
 
 def _channel_table(value: Check) -> Check:
@@ -303,9 +308,9 @@ RECORDING_CONFIGURATION: dict[str, Check] = {
 }
 #: keys of its ``frf`` table: the options of ``ema-pipeline frf``.
 FRF_SETTINGS: dict[str, Check] = {
-    "pretrigger_s": _number(0.0, 1e3, strict_lo=False),
-    "record_length_s": _number(0.0, 1e4),
-    "force_window_s": _number(0.0, 1e4, strict_lo=False),
+    "pretrigger_s": _number(0.0, MAX_PRETRIGGER_S, strict_lo=False),
+    "record_length_s": _number(0.0, MAX_RECORD_LENGTH_S),
+    "force_window_s": _number(0.0, MAX_RECORD_LENGTH_S, strict_lo=False),
     "exp_window_tau": _tau,
     "estimator": _choice("H1", "H2", "Hv"),
     "keep_all": _flag,

@@ -16,12 +16,19 @@ Outputs
     and removed on any failure. A full disk (``ENOSPC``), an exceeded quota
     (``EDQUOT``) or file-size limit (``EFBIG``) becomes one :class:`OSError`
     whose ``filename`` is the target and whose ``strerror`` says what happened;
-    no partial file is left behind.
+    no partial file is left behind. Any other error names the target too, never
+    the hidden temporary; a target that is a folder is refused by name.
+    Inside :func:`replace_together` the temporaries of several
+    :func:`atomic_path` blocks (the files of one command) are renamed onto
+    their targets only at the end of the block, all of them or none.
+    :func:`same_file` and :func:`check_not_inputs` refuse an output that is an
+    input before any work.
 """
 
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import errno
 import fcntl
 import hashlib
@@ -113,13 +120,39 @@ def disk_full_error(exc: OSError, target: str | os.PathLike[str]) -> OSError:
     )
 
 
+def _named_error(exc: OSError, tmp: Path, target: Path) -> OSError:
+    """``exc`` naming ``target`` where it named the temporary ``tmp`` (a full disk
+    becomes :func:`disk_full_error`); other errors unchanged."""
+    full = disk_full_error(exc, target)
+    if full is not exc:
+        return full
+    if exc.filename is not None and str(exc.filename) == str(tmp):
+        return OSError(exc.errno, exc.strerror or str(exc), str(target))
+    return exc
+
+
+def _refuse_folder(target: Path) -> None:
+    """An existing folder (not a symlink to one) is never replaced by a file."""
+    if target.is_dir():
+        raise IsADirectoryError(errno.EISDIR, "is a folder, not a file: not replaced",
+                                str(target))
+
+
+#: The files staged by :func:`atomic_path` inside :func:`replace_together`:
+#: (temporary, target) pairs, renamed together at the end of the block.
+_STAGED: contextvars.ContextVar[list[tuple[Path, Path]] | None] = contextvars.ContextVar(
+    "ema_pipeline_staged_writes", default=None)
+
+
 @contextlib.contextmanager
 def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield a temporary path beside ``path``; rename it onto ``path`` on success.
 
     On an exception the temporary file is removed and ``path`` is untouched; a
     full disk is re-raised as one clear OSError naming ``path``
-    (:func:`disk_full_error`).
+    (:func:`disk_full_error`), and so is any error that named the temporary.
+    An existing folder at ``path`` is refused (``IsADirectoryError`` naming it).
+    Inside :func:`replace_together` the rename waits for the end of that block.
 
     Examples
     --------
@@ -131,6 +164,7 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     ('done', ['a.txt'])
     """
     target = Path(path)
+    _refuse_folder(target)
     try:
         target.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
@@ -138,22 +172,160 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
     except OSError as exc:
         raise disk_full_error(exc, target) from exc
     tmp_path = Path(tmp)
+    staged = _STAGED.get()
     try:
         yield tmp_path
         if tmp_path.exists():  # mkstemp makes 0600 files; give the usual umask mode
             umask = os.umask(0)
             os.umask(umask)
             tmp_path.chmod(0o666 & ~umask)
-        os.replace(tmp_path, target)
+        if staged is not None:
+            staged.append((tmp_path, target))
+        else:
+            os.replace(tmp_path, target)
     except OSError as exc:
         tmp_path.unlink(missing_ok=True)
-        full = disk_full_error(exc, target)
-        if full is exc:
+        named = _named_error(exc, tmp_path, target)
+        if named is exc:
             raise
-        raise full from exc
+        raise named from exc
     except BaseException:
         tmp_path.unlink(missing_ok=True)
         raise
+
+
+@contextlib.contextmanager
+def replace_together() -> Iterator[None]:
+    """Write several files as one: every :func:`atomic_path` (so every writer of
+    this package) inside the block writes its temporary only; at the end of the
+    block all are renamed onto their targets, all or none.
+
+    An exception inside the block removes every temporary and replaces nothing.
+    The renames keep each old target under a hidden hard link (or, where the file
+    system has none, a renamed copy) until all have succeeded; a rename that
+    fails puts every target back as it was and raises an OSError naming its
+    target.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (d / "a.txt").write_text("old a")
+    >>> try:
+    ...     with replace_together():
+    ...         _ = write_text("new a", d / "a.txt")
+    ...         raise OSError(28, "No space left on device", str(d / "b.txt"))
+    ... except OSError:
+    ...     pass
+    >>> (d / "a.txt").read_text(), sorted(p.name for p in d.iterdir())
+    ('old a', ['a.txt'])
+    >>> with replace_together():
+    ...     _ = write_text("new a", d / "a.txt")
+    ...     _ = write_text("new b", d / "b.txt")
+    >>> (d / "a.txt").read_text(), (d / "b.txt").read_text()
+    ('new a', 'new b')
+    """
+    if _STAGED.get() is not None:  # nested: the outer block swaps
+        yield
+        return
+    staged: list[tuple[Path, Path]] = []
+    token = _STAGED.set(staged)
+    try:
+        yield
+    except BaseException:
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+        raise
+    finally:
+        _STAGED.reset(token)
+    _swap_all(staged)
+
+
+def _keep_old(target: Path) -> Path | None:
+    """A hidden second name for the existing ``target`` (None: there is none):
+    a hard link where the file system has them, else the target renamed."""
+    if not os.path.lexists(target):
+        return None
+    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent)
+    os.close(fd)
+    backup = Path(name)
+    try:
+        backup.unlink()
+        os.link(target, backup, follow_symlinks=False)
+    except OSError:
+        os.replace(target, backup)
+    return backup
+
+
+def _swap_all(staged: list[tuple[Path, Path]]) -> None:
+    """Rename every (temporary, target) of ``staged``; on a failure put back the
+    targets already replaced and remove the temporaries (:func:`replace_together`)."""
+    done: list[tuple[Path, Path | None]] = []
+    try:
+        for tmp, target in staged:
+            _refuse_folder(target)
+            backup = _keep_old(target)
+            done.append((target, backup))
+            try:
+                os.replace(tmp, target)
+            except OSError as exc:
+                raise _named_error(exc, tmp, target) from exc
+    except BaseException:
+        for target, backup in reversed(done):
+            with contextlib.suppress(OSError):
+                if backup is None:
+                    if os.path.lexists(target):
+                        target.unlink()
+                elif os.path.lexists(target) and os.path.samestat(os.lstat(backup),
+                                                                  os.lstat(target)):
+                    backup.unlink()  # not replaced: the link only goes (rename would keep it)
+                else:
+                    os.replace(backup, target)
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+        raise
+    for _, backup in done:
+        if backup is not None:
+            backup.unlink(missing_ok=True)
+
+
+def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
+    """Whether paths ``a`` and ``b`` name one file: the same resolved path (through
+    symbolic links and ``..``), or one file under two names (hard links).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> same_file(d / "x.uff", d / "sub" / ".." / "x.uff"), same_file(d / "x", d / "y")
+    (True, False)
+    """
+    a, b = Path(a), Path(b)
+    if a.resolve() == b.resolve():
+        return True
+    try:
+        return os.path.samefile(a, b)
+    except OSError:  # one of them does not exist (yet)
+        return False
+
+
+def check_not_inputs(outputs: dict[str, Path], inputs: list[Path]) -> None:
+    """Refuse (DataError naming both) an output that is one of the ``inputs``
+    (:func:`same_file`), before any work. ``outputs``: {what it is: path}, e.g.
+    ``{"--out": out, "the hit table of --out": hits}``.
+
+    Examples
+    --------
+    >>> check_not_inputs({"--out": Path("a/rec.uff")}, [Path("a/rec.uff")])
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: a/rec.uff: --out would overwrite the input a/rec.uff; ...
+    """
+    for what, out in outputs.items():
+        for inp in inputs:
+            if same_file(out, inp):
+                raise DataError(f"{out}: {what} would overwrite the input {inp}; choose another "
+                                "output name")
 
 
 def write_text(text: str, path: str | os.PathLike[str]) -> Path:

@@ -16,18 +16,25 @@ what each format adds:
   repeated records) are pre-cut records, ordered by load case, concatenated with
   ``segment_starts``; every channel must have as many, of equal lengths. The
   sample rate is 1 / abscissa increment (rounded to whole Hz within 1e-4: the
-  header keeps 6 digits).
+  header keeps 6 digits). Complex time records are refused; a file of ours with
+  fewer time records than its ID line says (cut at a record boundary) is
+  ``truncated``.
 * **TDMS** (npTDMS): every channel of every group with numeric data; name
   ``<channel>`` (``<group>/<channel>`` when names repeat); unit from the property
   ``unit_string``, sample rate from ``wf_increment``. A channel whose unit is a
   time (``s``) is a time track: it gives the sample rate when ``wf_increment`` is
-  absent and is not a signal. A file npTDMS reads only partly (truncated) is
-  refused.
+  absent and is not a signal; so is a channel of time stamps. A file npTDMS reads
+  only partly (truncated) is refused, and so is a channel that is empty or holds
+  text, booleans or complex numbers (named).
 * **WAV** (scipy): channels are named ``0``, ``1``, ...; ``units`` and ``scale``
   are required for every channel (``0=N``, ``ch1=g``; ``0=0.5``). Integer samples
   are read as fractions of full scale (int16 / 32768, int32 / 2^31, uint8
   (x - 128) / 128), float samples as stored; ``scale`` turns them into the unit
-  (for integers the channel's full scale is ``scale``).
+  (for integers the channel's full scale is ``scale``). The RIFF header is read
+  first (:func:`wav_layout`): a header cut short, 0 or more than
+  :data:`MAX_WAV_CHANNELS` channels, an inconsistent frame size, or a data chunk
+  that declares more bytes than the file holds (``truncated``, with the numbers)
+  is refused before any sample is decoded.
 * **CSV** (``,``, ``;`` or tab separated; ``#`` comment lines before the header
   skipped): a header row, then one row per sample. The first column is the time,
   ``time [s]``, ``t (ms)`` or ``time_s`` / ``time_ms``; every other column is a
@@ -45,6 +52,7 @@ from __future__ import annotations
 import logging
 import os
 import re
+import struct
 import warnings
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
@@ -55,15 +63,24 @@ import numpy as np
 from ema_pipeline.acquisition.channels import (
     ChannelData,
     assemble_recording,
+    check_sample_rate,
     match_channel,
     nice_rate,
     rate_from_time,
 )
 from ema_pipeline.data import DOF, DataError, Provenance, Recording
-from ema_pipeline.io.files import check_readable, sha256_file
-from ema_pipeline.io.uff import UFF_SUFFIXES, ordinate_unit, read_uff, response_dof
+from ema_pipeline.io.files import check_readable, open_regular, sha256_file
+from ema_pipeline.io.uff import (
+    UFF_SUFFIXES,
+    check_record_count,
+    ordinate_unit,
+    read_uff,
+    response_dof,
+)
 from ema_pipeline.io.uff_format import Record58
 from ema_pipeline.io.uff_units import FORCE_TYPES, Unit, parse_unit_label
+
+log = logging.getLogger("ema_pipeline.io.recording")
 
 #: Suffixes :func:`read_recording` reads (compared in lower case).
 RECORDING_SUFFIXES = UFF_SUFFIXES | {".tdms", ".wav", ".csv"}
@@ -188,6 +205,9 @@ def _uff_rate(path: Path, rec: Record58) -> float:
         if not (np.isfinite(rec.dx) and rec.dx > 0):
             raise DataError(f"{path}: record {rec.record} ({rec.at}): abscissa increment "
                             f"{rec.dx} is not a time step")
+        with np.errstate(all="ignore"):
+            check_sample_rate(1.0 / rec.dx, str(path), f"record {rec.record} abscissa "
+                              "increment", step_s=rec.dx)
         return nice_rate(1.0 / rec.dx)
     return rate_from_time(rec.x, f"{path}: record {rec.record}")
 
@@ -201,6 +221,11 @@ def _read_uff(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
         found = sorted({r.func_type for r in contents.records})
         raise DataError(f"{path}: no time records (dataset 58, function type 1); function "
                         f"types found: {found or 'none (no dataset 58)'}")
+    check_record_count(path, records)
+    for rec in records:
+        if np.iscomplexobj(rec.data):
+            raise DataError(f"{path}: record {rec.record} ({rec.at}) holds complex values "
+                            f"(ordinate data type {rec.ord_data_type}); time records are real")
     groups: dict[tuple[DOF, str], list[tuple[Record58, Unit | None, int]]] = {}
     for rec in records:
         dof, sign = response_dof(rec)
@@ -286,7 +311,17 @@ def _read_tdms(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
     bad = [m for m in problems if re.search(r"less data|not a multiple|incomplete", m)]
     if bad:
         raise DataError(f"{path}: truncated TDMS file ({bad[0]})")
-    raw = [r for r in raw if r[3].size and np.issubdtype(r[3].dtype, np.number)]
+    kept = []
+    for group, name, props, data in raw:
+        what = _not_samples(data)
+        if what == "time stamps":  # a time track of absolute times: not a signal
+            log.info("%s: channel %s/%s holds time stamps; not a signal", path, group, name)
+        elif what is not None:
+            raise DataError(f"{path}: channel {f'{group}/{name}'!r} {what}; a recording's "
+                            "channels hold real numbers")
+        else:
+            kept.append((group, name, props, data))
+    raw = kept
     if not raw:
         raise DataError(f"{path}: no numeric channels in the TDMS file")
     names = [c for _, c, _, _ in raw]
@@ -309,7 +344,11 @@ def _read_tdms(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
                 step = float(props["wf_increment"])
             except (TypeError, ValueError):
                 step = np.nan
-            rate = nice_rate(1.0 / step) if np.isfinite(step) and step > 0 else np.nan
+            if np.isfinite(step) and step > 0:
+                with np.errstate(all="ignore"):
+                    check_sample_rate(1.0 / step, str(path),
+                                      f"channel {full_name!r} wf_increment", step_s=step)
+                rate = nice_rate(1.0 / step)
         channels.append((full_name, data, rate, label))
     out = []
     for full_name, data, rate, label in channels:
@@ -323,7 +362,110 @@ def _read_tdms(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
     return out, (0,)
 
 
+def _not_samples(data: np.ndarray) -> str | None:
+    """What a TDMS channel holds when it is not real samples (None: it is)."""
+    if data.size == 0:
+        return "is empty (no samples)"
+    if np.issubdtype(data.dtype, np.datetime64):
+        return "time stamps"
+    if np.iscomplexobj(data):
+        return f"holds complex numbers ({data.dtype})"
+    if data.dtype == np.bool_ or not np.issubdtype(data.dtype, np.number):
+        return f"holds {'booleans' if data.dtype == np.bool_ else 'text or objects'} " \
+            f"({data.dtype})"
+    return None
+
+
 # ------------------------------------------------------------------------ WAV
+#: Most channels a WAV recording may declare (a DAQ's 1024 channels; 65535 is a
+#: damaged header).
+MAX_WAV_CHANNELS = 1024
+
+
+def wav_layout(path: str | os.PathLike[str]) -> tuple[int, int, int, int]:
+    """(channels, sample rate in Hz, bytes per frame, frames) from the RIFF header of
+    a WAV file, checked against the file before any sample is decoded: a DataError
+    naming the file for a header cut short (``truncated WAV header``), no fmt or data
+    chunk, 0 or more than :data:`MAX_WAV_CHANNELS` channels, a frame size that is not
+    a whole number of bytes per channel, or a data chunk that declares more bytes
+    than the file holds or not a whole number of frames (``truncated``, with the
+    numbers). RIFF (little-endian), RIFX (big-endian) and RF64 (sizes in ``ds64``).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from scipy.io import wavfile
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "a.wav"
+    >>> wavfile.write(p, 2048, np.zeros((100, 2), dtype=np.int16))
+    >>> wav_layout(p)
+    (2, 2048, 4, 100)
+    >>> _ = p.write_bytes(p.read_bytes()[:-40])  # 10 frames cut off
+    >>> wav_layout(p)
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: ...a.wav: truncated WAV file: the data chunk declares 400
+    bytes (100 frames of 2 channels) but the file holds 360 (90 frames)
+    """
+    path = Path(path)
+    with open_regular(path, "a WAV file") as fh:
+        raw = fh.read()
+    if len(raw) < 12:
+        raise DataError(f"{path}: truncated WAV header: {len(raw)} bytes, the RIFF header "
+                        "alone has 12")
+    kind = raw[:4]
+    if kind not in (b"RIFF", b"RIFX", b"RF64") or raw[8:12] != b"WAVE":
+        raise DataError(f"{path}: not a WAV file (no RIFF/WAVE header)")
+    endian = ">" if kind == b"RIFX" else "<"
+    pos, fmt, big_data = 12, None, None
+    while True:
+        if pos + 8 > len(raw):
+            missing = "fmt" if fmt is None else "data"
+            raise DataError(f"{path}: truncated WAV header: the file ends at byte {len(raw)} "
+                            f"before its {missing} chunk")
+        cid = raw[pos:pos + 4]
+        (size,) = struct.unpack(endian + "I", raw[pos + 4:pos + 8])
+        body = pos + 8
+        if cid == b"ds64" and size >= 16:
+            if body + 16 > len(raw):
+                raise DataError(f"{path}: truncated WAV header: ds64 chunk cut at byte "
+                                f"{len(raw)}")
+            big_data = struct.unpack("<Q", raw[body + 8:body + 16])[0]
+        elif cid == b"fmt ":
+            if size < 16 or body + 16 > len(raw):
+                raise DataError(f"{path}: truncated WAV header: fmt chunk of "
+                                f"{min(size, len(raw) - body)} bytes, at least 16 expected")
+            _, channels, rate, _, align, bits = struct.unpack(endian + "HHIIHH",
+                                                             raw[body:body + 16])
+            if not 1 <= channels <= MAX_WAV_CHANNELS:
+                raise DataError(f"{path}: WAV header declares {channels} channels (1 to "
+                                f"{MAX_WAV_CHANNELS} expected): a damaged header")
+            if align == 0 or align % channels or bits == 0:
+                raise DataError(f"{path}: WAV header: frames of {align} bytes for {channels} "
+                                f"channels of {bits} bits are not whole samples: a damaged "
+                                "header")
+            fmt = (channels, rate, align)
+        elif cid == b"data":
+            if fmt is None:
+                raise DataError(f"{path}: WAV data chunk before its fmt chunk")
+            channels, rate, align = fmt
+            if kind == b"RF64" and size == 0xFFFFFFFF and big_data is not None:
+                size = big_data
+            held = len(raw) - body
+            if size > held:
+                raise DataError(
+                    f"{path}: truncated WAV file: the data chunk declares {size} bytes "
+                    f"({size // align} frames of {channels} channels) but the file holds "
+                    f"{held} ({held // align} frames)")
+            if size % align:
+                raise DataError(f"{path}: WAV data chunk of {size} bytes is not a whole "
+                                f"number of {align}-byte frames: truncated or damaged")
+            if size == 0:
+                raise DataError(f"{path}: WAV file holds no samples (empty data chunk)")
+            return channels, rate, align, size // align
+        pos = body + size + (size & 1)  # chunks are padded to even sizes
+
+
+
 def _require_wav_settings(path: Path, channels: list[ChannelData],
                           scale: Mapping[str, float] | None,
                           units: Mapping[str, str] | None) -> None:
@@ -340,18 +482,24 @@ def _require_wav_settings(path: Path, channels: list[ChannelData],
 def _read_wav(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
     from scipy.io import wavfile
 
+    n_channels, header_rate, _, n_frames = wav_layout(path)  # refused before decoding
+    check_sample_rate(header_rate, str(path), "WAV header")
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", wavfile.WavFileWarning)
             rate, data = wavfile.read(path)
     except wavfile.WavFileWarning as exc:
         raise DataError(f"{path}: truncated or damaged WAV file ({exc})") from None
-    except (ValueError, OSError, EOFError, IndexError, TypeError) as exc:
+    except (ValueError, OSError, EOFError, IndexError, TypeError, struct.error,
+            ZeroDivisionError) as exc:
         raise DataError(f"{path}: not a readable WAV file ({type(exc).__name__}: {exc})") \
             from None
     data = np.asarray(data)
     if data.ndim == 1:
         data = data[:, None]
+    if data.shape != (n_frames, n_channels):
+        raise DataError(f"{path}: WAV file decoded as {data.shape[0]} frames of "
+                        f"{data.shape[1]} channels, its header says {n_frames} of {n_channels}")
     full: float | None = 1.0
     if data.dtype == np.uint8:
         values = (data.astype(float) - 128.0) / 128.0
@@ -420,7 +568,8 @@ def _read_csv(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
                         f"got unit {t_label!r}")
     if not np.all(np.isfinite(values[:, 0])):
         raise DataError(f"{path}: time column has NaN/inf values")
-    rate = rate_from_time(values[:, 0] * t_unit.factor, str(path))
+    rate = rate_from_time(values[:, 0] * t_unit.factor, str(path),
+                          f"time column {time_name!r}")
     channels = []
     for k, field in enumerate(fields[1:], start=1):
         m = _HEADER_UNIT.match(field)

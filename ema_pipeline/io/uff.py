@@ -43,12 +43,16 @@ Reading rules
 Our own files also store the exact sample rate and record length in ID line 4
 (``ema-pipeline fs=... ns=...``; the UFF header keeps the abscissa increment in
 an E13.5 field only, df = 2000/16384 Hz becomes 0.12207) and the record count
-in ID line 5, so a file cut at a record boundary is seen as truncated.
+(``nrec=``), so a file cut at a record boundary is seen as truncated. The
+``key=value`` pairs fill ID line 4 and go on in line 5 (line 3 holds a long
+configuration name), every line within 80 characters; numbers are written
+exactly when short, else to 10 significant digits (:func:`id_number`).
 """
 
 from __future__ import annotations
 
 import logging
+import math
 import os
 import re
 from collections.abc import Mapping, Sequence
@@ -126,18 +130,22 @@ def _read_58(path: Path) -> tuple[UffContents, list[Record58]]:
 
 
 def _metadata_from_id(rec: Record58) -> dict[str, str]:
-    """key=value pairs our writer puts in ID lines 4 and 5 (empty for foreign files)."""
+    """key=value pairs our writer puts in ID lines 4 and 5 (and 3 when they need it;
+    :func:`_id_lines`), empty for foreign files."""
     meta: dict[str, str] = {}
-    for text in rec.ids[3:5]:
-        if text.startswith("ema-pipeline"):
+    for k, text in enumerate(rec.ids[2:5], start=3):
+        if text.startswith("ema-pipeline " if k == 3 else "ema-pipeline"):
             meta.update(re.findall(r"(\w+)=(\S+)", text))
     # "none" means not known, as an absent key; unreadable numbers are dropped
     meta = {k: v for k, v in meta.items() if v != "none"}
     for key in ("fs", "ns", "navg", "tau", "trig", "nrec"):
         if key in meta:
             try:
-                (float if key in ("fs", "tau", "trig") else int)(meta[key])
+                value = (float if key in ("fs", "tau", "trig") else int)(meta[key])
             except ValueError:
+                value = None
+            if value is None or not (math.isfinite(value) and (value >= 0 if key == "trig"
+                                                                else value > 0)):
                 log.warning("record %d: ID-line value %s=%r ignored", rec.record, key, meta[key])
                 del meta[key]
     return meta
@@ -410,13 +418,17 @@ def _uff_axis(path: Path, records: list[Record58], meta: Mapping[str, str]) -> n
             f"{path}: record {records[0].record} ({records[0].at}): the abscissa values are "
             "not strictly increasing"
         )
-    if meta.get("fs", "none") != "none" and meta.get("ns", "none") != "none":
-        exact = np.fft.rfftfreq(int(meta["ns"]), 1.0 / float(meta["fs"]))
-        if exact.size != x0.size:  # a band of the full axis
-            k0 = int(round(x0[0] / (exact[1] - exact[0])))
-            exact = exact[k0 : k0 + x0.size]
-        if exact.size == x0.size and np.allclose(exact, x0, rtol=1e-4, atol=1e-3):
-            return exact
+    if "fs" in meta and "ns" in meta and x0.size > 1:
+        # the lines k0 .. k0 + size - 1 of rfftfreq(ns, 1 / fs) = k fs / ns, computed
+        # for those lines only (an absurd ns in a damaged ID line allocates nothing)
+        fs, ns = float(meta["fs"]), int(meta["ns"])
+        df = fs / ns
+        with np.errstate(all="ignore"):
+            k0f = x0[0] / df if df > 0 else np.nan
+        if np.isfinite(k0f) and 0 <= k0f and round(k0f) + x0.size <= ns // 2 + 1:
+            exact = (round(k0f) + np.arange(x0.size)) * fs / ns
+            if np.allclose(exact, x0, rtol=1e-4, atol=1e-3):
+                return exact
     return x0
 
 
@@ -428,23 +440,88 @@ def _check_record_count(path: Path, meta: Mapping[str, str], n_found: int) -> No
         )
 
 
-def _id_lines(info: AcquisitionInfo, configuration: str, n_records: int) -> tuple[str, str]:
-    """ID lines 4 and 5: acquisition metadata, the number of records in the file
-    (so that a file cut exactly at a record boundary is still seen as truncated)
-    and the configuration, as key=value pairs."""
+def check_record_count(path: str | os.PathLike[str], records: Sequence[Record58]) -> None:
+    """DataError naming ``path`` (``truncated``, with the numbers) when a file of ours
+    holds another number of ``records`` than the count ID line 4 or 5 of the first
+    one states (a file cut exactly at a record boundary); foreign files state none.
+    ``records``: those the count is of (time records: the time records)."""
+    if records:
+        _check_record_count(Path(path), _metadata_from_id(records[0]), len(records))
 
-    def num(x: float | int | None) -> str:
-        return "none" if x is None else repr(x)
 
-    id4 = (
-        f"ema-pipeline fs={num(info.sample_rate_hz)} ns={num(info.n_samples)} "
-        f"navg={num(info.n_averages)} tau={num(info.exp_window_tau_s)} est={info.estimator} "
-        f"fwin={info.force_window.replace(' ', '_')}"
-    )
-    id5 = f"ema-pipeline nrec={n_records} cfg={configuration.replace(' ', '_') or 'none'}"
-    if len(id4) > 80 or len(id5) > 80:
-        raise DataError(f"UFF ID lines longer than 80 characters: {id4!r} / {id5!r}")
-    return id4, id5
+#: Characters of an ID line (UFF dataset 58, records 1-5: format 80A1).
+ID_LINE_CHARS = 80
+
+
+def id_number(x: float | int | None) -> str:
+    """A number as our ID lines write it: ``none`` for None, an integer in full, a
+    float in its shortest exact form when that has at most 12 characters, else to
+    10 significant digits (a relative error of at most 5e-10), so that every field fits.
+
+    Examples
+    --------
+    >>> id_number(2048.0), id_number(0.5405591056902891), id_number(None), id_number(16384)
+    ('2048.0', '0.5405591057', 'none', '16384')
+    """
+    if x is None:
+        return "none"
+    if isinstance(x, int | np.integer):
+        return str(int(x))
+    text = repr(float(x))
+    return text if len(text) <= 12 else f"{float(x):.10g}"
+
+
+def _id_lines(fields: Sequence[tuple[str, str]], configuration: str, id3: str,
+              where: str = "") -> tuple[str, str, str]:
+    """ID lines 3, 4 and 5 holding ``fields`` (key, text) and the configuration as
+    ``key=value`` pairs after ``ema-pipeline``, each line within
+    :data:`ID_LINE_CHARS`: the fields fill ID line 4 in order and go on in line 5;
+    the configuration goes where it fits (5, 4, else line 3 in place of ``id3``, the
+    source). A configuration too long for a line of its own is a DataError naming
+    ``where`` (the file); so is a field that fits nowhere.
+
+    Examples
+    --------
+    >>> _id_lines([("fs", "2048.0"), ("ns", "4096")], "genuine", "src.h5")
+    ('src.h5', 'ema-pipeline fs=2048.0 ns=4096', 'ema-pipeline cfg=genuine')
+    """
+    prefix = f"{where}: " if where else ""
+    lines = ["ema-pipeline", "ema-pipeline"]  # ID lines 4 and 5
+
+    def place(token: str, order: tuple[int, ...]) -> bool:
+        for k in order:
+            if len(lines[k]) + len(token) <= ID_LINE_CHARS:
+                lines[k] += token
+                return True
+        return False
+
+    for key, text in fields:
+        if not place(f" {key}={text}", (0, 1)):
+            raise DataError(f"{prefix}UFF ID lines cannot hold {key}={text} (80 characters "
+                            "each)")
+    cfg = f" cfg={configuration.replace(' ', '_') or 'none'}"
+    if not place(cfg, (1, 0)):
+        room = ID_LINE_CHARS - len("ema-pipeline cfg=")
+        if len("ema-pipeline") + len(cfg) > ID_LINE_CHARS:
+            raise DataError(f"{prefix}configuration name of {len(configuration)} characters "
+                            f"is too long for a UFF ID line (at most {room}); shorten it or "
+                            "write HDF5 (.h5)")
+        id3 = f"ema-pipeline{cfg}"
+    return id3, lines[0], lines[1]
+
+
+def _frf_id_lines(frf: FRFSet, n_records: int, where: str) -> tuple[str, str, str]:
+    """ID lines 3-5 of an FRF file: the source, the acquisition metadata, the number
+    of records in the file (so that a file cut exactly at a record boundary is still
+    seen as truncated) and the configuration (:func:`_id_lines`)."""
+    info = frf.acquisition
+    fields = [
+        ("fs", id_number(info.sample_rate_hz)), ("ns", id_number(info.n_samples)),
+        ("navg", id_number(info.n_averages)), ("tau", id_number(info.exp_window_tau_s)),
+        ("est", info.estimator), ("fwin", info.force_window.replace(" ", "_")),
+        ("nrec", str(n_records)),
+    ]
+    return _id_lines(fields, frf.configuration, f"{frf.source.path}"[-ID_LINE_CHARS:], where)
 
 
 def _uff_record(
@@ -521,14 +598,16 @@ def write_frf_uff(
     'g.ufb'
     >>> tmp.cleanup()
     """
-    return _write_uff(_frf_records(frf, binary=binary, coherence=coherence), path)
+    return _write_uff(_frf_records(frf, binary=binary, coherence=coherence,
+                                   where=str(path)), path)
 
 
-def _frf_records(frf: FRFSet, *, binary: bool, coherence: bool) -> list[dict[str, Any]]:
+def _frf_records(frf: FRFSet, *, binary: bool, coherence: bool,
+                 where: str = "") -> list[dict[str, Any]]:
     """pyuff dataset-58 dicts of an FRFSet (see :func:`write_frf_uff`)."""
     numerator = {"accelerance": "m/s^2", "mobility": "m/s", "receptance": "m"}[frf.quantity]
     per_pair = 2 if coherence and frf.coherence is not None else 1
-    id4, id5 = _id_lines(frf.acquisition, frf.configuration, per_pair * frf.n_out * frf.n_in)
+    id3, id4, id5 = _frf_id_lines(frf, per_pair * frf.n_out * frf.n_in, where)
     info = frf.acquisition
     id2 = f"{info.estimator}, {info.n_averages or '?'} linear averages"
     records = []
@@ -537,7 +616,7 @@ def _frf_records(frf: FRFSet, *, binary: bool, coherence: bool) -> list[dict[str
             ids = (
                 f"{frf.configuration or 'FRF'} {rsp.label()}/{ref.label()}",
                 id2,
-                f"{frf.source.path}"[-80:],
+                id3,
                 id4,
                 id5,
             )
@@ -704,7 +783,8 @@ def write_modes_uff(
             )
         )
     if frf_fit is not None:
-        records.extend(_frf_records(frf_fit, binary=False, coherence=False))
+        records.extend(_frf_records(frf_fit, binary=False, coherence=False,
+                                    where=str(path)))
     return _write_uff(records, path)
 
 
@@ -717,15 +797,14 @@ def write_time_uff(
     N) and one acceleration record per response (data type 12, m/s^2).
     """
     t = np.arange(records.n_samples) / records.sample_rate_hz
-    meta = (
-        f"ema-pipeline fs={records.sample_rate_hz!r} ns={records.n_samples} "
-        f"trig={records.trigger_s!r} nrec={records.n_averages * (1 + records.response.shape[1])} "
-        f"cfg={records.configuration or 'none'}"
-    )
+    fields = [("fs", id_number(records.sample_rate_hz)), ("ns", id_number(records.n_samples)),
+              ("trig", id_number(records.trigger_s)),
+              ("nrec", str(records.n_averages * (1 + records.response.shape[1])))]
+    id3, id4, id5 = _id_lines(fields, records.configuration, "NONE", str(path))
     out = []
     ref = records.reference_dof
     for k in range(records.n_averages):
-        ids = (f"impact {k + 1}", "time record", "NONE", meta, "NONE")
+        ids = (f"impact {k + 1}", "time record", id3, id4, id5)
         out.append(
             _uff_record(
                 binary=binary,

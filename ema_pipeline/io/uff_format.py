@@ -330,7 +330,9 @@ def _header(lines: list[str], where: str) -> dict[str, object]:
     ftype, lcase, rname, rnode, rdir, fname, fnode, fdir = _dof_line(lines[5], where)
     r7 = lines[6]
     parts = r7.split()
-    if len(parts) >= 5 and all(_int(p) is not None for p in parts[:3]):
+    # split at blanks unless an I10 field touches its neighbour (an 11+ digit "integer"
+    # is two fields, e.g. a 10-digit count after the data type)
+    if len(parts) >= 5 and all(_int(p) is not None and len(p) <= 10 for p in parts[:3]):
         ord_type, n_values, spacing = (_int(p) for p in parts[:3])
         x0, dx = _float(parts[3]), _float(parts[4])
     else:  # values touching: fixed columns 3I10,3E13.5

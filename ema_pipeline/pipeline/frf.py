@@ -12,7 +12,6 @@ that a report or a batch run can use them.
 
 from __future__ import annotations
 
-import math
 import os
 import time
 from dataclasses import dataclass, replace
@@ -23,6 +22,7 @@ import pandas as pd
 
 from ema_pipeline import acquisition, io
 from ema_pipeline.acquisition import hits as hitlib
+from ema_pipeline.acquisition.channels import check_sample_rate
 from ema_pipeline.data import (
     ConfigError,
     DataError,
@@ -49,6 +49,7 @@ __all__ = [
     "configuration_frf",
     "hits_page_input",
     "hits_report_path",
+    "frf_output_paths",
     "identify_recording",
     "impact_frf",
 ]
@@ -86,23 +87,30 @@ class FRFSettings:
 
     def __post_init__(self) -> None:
         def bad(name: str, value: object, rule: str) -> ConfigError:
-            return ConfigError(f"{name} must be {rule}, got {value!r}")
+            option = "--" + name.replace("_", "-")
+            shown = f"{value:g}" if isinstance(value, float) else repr(value)
+            return ConfigError(f"{name} ({option}) must be {rule}, got {shown}")
 
-        if not (math.isfinite(self.pretrigger_s) and self.pretrigger_s >= 0):
-            raise bad("pretrigger_s", self.pretrigger_s, "a finite number >= 0 s")
+        def seconds(value: object) -> bool:
+            return isinstance(value, int | float) and not isinstance(value, bool)
+
+        top_pre, top_len = hitlib.MAX_PRETRIGGER_S, hitlib.MAX_RECORD_LENGTH_S
+        if not (seconds(self.pretrigger_s) and 0 <= self.pretrigger_s <= top_pre):
+            raise bad("pretrigger_s", self.pretrigger_s, f"0 to {top_pre:g} s")
         if self.record_length_s is not None and not (
-            math.isfinite(self.record_length_s) and self.record_length_s > 0
+            seconds(self.record_length_s) and 0 < self.record_length_s <= top_len
         ):
-            raise bad("record_length_s", self.record_length_s, "a finite number > 0 s")
+            raise bad("record_length_s", self.record_length_s, f"> 0 and at most {top_len:g} s")
         if self.force_window_s is not None and not (
-            math.isfinite(self.force_window_s) and self.force_window_s >= 0
+            seconds(self.force_window_s) and 0 <= self.force_window_s <= top_len
         ):
-            raise bad("force_window_s", self.force_window_s, "a finite number >= 0 s (0: none)")
+            raise bad("force_window_s", self.force_window_s, f"0 (none) to {top_len:g} s")
         tau = self.exp_window_tau
         if not (tau is None or tau == "auto" or (
-            isinstance(tau, int | float) and math.isfinite(tau) and tau > 0
+            seconds(tau) and 0 < tau <= hitlib.MAX_EXP_WINDOW_TAU_S  # type: ignore[operator]
         )):
-            raise bad("exp_window_tau", tau, "'auto', None or a time constant > 0 s")
+            raise bad("exp_window_tau", tau, "auto, none or a time constant > 0 and at most "
+                      f"{hitlib.MAX_EXP_WINDOW_TAU_S:g} s")
         if self.estimator not in ("H1", "H2", "Hv"):
             raise bad("estimator", self.estimator, "H1, H2 or Hv")
 
@@ -187,6 +195,7 @@ def frf_from_recording(
     """
     settings = FRFSettings() if settings is None else settings
     where = recording.source.path or "recording"
+    check_sample_rate(recording.sample_rate_hz, recording.source.path)
     k_force = _force_index(recording, force_channel, where)
     keep = [k_force] + [k for k, ch in enumerate(recording.channels)
                         if k != k_force and ch.quantity != "force"]
@@ -204,7 +213,7 @@ def frf_from_recording(
                              keep_all=settings.keep_all)
     accepted = [h.index - 1 for h in hits if h.accepted]
     if not accepted:
-        summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {','.join(h.reasons)}"
+        summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {h.reasons_text()}"
                             for h in hits)
         raise DataError(f"{where}: every hit rejected ({summary})")
     records = hitlib.cut_records(rec, 0, found, accepted)
@@ -213,12 +222,27 @@ def frf_from_recording(
     tau: float | None
     if settings.exp_window_tau == "auto":
         tau = hitlib.auto_exp_window_tau(records)
+        shortest = acquisition.shortest_exp_window_tau(n, fs, records.trigger_s)
+        if tau is not None and not tau >= shortest:
+            raise DataError(f"{where}: the automatic exponential window (tau {tau:.4g} s) "
+                            f"would overflow before the trigger: the pretrigger "
+                            f"({records.trigger_s:g} s) takes most of the {n / fs:g} s records; "
+                            "give a shorter --pretrigger-s or --exp-window-tau")
     else:
         tau = None if settings.exp_window_tau is None else float(settings.exp_window_tau)
     force_window_s = settings.force_window_s
     if force_window_s is None:
         force_window_s = records.trigger_s + AUTO_FORCE_WINDOW_S  # the pretrigger used
     force_window_s = force_window_s or None
+    if force_window_s is not None:
+        pulse_end = hitlib.pulse_end_s(rec, 0, found, accepted)
+        if force_window_s < pulse_end:
+            what = ("--force-window-s" if settings.force_window_s is not None else
+                    f"the default force window (the pretrigger + {AUTO_FORCE_WINDOW_S:g} s)")
+            raise DataError(f"{where}: {what} {force_window_s:g} s ends before the force pulse "
+                            f"does ({pulse_end:.4g} s into the record, pretrigger "
+                            f"{records.trigger_s:g} s): it would cut the pulse; give at least "
+                            f"{pulse_end:.4g} s, or 0 for no force window")
     frf = acquisition.estimate_frf(records, force_window_s=force_window_s,
                                    exp_window_tau_s=tau, estimator=settings.estimator)
     w = np.ones(n)
@@ -367,15 +391,55 @@ def hits_page_input(result: ImpactFRF) -> HitsPageInput:
     )
 
 
-def check_output(out: str | os.PathLike[str]) -> str:
+def frf_output_paths(out: str | os.PathLike[str], report: bool = False) -> dict[str, Path]:
+    """What ``frf --out OUT`` writes, as {what it is: path}: the FRF file, the hit
+    table and (``report``) the hit page.
+
+    Examples
+    --------
+    >>> sorted(p.name for p in frf_output_paths("o/t.h5", report=True).values())
+    ['t.h5', 't_hits.csv', 't_hits.html']
+    """
+    out = Path(out)
+    paths = {"--out": out, f"the hit table of --out {out}": hits_csv_path(out)}
+    if report:
+        paths[f"the hit page of --out {out}"] = hits_report_path(out)
+    return paths
+
+
+def check_output(
+    out: str | os.PathLike[str],
+    inputs: list[str | os.PathLike[str]] | list[Path] | tuple[Path, ...] = (),
+    *,
+    report: bool = False,
+) -> str:
     """The FRF format of ``out`` (by suffix), refused before any work when the
-    suffix is unknown or ``out`` is a folder."""
+    suffix is unknown, when ``out``, its hit table or (``report``) its hit page is
+    a folder, or is one of the ``inputs`` (the same file by resolved path or hard
+    link: :func:`ema_pipeline.io.same_file`), so that no input is ever overwritten.
+
+    Examples
+    --------
+    >>> check_output("a/rec.uff", ["a/rec.uff"])
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: a/rec.uff: --out would overwrite the input a/rec.uff; ...
+    >>> check_output("a/rec.h5", ["a/rec_hits.csv"])
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: a/rec_hits.csv: the hit table of --out a/rec.h5 would
+    overwrite the input a/rec_hits.csv; ...
+    """
     out = Path(out)
     fmt = io.frf_format_for_writing(out)
-    if out.is_dir():
-        raise DataError(f"{out}: is a folder; --out needs an FRF file name (.h5 or .uff)")
+    targets = frf_output_paths(out, report)
+    for what, path in targets.items():
+        if path.is_dir():
+            raise DataError(f"{path}: is a folder; {what} must be a file (choose another "
+                            "--out)")
     if out.parent.exists() and not out.parent.is_dir():
         raise DataError(f"{out.parent}: not a folder")
+    io.check_not_inputs(targets, [Path(p) for p in inputs])
     return fmt
 
 
@@ -425,7 +489,7 @@ def configuration_frf(
     >>> configuration_frf([], {"estimator": "H9"})
     Traceback (most recent call last):
     ...
-    ema_pipeline.data.ConfigError: estimator must be H1, H2 or Hv, got 'H9'
+    ema_pipeline.data.ConfigError: estimator (--estimator) must be H1, H2 or Hv, got 'H9'
     """
     values = dict(items)
     reader: dict = {k: values.pop(k) for k in READER_KEYS if k in values}
@@ -449,20 +513,26 @@ def frf_from_files(
 ) -> ImpactFRF:
     """Read the recordings ``paths`` (segments of one test), run
     :func:`frf_from_recording`, and write the FRFs to ``out`` (``.h5`` or ``.uff``)
-    and the hit table to ``<stem>_hits.csv`` beside it (each atomically; on an
-    error nothing is written). ``report``: also the hit page ``<stem>_hits.html``
+    and the hit table to ``<stem>_hits.csv`` beside it. ``report``: also the hit
+    page ``<stem>_hits.html``
     (:func:`ema_pipeline.report.hits_page.render_hits_html`). ``force_channel``,
     ``scale`` and ``units`` go to the reader
-    (:func:`ema_pipeline.io.recording.read_recording`)."""
-    fmt = check_output(out)
+    (:func:`ema_pipeline.io.recording.read_recording`).
+
+    An output that is an input, or a folder, is refused before any work
+    (:func:`check_output`). The outputs are written to temporaries and replace
+    their targets together (:func:`ema_pipeline.io.replace_together`): on any
+    error none is replaced and no temporary is left."""
+    fmt = check_output(out, paths, report=report)
     result = impact_frf(paths, settings, force_channel=force_channel, scale=scale,
                         units=units, configuration=configuration)
     frf = result.frf
     page = render_hits_html(hits_page_input(result)) if report else None
-    io.write_csv(result.hits_table(), hits_csv_path(out))
-    io.write_frf(frf, out, fmt)
-    if page is not None:
-        io.write_text(page, hits_report_path(out))
+    with io.replace_together():
+        io.write_csv(result.hits_table(), hits_csv_path(out))
+        io.write_frf(frf, out, fmt)
+        if page is not None:
+            io.write_text(page, hits_report_path(out))
     return result
 
 
@@ -490,9 +560,11 @@ def identify_recording(
         if not force and io.completed_result_sha256(result_h5) == sha:  # done: skipped
             return identify_file(frf_path, out_dir, options, force=False, sha256=sha)
         out_dir.mkdir(parents=True, exist_ok=True)
+        check_output(frf_path, [path])
         result = impact_frf([path], configuration=path.stem)
-        io.write_csv(result.hits_table(), hits_csv_path(frf_path))
-        io.write_frf(result.frf, frf_path, "h5")
+        with io.replace_together():
+            io.write_csv(result.hits_table(), hits_csv_path(frf_path))
+            io.write_frf(result.frf, frf_path, "h5")
     except EMAError as exc:
         return FileOutcome(path=path, status="failed", reason=str(exc),
                            seconds=time.perf_counter() - start)

@@ -102,7 +102,14 @@ def verdict_text(hit: Hit, keep_all: bool = False) -> str:
     if hit.accepted and not hit.reasons:
         return "accepted: no check objects"
     state = "kept (--keep-all) despite" if hit.accepted else "rejected"
-    return f"{state}: " + "; ".join(REASON_TEXT.get(r, r) for r in hit.reasons)
+
+    def text(reason: str) -> str:
+        said = REASON_TEXT.get(reason, reason)
+        if reason == "overload" and hit.overloaded:
+            said += f" (channel {', '.join(hit.overloaded)})"
+        return said
+
+    return f"{state}: " + "; ".join(text(r) for r in hit.reasons)
 
 
 def _pulse_panel(c: Canvas, left: float, view: HitView) -> None:
