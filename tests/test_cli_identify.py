@@ -20,7 +20,7 @@ from ema_pipeline.identification import identify
 from ema_pipeline.identification.expect import match_expected, with_expected_rows
 from ema_pipeline.pipeline.batch import run_batch
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
-from ema_pipeline.pipeline.single import identify_file, identify_frf
+from ema_pipeline.pipeline.single import identify_file
 
 TAU_S = 8.192 / 5  # the simulated test's window: tau = T / 5
 
@@ -85,9 +85,9 @@ def _two_mode_frf(n_out: int, n_in: int, n_lines: int = 401) -> tuple[FRFSet, Mo
     return frf, truth
 
 
-def test_identify_frf_applies_reciprocity_to_roving_sets() -> None:
+def test_identify_applies_reciprocity_to_roving_sets() -> None:
     roving, truth = _two_mode_frf(1, 8)  # one accelerometer, 8 hammer points
-    res = identify_frf(roving)
+    res = identify(roving)
     ref = identify(roving.reciprocal())
     np.testing.assert_allclose(res.fn_hz, truth.fn_hz, rtol=1e-6)
     np.testing.assert_allclose(res.zeta, truth.zeta, rtol=1e-3)

@@ -34,7 +34,7 @@ mode was kept for), ``uncertainty`` (noise and covariance model),
 diagrams in :mod:`ema_pipeline.plots`.
 """
 
-from ema_pipeline.identification.common import default_max_order
+from ema_pipeline.identification.common import default_max_order, single_reference
 from ema_pipeline.identification.core import METHODS, identify
 from ema_pipeline.identification.lsfd import (  # the module stays ``identification.lsfd``
     frac,
@@ -93,6 +93,7 @@ __all__ = [
     "real_normalised",
     "refine_poles",
     "select_trajectories",
+    "single_reference",
     "stabilization",
     "track_poles",
 ]

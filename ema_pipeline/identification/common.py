@@ -24,6 +24,24 @@ from ema_pipeline.identification.uncertainty import modal_std
 from ema_pipeline.modal import mac
 
 
+def single_reference(frf: FRFSet) -> FRFSet:
+    """The FRF set the identification works on: a roving-hammer set (one
+    response, several references) made single-reference by reciprocity
+    (:meth:`ema_pipeline.data.FRFSet.reciprocal`), which keeps the pLSCF model
+    small; any other set unchanged. :func:`~ema_pipeline.identification.identify`
+    applies it, so the library and ``ema-pipeline identify`` see the same set.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import DOF
+    >>> roving = FRFSet(freq_hz=np.arange(1.0, 6.0), H=np.ones((1, 3, 5), complex),
+    ...                 response_dofs=(DOF(1),), reference_dofs=(DOF(2), DOF(3), DOF(4)))
+    >>> single_reference(roving).H.shape, single_reference(roving.reciprocal()).H.shape
+    ((3, 1, 5), (3, 1, 5))
+    """
+    return frf.reciprocal() if frf.n_out == 1 and frf.n_in > 1 else frf
+
+
 def source_prefix(frf: FRFSet) -> str:
     """``"<path>: "`` for error messages, or ``""`` when the FRF set has no source file.
 

@@ -21,6 +21,7 @@ from ema_pipeline.identification.common import (
     check_band_data,
     default_max_order,
     resolve_band,
+    single_reference,
     source_prefix,
 )
 from ema_pipeline.identification.expect import match_expected, not_found_message
@@ -49,9 +50,11 @@ def identify(
 
     Parameters
     ----------
-    frf : FRFSet, (n_out, n_in, n_freq) FRFs. Roving-hammer sets (many
-        references, one response) should be transposed by reciprocity first
-        (:meth:`ema_pipeline.data.FRFSet.reciprocal`).
+    frf : FRFSet, (n_out, n_in, n_freq) FRFs. A roving-hammer set (one
+        response, several references) is identified in its reciprocal form
+        (:func:`~ema_pipeline.identification.common.single_reference`), as
+        ``ema-pipeline identify`` does: ``result.modes.shapes`` then has one
+        row per hammer point.
     options : IdentificationOptions (default: all defaults); see its
         attributes for band, order, method, expected frequencies, window,
         weighting, tolerances, refinement and residual terms.
@@ -97,6 +100,7 @@ def identify(
     options = IdentificationOptions() if options is None else options
     if overrides:
         options = replace(options, **overrides)
+    frf = single_reference(frf)
     where = source_prefix(frf)
     if picks is not None:
         if options.method != "plscf" or options.expect_hz:

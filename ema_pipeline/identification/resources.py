@@ -23,6 +23,7 @@ import os
 import numpy as np
 
 from ema_pipeline.data import ConfigError, FRFSet
+from ema_pipeline.identification.common import single_reference
 from ema_pipeline.identification.options import IdentificationOptions
 
 #: Default memory limit of one identification, GiB.
@@ -160,8 +161,8 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
     if tau is not None and not (math.isfinite(tau) and tau > 0):
         raise ConfigError(f"{where}exp_window_tau_s must be a positive time in s, got {tau!r}")
     method = str(options.method)
-    n_in = 1 if frf.n_out == 1 and frf.n_in > 1 else frf.n_in  # roving hammer: reciprocity
-    n_out = frf.n_in if n_in != frf.n_in else frf.n_out
+    identified = single_reference(frf)  # the set identify() works on
+    n_in, n_out = identified.n_in, identified.n_out
     cap = order_cap(n_lines, n_in)
     p = options.max_order
     if p is not None:
