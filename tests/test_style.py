@@ -4,9 +4,11 @@ its modules import downhill (no cycle, no private name from another module)."""
 from __future__ import annotations
 
 import ast
+import os
 import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -238,6 +240,38 @@ def test_every_import_goes_down_the_readme_layers():
     modules = package_modules()
     assert {group(name) for name in modules} <= set(layers), "a package missing in README layers"
     assert layer_violations(modules, layers) == []
+
+
+def test_io_loads_no_numerics():
+    """``import ema_pipeline.io`` (which reads and writes identification results)
+    loads neither scipy nor the identification's numerics: the result types live
+    in the light ``identification.result`` and ``identification/__init__`` loads
+    its modules on first use. Checked in a fresh interpreter."""
+    code = ("import sys, ema_pipeline.io; "
+            "print('scipy' in sys.modules, sorted(m for m in sys.modules "
+            "if m.startswith('ema_pipeline.identification.')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=REPO, check=True,
+                         env={**os.environ, "PYTHONPATH": str(REPO)}).stdout
+    assert out.split(" ", 1)[0] == "False", out
+    assert out.strip().split(" ", 1)[1] == ("['ema_pipeline.identification.result', "
+                                           "'ema_pipeline.identification.thresholds']"), out
+
+
+def test_identification_exports_are_lazy_and_complete():
+    """Every name of ``identification.__all__`` resolves (through the lazy
+    ``__getattr__``) to the object of its module, and an unknown name is an
+    AttributeError."""
+    import importlib
+
+    import ema_pipeline.identification as ident
+
+    assert sorted(ident.__all__) == sorted(ident.EXPORTS)
+    for name, module in ident.EXPORTS.items():
+        home = importlib.import_module(f"ema_pipeline.identification.{module}")
+        assert getattr(ident, name) is getattr(home, name), name
+    with pytest.raises(AttributeError, match="no attribute 'no_such_name'"):
+        _ = ident.no_such_name  # type: ignore[attr-defined]
 
 
 def private_imports(path: Path) -> list[str]:

@@ -17,9 +17,13 @@ from ema_pipeline.data import (
     quantity_power,
 )
 from ema_pipeline.identification.lsfd import frac, lsfd, mpc, normalised_error, real_normalised
-from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
-from ema_pipeline.identification.selection import SelectedPoles
-from ema_pipeline.identification.stabilization import StabilizationData, pole_to_modal
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    SelectedPoles,
+    StabilizationData,
+)
+from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.uncertainty import modal_std
 from ema_pipeline.modal import mac
 
