@@ -15,7 +15,7 @@ import pytest
 from ema_pipeline import io
 from ema_pipeline.acquisition import modal_frf
 from ema_pipeline.cli import main
-from ema_pipeline.data import DOF, MIN_FRF_LINES, DataError, FRFSet, ModalParameters
+from ema_pipeline.data import DOF, MIN_FRF_LINES, DataError, FRFSet, ModalParameters, OptionError
 from ema_pipeline.identification import identify
 from ema_pipeline.identification.expect import match_expected, with_expected_rows
 from ema_pipeline.pipeline.batch import run_batch
@@ -163,15 +163,21 @@ def test_sdypy_backend_one_row_per_mode(name: str, example_dir: Path) -> None:
 
 def test_sdypy_backend_refuses_too_low_order(example_dir: Path, tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """Below the method's minimum (10 for sdypy-lscf) the options refuse the
+    order, in the library and on the command line alike; above it, sdypy-EMA's
+    LSCF still needs 2 orders per mode looked for (6 guesses: 12)."""
     frf = io.read_frf(example_dir / "genuine.uff")
-    with pytest.raises(DataError, match=r"max_order 2 is too low for 4 mode\(s\).*at least 10"):
+    with pytest.raises(OptionError, match=r"max_order must be at least 10 for method "
+                                          r"'sdypy-lscf'.*got 2"):
         identify(frf, method="sdypy-lscf", max_order=2)
     code = main(["identify", str(example_dir / "genuine.uff"), "--out", str(tmp_path),
                  "--method", "sdypy-lscf", "--max-order", "2"])
-    assert code != 0
+    assert code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "too low" in err[0]
+    assert len(err) == 1 and "--max-order must be at least 10" in err[0], err
     assert not (tmp_path / "genuine_modes.csv").exists()
+    with pytest.raises(DataError, match=r"max_order 10 is too low for 6 mode\(s\).*at least 12"):
+        identify(frf, method="sdypy-lscf", max_order=10, expect_hz=[18, 112, 327, 500, 629, 700])
 
 
 def test_expect_not_found_is_an_empty_row(example_dir: Path, tmp_path: Path,

@@ -26,6 +26,7 @@ from ema_pipeline.cli.commands import (
 )
 from ema_pipeline.cli.frf_command import add_frf_parser
 from ema_pipeline.cli.support import EXIT_USAGE
+from ema_pipeline.identification.options import MAX_ORDER, METHOD_NAMES, MIN_ORDER
 
 __all__ = ["MODES_CSV_HELP", "build_parser"]
 
@@ -143,12 +144,14 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         "--max-order",
         type=int,
         default=None,
-        help="highest polynomial order of the stabilization diagram",
+        help="highest polynomial order of the stabilization diagram (fixed; "
+        + ", ".join(f"at least {low} for {name}" for name, low in MIN_ORDER.items())
+        + f", at most {MAX_ORDER}; default: the adaptive order search)",
     )
     p.add_argument(
         "--method",
-        choices=("plscf", "sdypy-lscf"),
-        default="plscf",
+        choices=METHOD_NAMES,
+        default=METHOD_NAMES[0],
         help="plscf (ours, default) or sdypy-lscf (sdypy-EMA's LSCF)",
     )
     _add_numbers(p, "--expect", "approximate natural frequencies in Hz: pick the nearest "

@@ -33,13 +33,13 @@ from ema_pipeline.identification.sdypy_backend import identify_sdypy
 
 Backend = Callable[[FRFSet, IdentificationOptions], IdentificationResult]
 
-#: Identification methods by name (``IdentificationOptions.method``).
+#: Identification methods by name: one backend per name of
+#: :data:`~ema_pipeline.identification.options.METHOD_NAMES` (the ``Method``
+#: literal of ``IdentificationOptions.method``, which checks the name).
 METHODS: dict[str, Backend] = {
     "plscf": identify_plscf,
     "sdypy-lscf": identify_sdypy,
 }
-
-WEIGHTINGS = ("none", "coherence")
 
 
 def identify(
@@ -107,12 +107,7 @@ def identify(
             raise DataError(f"{where}picks are poles of the 'plscf' diagram; they go with "
                             "neither another method nor expected frequencies")
         options = picks.options(options)
-    backend = METHODS.get(options.method)
-    if backend is None:
-        known = " or ".join(repr(name) for name in METHODS)
-        raise DataError(f"unknown identification method {options.method!r}; use {known}")
-    if options.weighting not in WEIGHTINGS:
-        raise DataError(f"unknown weighting {options.weighting!r}; use 'none' or 'coherence'")
+    backend = METHODS[options.method]  # a name the options checked (METHOD_NAMES)
     frf = options.apply_window(frf)
     frf.check_finite()
     lo, hi = resolve_band(frf, options.band_hz)
