@@ -112,7 +112,7 @@ def _simulate_and_write(
     and seed of the options, and write what ``simulate`` was asked to."""
     from ema_pipeline import acquisition, io
 
-    snr = None if args.snr_db is not None and args.snr_db <= 0 else args.snr_db
+    snr = acquisition.noise_snr_db(args.snr_db)  # 0: noise-free; negative: noisier than the signal
     records = acquisition.simulate_time_records(
         modes, setup, snr_db=snr, seed=args.seed, configuration=args.configuration,
         shapes=shapes,

@@ -278,7 +278,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--snr-db",
         type=float,
         default=40.0,
-        help="signal-to-noise ratio in dB per channel (default 40; 0 = noise-free)",
+        help="signal-to-noise ratio in dB per channel (default 40; 0 = noise-free; a "
+        "negative value adds noise stronger than the signal)",
     )
     _add_numbers(p, "--fd-hz", "damped natural frequencies in Hz, e.g. 18.1,112,327,629 "
                  "(default: Table 1)")

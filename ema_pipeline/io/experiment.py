@@ -28,6 +28,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
+from ema_pipeline.acquisition import noise_snr_db
 from ema_pipeline.data import DOF, Beam, DataError, OptionError
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.identification.options import IdentificationOptions, check_option
@@ -540,7 +541,7 @@ def read_simulated_configuration(
         description=entry.get("description", ""),
         added_mass=tuple(sorted(pairs)),
         zeta_pct=zeta,
-        snr_db=snr if snr > 0 else None,
+        snr_db=noise_snr_db(snr),  # 0: noise-free, as for simulate --snr-db
         seed=entry.get("seed", position),
     )
 
