@@ -1,7 +1,8 @@
 """`identify` / `batch` options of issue 11: the exponential window's time
 constant for files that do not carry it, roving sets in the Python API, the
 minimum number of lines, input suffixes in any letter case, ``--expect`` with
-a tolerance, and the sdypy-EMA backend (one row per mode, orders too low)."""
+a tolerance, the sdypy-EMA backend (one row per mode, orders too low), and
+``--geometry`` without ``--report`` (refused by both commands)."""
 
 from __future__ import annotations
 
@@ -11,6 +12,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import REPO
 
 from ema_pipeline import io
 from ema_pipeline.acquisition import modal_frf
@@ -227,3 +229,44 @@ def test_console_says_the_model_each_band_fitted(example_dir: Path, tmp_path: Pa
         assert line[0] == (f"  model: band {band[0]:g}-{band[1]:g} Hz, diagram orders "
                            f"{int(np.min(orders))}-{int(np.max(orders))}, lower and upper "
                            "residual terms")
+
+
+def test_geometry_without_report_is_refused_by_identify_and_batch(
+        example_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--geometry`` draws the modes in the report pages; ``identify`` and
+    ``batch`` without ``--report`` (with or without ``--uff``, whose modes UFF
+    holds no geometry) both refuse it with the same one line, exit 2, before
+    any work (``identify`` used to ignore it)."""
+    geometry = REPO / "examples" / "ufsc-beam-geometry.uff"
+    messages = []
+    for command, target in (("identify", example_dir / "genuine.uff"), ("batch", example_dir)):
+        out = tmp_path / command
+        code = main([command, str(target), "--out", str(out), "--geometry", str(geometry),
+                     "--uff", "--quiet"])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1, err
+        assert "--geometry draws the modes in the report pages: add --report" in err[0]
+        messages.append(err[0].split("error: ", 1)[1])
+        assert not out.exists()
+    assert messages[0] == messages[1]
+
+
+def test_run_geometry_help_states_one_default() -> None:
+    """The help of ``run --geometry`` gives its one default (the experiment's
+    geometry, else its FE beam), not also the FRF file's (which is identify's
+    and batch's)."""
+    from ema_pipeline.cli.parser import build_parser
+
+    parser = build_parser()
+
+    def geometry_help(command: str) -> str:
+        action = next(a for a in parser.commands[command]._actions if a.dest == "geometry")
+        return str(action.help)
+
+    run_help = geometry_help("run")
+    assert run_help.count("default") == 1, run_help
+    assert run_help.endswith("default: the experiment's [geometry], else its FE beam")
+    for command in ("identify", "batch"):
+        text = geometry_help(command)
+        assert text.count("default") == 1 and text.endswith("default: the geometry in the "
+                                                            "FRF file"), text

@@ -230,10 +230,17 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
 
 
 def _geometry(args: argparse.Namespace) -> Geometry | None:
-    """``--geometry FILE``: the geometry read now (a bad file exits with 2), or None."""
+    """``--geometry FILE``: the geometry read now (a bad file exits with 2), or None.
+
+    ``identify`` and ``batch`` draw it in the report pages only: without
+    ``--report`` it is a usage error (their modes UFF of ``--uff`` has no
+    geometry datasets; ``run`` writes the beam's nodes as 15/82)."""
     from ema_pipeline import io
 
     path = getattr(args, "geometry", None)
+    if path is not None and not getattr(args, "report", True):  # run always reports
+        raise ConfigError("--geometry draws the modes in the report pages: add --report "
+                          "(the modes UFF of --uff holds no geometry)")
     return None if path is None else io.read_geometry(path)
 
 
@@ -311,8 +318,6 @@ def cmd_batch(args: argparse.Namespace) -> int:
     check_output_dir(args.out, "--out")
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {args.workers}")
-    if args.geometry is not None and not args.report:
-        raise ConfigError("--geometry draws the modes in the report pages: add --report")
     geometry = _geometry(args)  # read now: a bad file stops before the batch runs
     report = run_batch(
         args.folder,

@@ -188,12 +188,12 @@ def _add_memory_limit(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_uff_and_verbose(p: argparse.ArgumentParser, where: str) -> None:
+def _add_uff_and_verbose(p: argparse.ArgumentParser, where: str, geometry: str) -> None:
     p.add_argument(
         "--uff",
         action="store_true",
         help=f"also write the identified modes as Universal File {where} (datasets 164, "
-        "15/82 where the geometry is known, 55 per mode, 58 with the synthesised FRFs)",
+        f"{geometry}55 per mode, 58 with the synthesised FRFs)",
     )
     p.add_argument(
         "--verbose",
@@ -202,14 +202,19 @@ def _add_uff_and_verbose(p: argparse.ArgumentParser, where: str) -> None:
     )
 
 
-def _add_geometry(p: argparse.ArgumentParser, what: str) -> None:
+#: The default of ``--geometry`` of ``identify`` and ``batch``.
+_GEOMETRY_FROM_FILE = "the geometry in the FRF file"
+
+
+def _add_geometry(p: argparse.ArgumentParser, what: str, default: str = _GEOMETRY_FROM_FILE
+                  ) -> None:
     p.add_argument(
         "--geometry",
         type=Path,
         default=None,
         metavar="FILE",
         help=f"test geometry (UFF datasets 15 or 2411 with nodes, 82 with trace lines) to "
-        f"animate the mode shapes on in {what}; default: the geometry in the FRF file",
+        f"animate the mode shapes on in {what}; default: {default}",
     )
 
 
@@ -319,7 +324,7 @@ def build_parser() -> argparse.ArgumentParser:
         "stabilization, modes with MPC, AutoMAC, shapes, fit, provenance)",
     )
     _add_no_figures(p)
-    _add_geometry(p, "the report")
+    _add_geometry(p, "the report (with --report)")
     p.add_argument(
         "--picks",
         type=Path,
@@ -330,7 +335,7 @@ def build_parser() -> argparse.ArgumentParser:
         "selection; a pick that matches no pole is an error",
     )
     _add_identify_options(p)
-    _add_uff_and_verbose(p, "DIR/<stem>_modes.uff")
+    _add_uff_and_verbose(p, "DIR/<stem>_modes.uff", "")
     p.set_defaults(func=cmd_identify)
 
     p = sub.add_parser(
@@ -367,7 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_geometry(p, "the per-file report pages (with --report)")
     _add_no_figures(p)
     _add_identify_options(p)
-    _add_uff_and_verbose(p, "OUT/.../<stem>_modes.uff")
+    _add_uff_and_verbose(p, "OUT/.../<stem>_modes.uff", "")
     p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser(
@@ -404,9 +409,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="print only problems")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     _add_no_figures(p)
-    _add_geometry(p, "the report (default: the experiment's [geometry], else its FE beam)")
+    _add_geometry(p, "the report", "the experiment's [geometry], else its FE beam")
     _add_memory_limit(p)
-    _add_uff_and_verbose(p, "RESULTS/modes/<configuration>.uff (with the beam's node coordinates)")
+    _add_uff_and_verbose(p, "RESULTS/modes/<configuration>.uff", "15 and 82 with the beam's "
+                         "node coordinates, ")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(
