@@ -305,3 +305,15 @@ def test_no_private_name_imported_from_another_module():
     offenders = [hit for path in sorted((REPO / PACKAGE).rglob("*.py"))
                  for hit in private_imports(path)]
     assert offenders == []
+
+
+def test_scipy_pin_covers_the_api_we_call():
+    """``fe/update.py`` passes ``rng=`` to ``scipy.optimize.differential_evolution``,
+    which scipy has since 1.15.0 (SPEC 7): the pin in pyproject.toml says so."""
+    import tomllib
+
+    deps = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["dependencies"]
+    pin = next(d for d in deps if re.match(r"scipy\b", d))
+    version = tuple(int(x) for x in re.search(r">=\s*([\d.]+)", pin).group(1).split("."))
+    assert version >= (1, 15), pin
+    assert "rng=np.random.default_rng" in (REPO / "ema_pipeline" / "fe" / "update.py").read_text()
