@@ -168,10 +168,10 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--no-window-search",
         action="store_true",
-        help="do not search a dense band again in windows of 10 candidates: much faster "
-        "on a band of many modes, but a weak mode between strong ones, or one whose "
-        "full-band pole fails the final tests, may be missed (measured beam: the same "
-        "19 modes without a band, 603 Hz missed in the band 250-700 Hz)",
+        help="do not search a dense band again in windows of consecutive candidates: "
+        "faster on a band of many modes, but a weak mode between strong ones, or one "
+        "whose full-band pole fails the final tests, may be missed (what it saves and "
+        "misses on the measured beam: the validation page of the documentation)",
     )
     p.add_argument("--quiet", action="store_true", help="print only errors")
     _add_memory_limit(p)

@@ -139,8 +139,9 @@ def check_band_data(sub: FRFSet, max_order: int, where: str) -> None:
 
 
 def default_max_order(n_in: int, n_lines: int) -> int:
-    """Default highest polynomial order: 40 matrix coefficients for one reference
-    (80 poles), fewer per extra reference, never more than the lines allow.
+    """Default highest polynomial order, the adaptive order search's start: 64
+    for one reference, 40 for two, 30 for three, 24 for more references,
+    never more than the lines allow (``n_lines // 2 - 1``).
 
     Examples
     --------

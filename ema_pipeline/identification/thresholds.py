@@ -340,7 +340,7 @@ class SelectionThresholds:
     #: (seeds 1-9) ...
     min_band_searches: int = 3
     #: ... a search holds a mode when the mode lies inside its band by this
-    #: fraction of its frequency (issue 31's margin).
+    #: fraction of its frequency.
     band_support_margin: float = 0.03
 
 
