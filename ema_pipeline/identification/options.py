@@ -34,9 +34,9 @@ Weighting = Literal["none", "coherence"]
 METHOD_NAMES: tuple[str, ...] = get_args(Method)
 #: The weightings by name, from :data:`Weighting`.
 WEIGHTING_NAMES: tuple[str, ...] = get_args(Weighting)
-#: Lowest ``max_order`` per method: a stabilization diagram needs at least six
-#: orders (pLSCF with one reference computes every second order, so 12; sdypy-EMA
-#: every order from 2... up to its ``pol_order_high``, so 10).
+#: Lowest ``max_order`` per method (one key per name of :data:`METHOD_NAMES`): a
+#: stabilization diagram needs at least six orders (pLSCF with one reference
+#: computes every second order).
 MIN_ORDER: dict[str, int] = {"plscf": 12, "sdypy-lscf": 10}
 #: Highest ``max_order`` (the data may support less:
 #: :func:`ema_pipeline.identification.resources.order_cap`).

@@ -25,6 +25,7 @@ import math
 import os
 import re
 from collections.abc import Callable, Mapping
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -40,8 +41,8 @@ SAFE_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_\-.]{0,63}")
 #: The fields of :class:`IdentificationOptions` the ``[identification]`` table
 #: may set (the window's time constant is per configuration; the tuned
 #: thresholds are for studies of the method, in Python).
-IDENTIFICATION_KEYS = tuple(name for name in IdentificationOptions.__dataclass_fields__
-                            if name not in ("exp_window_tau_s", "thresholds"))
+IDENTIFICATION_KEYS = tuple(f.name for f in fields(IdentificationOptions)
+                            if f.name not in ("exp_window_tau_s", "thresholds"))
 
 Check = Callable[[Any], Any]  # returns the normalised value or raises ValueError(reason)
 
