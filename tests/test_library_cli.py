@@ -42,8 +42,8 @@ def _assert_same(table: pd.DataFrame, path: Path, **options: object) -> np.ndarr
             np.testing.assert_allclose(ours[column], table[column], rtol=CSV_RTOL,
                                        err_msg=column)
         else:
-            assert ours[column].astype(str).tolist() == table[column].fillna(
-                "").astype(str).tolist(), column
+            theirs = ["" if v is None or v != v else str(v) for v in table[column]]  # NaN: ""
+            assert ours[column].astype(str).tolist() == theirs, column
     return np.asarray(result.modes.fn_hz)
 
 

@@ -97,7 +97,7 @@ def _band(name: str, value: Any) -> tuple[float, float]:
 def _max_order(name: str, value: Any) -> int:
     # the lower bound depends on the method: IdentificationOptions.__post_init__
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral) or (
-        value > MAX_ORDER
+        int(value) > MAX_ORDER
     ):
         raise OptionError(name, f"must be an integer of at most {MAX_ORDER}, got {value!r}")
     return int(value)
