@@ -59,6 +59,25 @@ class DataError(EMAError, ValueError):
     """
 
 
+class OptionError(ConfigError):
+    """An impossible value of a field of an option record
+    (:class:`~ema_pipeline.identification.IdentificationOptions`,
+    :class:`~ema_pipeline.identification.SelectionThresholds`): ``field`` names
+    it, ``reason`` says what it must be and what it got. The command line and
+    the experiment file put their own name of the field (``--max-order``,
+    ``[identification] max_order``) before the reason.
+
+    Examples
+    --------
+    >>> str(OptionError("min_fraction", "must be a number in (0, 1], got 5"))
+    'min_fraction must be a number in (0, 1], got 5'
+    """
+
+    def __init__(self, field: str, reason: str) -> None:
+        self.field, self.reason = field, reason
+        super().__init__(f"{field} {reason}")
+
+
 def quantity_power(quantity: str) -> int:
     """Power q of (j*omega) that turns receptance into ``quantity``: 0 receptance,
     1 mobility, 2 accelerance (H_quantity = (j omega)^q H_receptance).

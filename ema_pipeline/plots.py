@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ema_pipeline.identification.stabilization import (
+from ema_pipeline.identification.result import (
     STABLE_ALL,
     STABLE_DAMP,
     STABLE_FREQ,

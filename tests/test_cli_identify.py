@@ -1,7 +1,8 @@
 """`identify` / `batch` options of issue 11: the exponential window's time
 constant for files that do not carry it, roving sets in the Python API, the
 minimum number of lines, input suffixes in any letter case, ``--expect`` with
-a tolerance, and the sdypy-EMA backend (one row per mode, orders too low)."""
+a tolerance, the sdypy-EMA backend (one row per mode, orders too low), and
+``--geometry`` without ``--report`` (refused by both commands)."""
 
 from __future__ import annotations
 
@@ -11,16 +12,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import REPO
 
 from ema_pipeline import io
 from ema_pipeline.acquisition import modal_frf
 from ema_pipeline.cli import main
-from ema_pipeline.data import DOF, MIN_FRF_LINES, DataError, FRFSet, ModalParameters
+from ema_pipeline.data import DOF, MIN_FRF_LINES, DataError, FRFSet, ModalParameters, OptionError
 from ema_pipeline.identification import identify
 from ema_pipeline.identification.expect import match_expected, with_expected_rows
 from ema_pipeline.pipeline.batch import run_batch
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
-from ema_pipeline.pipeline.single import identify_file, identify_frf
+from ema_pipeline.pipeline.single import identify_file
 
 TAU_S = 8.192 / 5  # the simulated test's window: tau = T / 5
 
@@ -85,9 +87,9 @@ def _two_mode_frf(n_out: int, n_in: int, n_lines: int = 401) -> tuple[FRFSet, Mo
     return frf, truth
 
 
-def test_identify_frf_applies_reciprocity_to_roving_sets() -> None:
+def test_identify_applies_reciprocity_to_roving_sets() -> None:
     roving, truth = _two_mode_frf(1, 8)  # one accelerometer, 8 hammer points
-    res = identify_frf(roving)
+    res = identify(roving)
     ref = identify(roving.reciprocal())
     np.testing.assert_allclose(res.fn_hz, truth.fn_hz, rtol=1e-6)
     np.testing.assert_allclose(res.zeta, truth.zeta, rtol=1e-3)
@@ -163,15 +165,21 @@ def test_sdypy_backend_one_row_per_mode(name: str, example_dir: Path) -> None:
 
 def test_sdypy_backend_refuses_too_low_order(example_dir: Path, tmp_path: Path,
                                              capsys: pytest.CaptureFixture[str]) -> None:
+    """Below the method's minimum (10 for sdypy-lscf) the options refuse the
+    order, in the library and on the command line alike; above it, sdypy-EMA's
+    LSCF still needs 2 orders per mode looked for (6 guesses: 12)."""
     frf = io.read_frf(example_dir / "genuine.uff")
-    with pytest.raises(DataError, match=r"max_order 2 is too low for 4 mode\(s\).*at least 10"):
+    with pytest.raises(OptionError, match=r"max_order must be at least 10 for method "
+                                          r"'sdypy-lscf'.*got 2"):
         identify(frf, method="sdypy-lscf", max_order=2)
     code = main(["identify", str(example_dir / "genuine.uff"), "--out", str(tmp_path),
                  "--method", "sdypy-lscf", "--max-order", "2"])
-    assert code != 0
+    assert code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "too low" in err[0]
+    assert len(err) == 1 and "--max-order must be at least 10" in err[0], err
     assert not (tmp_path / "genuine_modes.csv").exists()
+    with pytest.raises(DataError, match=r"max_order 10 is too low for 6 mode\(s\).*at least 12"):
+        identify(frf, method="sdypy-lscf", max_order=10, expect_hz=[18, 112, 327, 500, 629, 700])
 
 
 def test_expect_not_found_is_an_empty_row(example_dir: Path, tmp_path: Path,
@@ -221,3 +229,44 @@ def test_console_says_the_model_each_band_fitted(example_dir: Path, tmp_path: Pa
         assert line[0] == (f"  model: band {band[0]:g}-{band[1]:g} Hz, diagram orders "
                            f"{int(np.min(orders))}-{int(np.max(orders))}, lower and upper "
                            "residual terms")
+
+
+def test_geometry_without_report_is_refused_by_identify_and_batch(
+        example_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--geometry`` draws the modes in the report pages; ``identify`` and
+    ``batch`` without ``--report`` (with or without ``--uff``, whose modes UFF
+    holds no geometry) both refuse it with the same one line, exit 2, before
+    any work (``identify`` used to ignore it)."""
+    geometry = REPO / "examples" / "ufsc-beam-geometry.uff"
+    messages = []
+    for command, target in (("identify", example_dir / "genuine.uff"), ("batch", example_dir)):
+        out = tmp_path / command
+        code = main([command, str(target), "--out", str(out), "--geometry", str(geometry),
+                     "--uff", "--quiet"])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1, err
+        assert "--geometry draws the modes in the report pages: add --report" in err[0]
+        messages.append(err[0].split("error: ", 1)[1])
+        assert not out.exists()
+    assert messages[0] == messages[1]
+
+
+def test_run_geometry_help_states_one_default() -> None:
+    """The help of ``run --geometry`` gives its one default (the experiment's
+    geometry, else its FE beam), not also the FRF file's (which is identify's
+    and batch's)."""
+    from ema_pipeline.cli.parser import build_parser
+
+    parser = build_parser()
+
+    def geometry_help(command: str) -> str:
+        action = next(a for a in parser.commands[command]._actions if a.dest == "geometry")
+        return str(action.help)
+
+    run_help = geometry_help("run")
+    assert run_help.count("default") == 1, run_help
+    assert run_help.endswith("default: the experiment's [geometry], else its FE beam")
+    for command in ("identify", "batch"):
+        text = geometry_help(command)
+        assert text.count("default") == 1 and text.endswith("default: the geometry in the "
+                                                            "FRF file"), text

@@ -21,9 +21,8 @@ from ema_pipeline import io
 from ema_pipeline.added_mass import beam_modes_with_added_mass, exact_added_mass_all
 from ema_pipeline.cli import main
 from ema_pipeline.data import Beam, DataError, ModalParameters
-from ema_pipeline.identification import IdentificationOptions
+from ema_pipeline.identification import IdentificationOptions, identify
 from ema_pipeline.pipeline.simulate import simulate_added_mass_test
-from ema_pipeline.pipeline.single import identify_frf
 
 TRUTH = {10: 0.3}
 N_SEEDS = 10
@@ -32,7 +31,7 @@ N_MODES = 4
 
 def _identified(added: dict[int, float], seed: int, name: str) -> ModalParameters:
     frf = simulate_added_mass_test(added, snr_db=40.0, seed=seed, configuration=name)
-    modes = identify_frf(frf, IdentificationOptions()).modes  # the pipeline's defaults
+    modes = identify(frf, IdentificationOptions()).modes  # the pipeline's defaults
     assert modes.n_modes >= N_MODES
     return ModalParameters(fn_hz=modes.fn_hz[:N_MODES], zeta=modes.zeta[:N_MODES],
                            fn_std_hz=modes.fn_std_hz[:N_MODES], configuration=name)

@@ -9,6 +9,7 @@ test_band_of_few_lines_finds_its_modes, test_too_few_lines_for_order), ``method`
 
 from __future__ import annotations
 
+import re
 from dataclasses import replace
 
 import numpy as np
@@ -133,3 +134,135 @@ def test_thresholds_are_passed_down(mimo):
                    thresholds=strict)
     assert res.settings.thresholds is strict
     assert all("few_stable_orders" in r for r in doubtful_reasons(res))
+
+
+# ------------------------------------------------------------ validation in one place
+#: (field, impossible value, the CLI arguments that give it or None, the TOML
+#: line that gives it or None, what the message says)
+REFUSED = [
+    ("max_order", 1, ["--max-order", "1"], "max_order = 1", "at least 12 for method 'plscf'"),
+    ("max_order", 0, ["--max-order", "0"], "max_order = 0", "at least 12"),
+    ("max_order", 40.5, None, "max_order = 40.5", "an integer"),
+    ("max_order", 2000, ["--max-order", "2000"], "max_order = 2000", "at most 1000"),
+    ("exp_window_tau_s", -1.0, ["--exp-window-tau=-1"], None, "> 0"),
+    ("exp_window_tau_s", float("inf"), ["--exp-window-tau=inf"], None, "finite"),
+    ("min_fraction", 5, None, "min_fraction = 5", "in (0, 1]"),
+    ("min_fraction", 0.0, None, "min_fraction = 0.0", "in (0, 1]"),
+    ("band_hz", (300.0, 100.0), ["--band", "300", "100"], "band_hz = [300.0, 100.0]",
+     "0 <= low < high"),
+    ("band_hz", (-10.0, 100.0), ["--band", "-10", "100"], "band_hz = [-10.0, 100.0]",
+     "0 <= low < high"),
+    ("expect_hz", (-5.0, 20.0), ["--expect=-5,20"], "expect_hz = [-5.0, 20.0]", "> 0"),
+    ("method", "magic", None, 'method = "magic"', "one of 'plscf', 'sdypy-lscf'"),
+    ("weighting", "snr", None, 'weighting = "snr"', "one of 'none', 'coherence'"),
+    ("tol_freq", 0.0, None, "tol_freq = 0.0", "in (0, 1]"),
+    ("tol_zeta", 20.0, None, "tol_zeta = 20.0", "in (0, 10]"),
+    ("tol_mac", -0.1, None, "tol_mac = -0.1", "in (0, 1]"),
+    ("refine", "yes", None, 'refine = "yes"', "a boolean"),
+    ("window_searches", 1, None, "window_searches = 1", "a boolean"),
+]
+
+
+@pytest.mark.parametrize(("name", "value", "argv", "toml", "says"), REFUSED,
+                         ids=[f"{r[0]}={r[1]!r}" for r in REFUSED])
+def test_impossible_values_are_refused_everywhere(name, value, argv, toml, says, tmp_path,
+                                                  example_dir, capsys):
+    """Each impossible value is refused by ``IdentificationOptions`` itself (an
+    OptionError, a ValueError, naming the field), by the command line (exit 2,
+    one line naming the option, nothing written) and by the experiment file
+    (one line naming the file, the table and the key): one rule, three doors."""
+    from ema_pipeline.cli import main
+    from ema_pipeline.data import DataError, OptionError
+    from ema_pipeline.identification import IdentificationOptions
+    from ema_pipeline.io.experiment import read_experiment
+
+    with pytest.raises(OptionError, match=re.escape(says)) as info:
+        IdentificationOptions(**{name: value})
+    assert isinstance(info.value, ValueError) and info.value.field == name
+    assert str(info.value).startswith(f"{name} must be ")
+    if argv is not None:
+        out = tmp_path / "out"
+        code = main(["identify", str(example_dir / "genuine.uff"), "--out", str(out), *argv])
+        err = capsys.readouterr().err.strip().splitlines()
+        assert code == 2 and len(err) == 1, err
+        flag = argv[0].split("=")[0]
+        assert f"error: {flag} must be " in err[0] and says in err[0], err
+        assert not out.exists()
+    if toml is not None:
+        text = (example_dir / "experiment.toml").read_text()
+        anchor = "[identification]\n"
+        assert anchor in text
+        if name in ("band_hz", "method"):  # keys the example sets: replace them
+            text = re.sub(rf"(?m)^{name} = .*$", toml, text, count=1)
+        else:
+            text = text.replace(anchor, anchor + toml + "\n", 1)
+        path = tmp_path / "experiment.toml"
+        path.write_text(text)
+        with pytest.raises(DataError) as info:
+            read_experiment(path, check_files=False)
+        message = str(info.value)
+        assert message.startswith(f"{path}: [identification] {name}: must be "), message
+        assert says in message and "\n" not in message
+
+
+def test_experiment_configuration_window_uses_the_options_rule(tmp_path, example_dir):
+    """``[[configurations]] exp_window_tau_s`` is checked by the rule of the
+    option of that name."""
+    from ema_pipeline.data import DataError
+    from ema_pipeline.io.experiment import read_experiment
+
+    text = (example_dir / "experiment.toml").read_text()
+    path = tmp_path / "experiment.toml"
+    path.write_text(text.replace('file = "larger_tank.h5"',
+                                 'file = "larger_tank.h5"\nexp_window_tau_s = -1.0', 1))
+    with pytest.raises(DataError, match=r"\[\[configurations\]\] 2 exp_window_tau_s: must be "
+                                        r"a finite number > 0, got -1.0"):
+        read_experiment(path, check_files=False)
+
+
+def test_names_and_rules_have_one_home():
+    """The method and weighting names are the ``Literal`` types of the options;
+    the backends, the command line's choices, the order minimum per method and
+    the experiment file's keys all derive from them."""
+    from typing import get_args
+
+    from ema_pipeline.cli.parser import build_parser
+    from ema_pipeline.identification import METHODS, IdentificationOptions
+    from ema_pipeline.identification.options import (
+        METHOD_NAMES,
+        MIN_ORDER,
+        WEIGHTING_NAMES,
+        Method,
+        Weighting,
+    )
+    from ema_pipeline.io.experiment import SCHEMA
+
+    assert METHOD_NAMES == get_args(Method) == ("plscf", "sdypy-lscf")
+    assert WEIGHTING_NAMES == get_args(Weighting) == ("none", "coherence")
+    assert tuple(METHODS) == tuple(MIN_ORDER) == METHOD_NAMES
+    parser = build_parser()
+    for command in ("identify", "batch"):
+        method = next(a for a in parser.commands[command]._actions if a.dest == "method")
+        assert tuple(method.choices) == METHOD_NAMES
+    fields = set(IdentificationOptions.__dataclass_fields__)
+    assert set(SCHEMA["identification"]) == fields - {"exp_window_tau_s", "thresholds"}
+    assert IdentificationOptions(method="sdypy-lscf", max_order=10).max_order == 10
+
+
+@pytest.mark.parametrize(("name", "value", "says"), [
+    ("link_tol_freq", 0.0, "> 0"), ("min_members", 2.5, "an integer"),
+    ("max_zeta", 2.0, "<= 1"), ("band_edge", (0.6, 0.0), "[0, 0.5)"),
+    ("peak_lines", float("nan"), "a number > 0"), ("min_frfs", -1, "an integer > 0"),
+    ("link_max_gap", True, "an integer >= 0"), ("duplicate_min_mac", 1.5, "<= 1"),
+])
+def test_thresholds_refuse_impossible_values(name, value, says):
+    """``SelectionThresholds`` refuses what no threshold can be, naming the
+    field; a value that is only strict (1e-9, 1000, inf) is kept."""
+    from ema_pipeline.data import OptionError
+
+    with pytest.raises(OptionError, match=re.escape(says)) as info:
+        replace(SelectionThresholds(), **{name: value})
+    assert info.value.field == name
+    for field, fine in (("max_rel_decay_std", 1e-9), ("min_stable_orders", 1000),
+                        ("min_weak_peak_snr", float("inf"))):
+        assert getattr(replace(SelectionThresholds(), **{field: fine}), field) == fine

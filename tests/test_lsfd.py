@@ -16,10 +16,10 @@ from ema_pipeline.identification.lsfd import (
     householder_qr,
     lsfd,
     mpc,
-    mpd,
     real_stack,
     solve_r,
 )
+from ema_pipeline.modal import mpd
 
 
 @lru_cache(maxsize=2)

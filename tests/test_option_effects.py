@@ -989,15 +989,20 @@ def test_simulated_configuration_snr_and_seed(tmp_path: Path) -> None:
     gives the same noise, another seed other noise of the same size, the default
     seed is the entry's position (entry 5 without a seed = seed 5); snr_db = 20 has
     10x the noise amplitude of 40 dB, so about 10x the FRF error against the
-    noise-free snr_db = 0."""
+    noise-free snr_db = 0; a negative snr_db is noise stronger than the signal
+    (as ``simulate --snr-db``), not noise-free."""
     from ema_pipeline.pipeline.simulate import simulate_configuration
 
     entries = (("free", "snr_db = 0"), ("a", "seed = 5"), ("again", "seed = 5"),
-               ("other", "seed = 6"), ("fifth", ""), ("low", "seed = 5\nsnr_db = 20"))
+               ("other", "seed = 6"), ("fifth", ""), ("low", "seed = 5\nsnr_db = 20"),
+               ("loud", "snr_db = -10"))
     exp = io.read_experiment(_write_experiment(tmp_path / "exp.toml", "".join(
         f'[[configurations]]\nname = "{name}"\nadded_mass = {{}}\n{keys}\n'
         for name, keys in entries)))
-    H = {spec.name: simulate_configuration(exp, spec).H for spec in exp.configurations}
+    snr = {spec.name: spec.snr_db for spec in exp.configurations}
+    assert snr["free"] is None and snr["loud"] == -10.0 and snr["a"] == 40.0
+    H = {spec.name: simulate_configuration(exp, spec).H for spec in exp.configurations
+         if spec.name != "loud"}
     np.testing.assert_array_equal(H["a"], H["again"])
     np.testing.assert_array_equal(H["a"], H["fifth"])
     err = {k: np.median(np.abs(H[k] / H["free"] - 1)) for k in ("a", "other", "low")}

@@ -4,9 +4,11 @@ its modules import downhill (no cycle, no private name from another module)."""
 from __future__ import annotations
 
 import ast
+import os
 import re
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -240,6 +242,39 @@ def test_every_import_goes_down_the_readme_layers():
     assert layer_violations(modules, layers) == []
 
 
+def test_io_loads_no_numerics():
+    """``import ema_pipeline.io`` (which reads and writes identification results)
+    loads neither scipy nor the identification's numerics: the result types live
+    in the light ``identification.result`` and ``identification/__init__`` loads
+    its modules on first use. Checked in a fresh interpreter."""
+    code = ("import sys, ema_pipeline.io; "
+            "print('scipy' in sys.modules, sorted(m for m in sys.modules "
+            "if m.startswith('ema_pipeline.identification.')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=REPO, check=True,
+                         env={**os.environ, "PYTHONPATH": str(REPO)}).stdout
+    assert out.split(" ", 1)[0] == "False", out
+    loaded = set(ast.literal_eval(out.strip().split(" ", 1)[1]))
+    light = {f"ema_pipeline.identification.{m}" for m in ("options", "result", "thresholds")}
+    assert loaded <= light, loaded - light  # the options, the result types: no numerics
+
+
+def test_identification_exports_are_lazy_and_complete():
+    """Every name of ``identification.__all__`` resolves (through the lazy
+    ``__getattr__``) to the object of its module, and an unknown name is an
+    AttributeError."""
+    import importlib
+
+    import ema_pipeline.identification as ident
+
+    assert sorted(ident.__all__) == sorted(ident.EXPORTS)
+    for name, module in ident.EXPORTS.items():
+        home = importlib.import_module(f"ema_pipeline.identification.{module}")
+        assert getattr(ident, name) is getattr(home, name), name
+    with pytest.raises(AttributeError, match="no attribute 'no_such_name'"):
+        _ = ident.no_such_name  # type: ignore[attr-defined]
+
+
 def private_imports(path: Path) -> list[str]:
     """``from X import _name`` and imports of ``_module`` paths, anywhere in the file
     (function bodies too); dunder names (``__future__``, ``__version__``) are public."""
@@ -271,3 +306,15 @@ def test_no_private_name_imported_from_another_module():
     offenders = [hit for path in sorted((REPO / PACKAGE).rglob("*.py"))
                  for hit in private_imports(path)]
     assert offenders == []
+
+
+def test_scipy_pin_covers_the_api_we_call():
+    """``fe/update.py`` passes ``rng=`` to ``scipy.optimize.differential_evolution``,
+    which scipy has since 1.15.0 (SPEC 7): the pin in pyproject.toml says so."""
+    import tomllib
+
+    deps = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]["dependencies"]
+    pin = next(d for d in deps if re.match(r"scipy\b", d))
+    version = tuple(int(x) for x in re.search(r">=\s*([\d.]+)", pin).group(1).split("."))
+    assert version >= (1, 15), pin
+    assert "rng=np.random.default_rng" in (REPO / "ema_pipeline" / "fe" / "update.py").read_text()

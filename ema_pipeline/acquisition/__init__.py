@@ -39,6 +39,7 @@ from ema_pipeline.data import (
     DOF,
     AcquisitionInfo,
     Beam,
+    ConfigError,
     DataError,
     FRFSet,
     ModalParameters,
@@ -456,6 +457,24 @@ def anti_aliasing_filter(freq_hz: np.ndarray, sample_rate_hz: float, pass_fracti
     roll = (f > f_pass) & (f < nyq)
     g[roll] = 0.5 * (1 + np.cos(np.pi * (f[roll] - f_pass) / (nyq - f_pass)))
     return g
+
+
+def noise_snr_db(setting_db: float) -> float | None:
+    """The ``snr_db`` of :func:`simulate_time_records` for a signal-to-noise
+    setting of the command line (``simulate --snr-db``) or the experiment file
+    (a simulated configuration's ``snr_db``): 0 (or +inf) means noise-free
+    (``None``); any other value is the SNR in dB, negative ones included (noise
+    stronger than the signal). NaN is a :class:`~ema_pipeline.data.ConfigError`.
+
+    Examples
+    --------
+    >>> noise_snr_db(40.0), noise_snr_db(0.0), noise_snr_db(-10.0)
+    (40.0, None, -10.0)
+    """
+    setting_db = float(setting_db)
+    if np.isnan(setting_db):
+        raise ConfigError("snr_db must be a number of dB (0: noise-free), got nan")
+    return None if setting_db == 0 or setting_db == np.inf else setting_db
 
 
 def simulate_time_records(

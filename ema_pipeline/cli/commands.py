@@ -27,6 +27,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.options import IdentificationOptions
 
 __all__ = [
+    "IDENTIFY_FLAGS",
     "check_output_dir",
     "check_output_file",
     "cmd_batch",
@@ -111,7 +112,7 @@ def _simulate_and_write(
     and seed of the options, and write what ``simulate`` was asked to."""
     from ema_pipeline import acquisition, io
 
-    snr = None if args.snr_db is not None and args.snr_db <= 0 else args.snr_db
+    snr = acquisition.noise_snr_db(args.snr_db)  # 0: noise-free; negative: noisier than the signal
     records = acquisition.simulate_time_records(
         modes, setup, snr_db=snr, seed=args.seed, configuration=args.configuration,
         shapes=shapes,
@@ -194,41 +195,52 @@ def _check_creatable(path: Path, option: str, of: Path | None = None) -> None:
         raise ConfigError(f"{what}: {option} is not writable ({ancestor}: permission denied)")
 
 
-def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
-    """The ``identify`` / ``batch`` arguments as one options object."""
-    import math
+#: The option of ``identify`` / ``batch`` that sets each field of
+#: :class:`~ema_pipeline.identification.IdentificationOptions`.
+IDENTIFY_FLAGS = {
+    "band_hz": "--band",
+    "max_order": "--max-order",
+    "method": "--method",
+    "expect_hz": "--expect",
+    "exp_window_tau_s": "--exp-window-tau",
+    "window_searches": "--no-window-search",
+}
 
+
+def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
+    """The ``identify`` / ``batch`` arguments as one options object; the options
+    check every value (:class:`~ema_pipeline.data.OptionError`), and an
+    impossible one is a usage error naming the option (``--max-order must be
+    ...``)."""
+    from ema_pipeline.data import OptionError
     from ema_pipeline.identification.options import IdentificationOptions
 
-    if args.band is not None and not (
-        all(math.isfinite(b) for b in args.band) and 0 <= args.band[0] < args.band[1]
-    ):
-        raise ConfigError(f"--band needs finite 0 <= LO_HZ < HI_HZ, got {args.band[0]} "
-                          f"{args.band[1]}")
-    if args.expect is not None and not all(math.isfinite(f) and f > 0 for f in args.expect):
-        raise ConfigError(f"--expect needs positive frequencies in Hz, got {list(args.expect)}")
     _memory_limit(args)
-    if args.max_order is not None and args.max_order < 2:
-        raise ConfigError(f"--max-order must be at least 2, got {args.max_order}")
-    tau = args.exp_window_tau
-    if tau is not None and not 0 < tau < float("inf"):
-        raise ConfigError(f"--exp-window-tau needs the exponential window's time constant in "
-                          f"seconds, finite and > 0; got {tau:g}")
-    return IdentificationOptions(
-        band_hz=None if args.band is None else (args.band[0], args.band[1]),
-        max_order=args.max_order,
-        method=args.method,
-        expect_hz=tuple(args.expect or ()),
-        exp_window_tau_s=args.exp_window_tau,
-        window_searches=not args.no_window_search,
-    )
+    try:
+        return IdentificationOptions(
+            band_hz=None if args.band is None else (args.band[0], args.band[1]),
+            max_order=args.max_order,
+            method=args.method,
+            expect_hz=tuple(args.expect or ()),
+            exp_window_tau_s=args.exp_window_tau,
+            window_searches=not args.no_window_search,
+        )
+    except OptionError as exc:
+        raise ConfigError(f"{IDENTIFY_FLAGS.get(exc.field, exc.field)} {exc.reason}") from None
 
 
 def _geometry(args: argparse.Namespace) -> Geometry | None:
-    """``--geometry FILE``: the geometry read now (a bad file exits with 2), or None."""
+    """``--geometry FILE``: the geometry read now (a bad file exits with 2), or None.
+
+    ``identify`` and ``batch`` draw it in the report pages only: without
+    ``--report`` it is a usage error (their modes UFF of ``--uff`` has no
+    geometry datasets; ``run`` writes the beam's nodes as 15/82)."""
     from ema_pipeline import io
 
     path = getattr(args, "geometry", None)
+    if path is not None and not getattr(args, "report", True):  # run always reports
+        raise ConfigError("--geometry draws the modes in the report pages: add --report "
+                          "(the modes UFF of --uff holds no geometry)")
     return None if path is None else io.read_geometry(path)
 
 
@@ -302,8 +314,6 @@ def cmd_batch(args: argparse.Namespace) -> int:
     check_output_dir(args.out, "--out")
     if args.workers is not None and args.workers < 1:
         raise ConfigError(f"--workers must be at least 1, got {args.workers}")
-    if args.geometry is not None and not args.report:
-        raise ConfigError("--geometry draws the modes in the report pages: add --report")
     geometry = _geometry(args)  # read now: a bad file stops before the batch runs
     report = run_batch(
         args.folder,

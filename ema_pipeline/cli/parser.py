@@ -26,6 +26,7 @@ from ema_pipeline.cli.commands import (
 )
 from ema_pipeline.cli.frf_command import add_frf_parser
 from ema_pipeline.cli.support import EXIT_USAGE
+from ema_pipeline.identification.options import MAX_ORDER, METHOD_NAMES, MIN_ORDER
 
 __all__ = ["MODES_CSV_HELP", "build_parser"]
 
@@ -143,12 +144,14 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         "--max-order",
         type=int,
         default=None,
-        help="highest polynomial order of the stabilization diagram",
+        help="highest polynomial order of the stabilization diagram (fixed; "
+        + ", ".join(f"at least {low} for {name}" for name, low in MIN_ORDER.items())
+        + f", at most {MAX_ORDER}; default: the adaptive order search)",
     )
     p.add_argument(
         "--method",
-        choices=("plscf", "sdypy-lscf"),
-        default="plscf",
+        choices=METHOD_NAMES,
+        default=METHOD_NAMES[0],
         help="plscf (ours, default) or sdypy-lscf (sdypy-EMA's LSCF)",
     )
     _add_numbers(p, "--expect", "approximate natural frequencies in Hz: pick the nearest "
@@ -165,10 +168,10 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--no-window-search",
         action="store_true",
-        help="do not search a dense band again in windows of 10 candidates: much faster "
-        "on a band of many modes, but a weak mode between strong ones, or one whose "
-        "full-band pole fails the final tests, may be missed (measured beam: the same "
-        "19 modes without a band, 603 Hz missed in the band 250-700 Hz)",
+        help="do not search a dense band again in windows of consecutive candidates: "
+        "faster on a band of many modes, but a weak mode between strong ones, or one "
+        "whose full-band pole fails the final tests, may be missed (what it saves and "
+        "misses on the measured beam: the validation page of the documentation)",
     )
     p.add_argument("--quiet", action="store_true", help="print only errors")
     _add_memory_limit(p)
@@ -185,12 +188,12 @@ def _add_memory_limit(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _add_uff_and_verbose(p: argparse.ArgumentParser, where: str) -> None:
+def _add_uff_and_verbose(p: argparse.ArgumentParser, where: str, geometry: str) -> None:
     p.add_argument(
         "--uff",
         action="store_true",
         help=f"also write the identified modes as Universal File {where} (datasets 164, "
-        "15/82 where the geometry is known, 55 per mode, 58 with the synthesised FRFs)",
+        f"{geometry}55 per mode, 58 with the synthesised FRFs)",
     )
     p.add_argument(
         "--verbose",
@@ -199,14 +202,19 @@ def _add_uff_and_verbose(p: argparse.ArgumentParser, where: str) -> None:
     )
 
 
-def _add_geometry(p: argparse.ArgumentParser, what: str) -> None:
+#: The default of ``--geometry`` of ``identify`` and ``batch``.
+_GEOMETRY_FROM_FILE = "the geometry in the FRF file"
+
+
+def _add_geometry(p: argparse.ArgumentParser, what: str, default: str = _GEOMETRY_FROM_FILE
+                  ) -> None:
     p.add_argument(
         "--geometry",
         type=Path,
         default=None,
         metavar="FILE",
         help=f"test geometry (UFF datasets 15 or 2411 with nodes, 82 with trace lines) to "
-        f"animate the mode shapes on in {what}; default: the geometry in the FRF file",
+        f"animate the mode shapes on in {what}; default: {default}",
     )
 
 
@@ -275,7 +283,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--snr-db",
         type=float,
         default=40.0,
-        help="signal-to-noise ratio in dB per channel (default 40; 0 = noise-free)",
+        help="signal-to-noise ratio in dB per channel (default 40; 0 = noise-free; a "
+        "negative value adds noise stronger than the signal)",
     )
     _add_numbers(p, "--fd-hz", "damped natural frequencies in Hz, e.g. 18.1,112,327,629 "
                  "(default: Table 1)")
@@ -315,7 +324,7 @@ def build_parser() -> argparse.ArgumentParser:
         "stabilization, modes with MPC, AutoMAC, shapes, fit, provenance)",
     )
     _add_no_figures(p)
-    _add_geometry(p, "the report")
+    _add_geometry(p, "the report (with --report)")
     p.add_argument(
         "--picks",
         type=Path,
@@ -326,7 +335,7 @@ def build_parser() -> argparse.ArgumentParser:
         "selection; a pick that matches no pole is an error",
     )
     _add_identify_options(p)
-    _add_uff_and_verbose(p, "DIR/<stem>_modes.uff")
+    _add_uff_and_verbose(p, "DIR/<stem>_modes.uff", "")
     p.set_defaults(func=cmd_identify)
 
     p = sub.add_parser(
@@ -363,7 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_geometry(p, "the per-file report pages (with --report)")
     _add_no_figures(p)
     _add_identify_options(p)
-    _add_uff_and_verbose(p, "OUT/.../<stem>_modes.uff")
+    _add_uff_and_verbose(p, "OUT/.../<stem>_modes.uff", "")
     p.set_defaults(func=cmd_batch)
 
     p = sub.add_parser(
@@ -400,9 +409,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="print only problems")
     p.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     _add_no_figures(p)
-    _add_geometry(p, "the report (default: the experiment's [geometry], else its FE beam)")
+    _add_geometry(p, "the report", "the experiment's [geometry], else its FE beam")
     _add_memory_limit(p)
-    _add_uff_and_verbose(p, "RESULTS/modes/<configuration>.uff (with the beam's node coordinates)")
+    _add_uff_and_verbose(p, "RESULTS/modes/<configuration>.uff", "15 and 82 with the beam's "
+                         "node coordinates, ")
     p.set_defaults(func=cmd_run)
 
     p = sub.add_parser(

@@ -30,42 +30,46 @@ of ``plscf_backend``: diagrams of growing order and their candidates),
 (the final tests: which refined candidates are modes), ``residual_search``
 (modes the diagrams missed), ``not_kept`` (resonances the FRFs show that no
 mode was kept for), ``uncertainty`` (noise and covariance model),
-``lsfd`` (residues and fit indicators), ``result``. The MAC lives in :mod:`ema_pipeline.modal`, the
+``lsfd`` (residues and fit indicators), ``result`` (the result types:
+light, no scipy). The MAC and the MPD live in :mod:`ema_pipeline.modal`, the
 diagrams in :mod:`ema_pipeline.plots`.
+
+The package loads its modules on first use (a module ``__getattr__`` over
+:data:`EXPORTS`): ``import ema_pipeline.identification`` (and so
+:mod:`ema_pipeline.io`, which reads and writes results) loads neither scipy nor
+the numerics; ``from ema_pipeline.identification import identify`` loads what
+identifying needs. The functions ``plscf`` and ``stabilization`` are not
+exported here (the names are their modules'): use
+``identification.plscf.plscf`` and ``identification.stabilization.stabilization``.
 """
 
-from ema_pipeline.identification.common import default_max_order
-from ema_pipeline.identification.core import METHODS, identify
-from ema_pipeline.identification.lsfd import (  # the module stays ``identification.lsfd``
-    frac,
-    mpc,
-    normalised_error,
-    real_normalised,
-)
-from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.plscf import PoleSet, plscf, plscf_normal_matrix
-from ema_pipeline.identification.refine import refine_poles
-from ema_pipeline.identification.result import (
-    IdentificationResult,
-    ResolvedSettings,
-    doubtful_reasons,
-    modes_table,
-)
-from ema_pipeline.identification.selection import (
-    SelectedPoles,
-    select_trajectories,
-    track_poles,
-)
-from ema_pipeline.identification.stabilization import (
-    STABLE_DAMP,
-    STABLE_FREQ,
-    STABLE_VECTOR,
-    StabilizationData,
-    pole_to_modal,
-    stabilization,
-)
-from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.identification.uncertainty import modal_std
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checkers)
+    from ema_pipeline.identification.common import default_max_order, single_reference
+    from ema_pipeline.identification.core import METHODS, identify
+    from ema_pipeline.identification.lsfd import frac, mpc, normalised_error, real_normalised
+    from ema_pipeline.identification.options import IdentificationOptions
+    from ema_pipeline.identification.plscf import PoleSet, plscf_normal_matrix
+    from ema_pipeline.identification.refine import refine_poles
+    from ema_pipeline.identification.result import (
+        STABLE_DAMP,
+        STABLE_FREQ,
+        STABLE_VECTOR,
+        IdentificationResult,
+        ResolvedSettings,
+        SelectedPoles,
+        StabilizationData,
+        doubtful_reasons,
+        modes_table,
+    )
+    from ema_pipeline.identification.selection import select_trajectories, track_poles
+    from ema_pipeline.identification.stabilization import pole_to_modal
+    from ema_pipeline.identification.thresholds import SelectionThresholds
+    from ema_pipeline.identification.uncertainty import modal_std
 
 __all__ = [
     "METHODS",
@@ -87,12 +91,55 @@ __all__ = [
     "modes_table",
     "mpc",
     "normalised_error",
-    "plscf",
     "plscf_normal_matrix",
     "pole_to_modal",
     "real_normalised",
     "refine_poles",
     "select_trajectories",
-    "stabilization",
+    "single_reference",
     "track_poles",
 ]
+
+#: The module of each name of :data:`__all__` (loaded on first use).
+EXPORTS: dict[str, str] = {
+    "METHODS": "core",
+    "identify": "core",
+    "default_max_order": "common",
+    "single_reference": "common",
+    "frac": "lsfd",
+    "mpc": "lsfd",
+    "normalised_error": "lsfd",
+    "real_normalised": "lsfd",
+    "IdentificationOptions": "options",
+    "PoleSet": "plscf",
+    "plscf_normal_matrix": "plscf",
+    "refine_poles": "refine",
+    "STABLE_DAMP": "result",
+    "STABLE_FREQ": "result",
+    "STABLE_VECTOR": "result",
+    "IdentificationResult": "result",
+    "ResolvedSettings": "result",
+    "SelectedPoles": "result",
+    "StabilizationData": "result",
+    "doubtful_reasons": "result",
+    "modes_table": "result",
+    "select_trajectories": "selection",
+    "track_poles": "selection",
+    "pole_to_modal": "stabilization",
+    "SelectionThresholds": "thresholds",
+    "modal_std": "uncertainty",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """A name of :data:`__all__`, imported from its module on first use."""
+    module = EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value  # later look-ups skip this function
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

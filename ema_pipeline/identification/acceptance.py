@@ -55,7 +55,7 @@ from ema_pipeline.identification.local_fits import (
 )
 from ema_pipeline.identification.lsfd import lsfd, mpc
 from ema_pipeline.identification.refine import RefinedPoles
-from ema_pipeline.identification.selection import SelectedPoles
+from ema_pipeline.identification.result import SelectedPoles
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, pole_fd_hz
 

@@ -17,11 +17,33 @@ from ema_pipeline.data import (
     quantity_power,
 )
 from ema_pipeline.identification.lsfd import frac, lsfd, mpc, normalised_error, real_normalised
-from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
-from ema_pipeline.identification.selection import SelectedPoles
-from ema_pipeline.identification.stabilization import StabilizationData, pole_to_modal
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    SelectedPoles,
+    StabilizationData,
+)
+from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.uncertainty import modal_std
 from ema_pipeline.modal import mac
+
+
+def single_reference(frf: FRFSet) -> FRFSet:
+    """The FRF set the identification works on: a roving-hammer set (one
+    response, several references) made single-reference by reciprocity
+    (:meth:`ema_pipeline.data.FRFSet.reciprocal`), which keeps the pLSCF model
+    small; any other set unchanged. :func:`~ema_pipeline.identification.identify`
+    applies it, so the library and ``ema-pipeline identify`` see the same set.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import DOF
+    >>> roving = FRFSet(freq_hz=np.arange(1.0, 6.0), H=np.ones((1, 3, 5), complex),
+    ...                 response_dofs=(DOF(1),), reference_dofs=(DOF(2), DOF(3), DOF(4)))
+    >>> single_reference(roving).H.shape, single_reference(roving.reciprocal()).H.shape
+    ((3, 1, 5), (3, 1, 5))
+    """
+    return frf.reciprocal() if frf.n_out == 1 and frf.n_in > 1 else frf
 
 
 def source_prefix(frf: FRFSet) -> str:
@@ -161,8 +183,9 @@ def check_band_data(sub: FRFSet, max_order: int, where: str) -> None:
 
 
 def default_max_order(n_in: int, n_lines: int) -> int:
-    """Default highest polynomial order: 40 matrix coefficients for one reference
-    (80 poles), fewer per extra reference, never more than the lines allow.
+    """Default highest polynomial order, the adaptive order search's start: 64
+    for one reference, 40 for two, 30 for three, 24 for more references,
+    never more than the lines allow (``n_lines // 2 - 1``).
 
     Examples
     --------

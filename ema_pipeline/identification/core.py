@@ -21,6 +21,7 @@ from ema_pipeline.identification.common import (
     check_band_data,
     default_max_order,
     resolve_band,
+    single_reference,
     source_prefix,
 )
 from ema_pipeline.identification.expect import match_expected, not_found_message
@@ -33,13 +34,13 @@ from ema_pipeline.threads import owned_blas_threads
 
 Backend = Callable[[FRFSet, IdentificationOptions], IdentificationResult]
 
-#: Identification methods by name (``IdentificationOptions.method``).
+#: Identification methods by name: one backend per name of
+#: :data:`~ema_pipeline.identification.options.METHOD_NAMES` (the ``Method``
+#: literal of ``IdentificationOptions.method``, which checks the name).
 METHODS: dict[str, Backend] = {
     "plscf": identify_plscf,
     "sdypy-lscf": identify_sdypy,
 }
-
-WEIGHTINGS = ("none", "coherence")
 
 
 def identify(
@@ -50,9 +51,11 @@ def identify(
 
     Parameters
     ----------
-    frf : FRFSet, (n_out, n_in, n_freq) FRFs. Roving-hammer sets (many
-        references, one response) should be transposed by reciprocity first
-        (:meth:`ema_pipeline.data.FRFSet.reciprocal`).
+    frf : FRFSet, (n_out, n_in, n_freq) FRFs. A roving-hammer set (one
+        response, several references) is identified in its reciprocal form
+        (:func:`~ema_pipeline.identification.common.single_reference`), as
+        ``ema-pipeline identify`` does: ``result.modes.shapes`` then has one
+        row per hammer point.
     options : IdentificationOptions (default: all defaults); see its
         attributes for band, order, method, expected frequencies, window,
         weighting, tolerances, refinement and residual terms.
@@ -98,18 +101,14 @@ def identify(
     options = IdentificationOptions() if options is None else options
     if overrides:
         options = replace(options, **overrides)
+    frf = single_reference(frf)
     where = source_prefix(frf)
     if picks is not None:
         if options.method != "plscf" or options.expect_hz:
             raise DataError(f"{where}picks are poles of the 'plscf' diagram; they go with "
                             "neither another method nor expected frequencies")
         options = picks.options(options)
-    backend = METHODS.get(options.method)
-    if backend is None:
-        known = " or ".join(repr(name) for name in METHODS)
-        raise DataError(f"unknown identification method {options.method!r}; use {known}")
-    if options.weighting not in WEIGHTINGS:
-        raise DataError(f"unknown weighting {options.weighting!r}; use 'none' or 'coherence'")
+    backend = METHODS[options.method]  # a name the options checked (METHOD_NAMES)
     frf = options.apply_window(frf)
     frf.check_finite()
     lo, hi = resolve_band(frf, options.band_hz)

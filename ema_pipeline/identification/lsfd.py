@@ -335,43 +335,6 @@ def mpc(phi: np.ndarray) -> np.ndarray:
         return np.where(den > 0, ((sxx - syy) ** 2 + 4 * sxy**2) / den, 0.0)
 
 
-def mpd(phi: np.ndarray) -> np.ndarray:
-    """Mean phase deviation per mode in degrees (0 = real/normal mode; 45 or more
-    for scattered phases), NaN for an all-zero shape.
-
-    The standard definition (Reynders, Houbrechts and De Roeck 2012, "Fully
-    automated (operational) modal analysis", MSSP 29): the magnitude-weighted
-    mean angle between each component phi_o and the straight line through the
-    origin that best fits the shape in the complex plane (its principal axis,
-    from the SVD of [Re phi, Im phi]),
-
-        MPD = sum_o |phi_o| arccos(|Re(phi_o e^-j theta)| / |phi_o|) / sum_o |phi_o|,
-
-    theta = 1/2 atan2(2 S_xy, S_xx - S_yy), the principal axis with the sums of
-    :func:`mpc` (the same rotation as :func:`real_normalised`).
-
-    Parameters
-    ----------
-    phi : (n_dof, n_modes) complex shapes.
-
-    Examples
-    --------
-    >>> phi = np.array([[1.0 + 1.0j, 1.0, 1.0], [2.0 + 2.0j, 1.0j, 1.0 + 0.1j]])
-    >>> mpd(phi).round(3)  # real mode (rotated), two components 90 deg apart, one 5.7 deg off
-    array([ 0.   , 45.   ,  2.855])
-    """
-    phi = np.asarray(phi, dtype=complex)
-    x, y = phi.real, phi.imag
-    theta = 0.5 * np.arctan2(2 * np.sum(x * y, axis=0), np.sum(x * x - y * y, axis=0))
-    mag = np.abs(phi)
-    along = np.abs(np.real(phi * np.exp(-1j * theta)[None, :]))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        cos = np.clip(np.where(mag > 0, along / mag, 1.0), 0.0, 1.0)
-        total = np.sum(mag, axis=0)
-        return np.where(total > 0, np.sum(mag * np.degrees(np.arccos(cos)), axis=0) / total,
-                        np.nan)
-
-
 def real_normalised(phi: np.ndarray) -> np.ndarray:
     """Real mode shapes: each complex shape rotated to its principal axis (the
     phase maximising the norm of the real part), real part taken, scaled to a

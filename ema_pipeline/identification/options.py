@@ -1,60 +1,211 @@
-"""The options of the identification stage, defined once.
+"""The options of the identification stage, defined and checked once.
 
 :class:`IdentificationOptions` is what the experiment file's
 ``[identification]`` table (:func:`ema_pipeline.io.read_experiment`), the
 command line (``ema-pipeline identify`` / ``batch``) and library callers build,
-and what :func:`ema_pipeline.identification.identify` takes whole. This module
-imports only from :mod:`ema_pipeline.data` and
+and what :func:`ema_pipeline.identification.identify` takes whole. Its
+``__post_init__`` refuses every impossible value with an
+:class:`~ema_pipeline.data.OptionError` naming the field
+(:func:`check_option`, one rule per field); the command line and the
+experiment file call the same rules and take their choices from here
+(:data:`METHOD_NAMES`, :data:`WEIGHTING_NAMES`, from the ``Literal`` types).
+This module imports only from :mod:`ema_pipeline.data` and
 :mod:`~ema_pipeline.identification.thresholds`, so the data containers can refer
-to it without an import cycle.
+to it without an import cycle, and importing it loads no numerics.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
-from typing import Literal
+import math
+import numbers
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields, replace
+from typing import Any, Literal, get_args
 
 import numpy as np
 
-from ema_pipeline.data import FRFSet
+from ema_pipeline.data import FRFSet, OptionError
 from ema_pipeline.identification.thresholds import SelectionThresholds
 
 Method = Literal["plscf", "sdypy-lscf"]
 Weighting = Literal["none", "coherence"]
+#: The identification methods by name (the keys of
+#: :data:`ema_pipeline.identification.METHODS`), from :data:`Method`.
+METHOD_NAMES: tuple[str, ...] = get_args(Method)
+#: The weightings by name, from :data:`Weighting`.
+WEIGHTING_NAMES: tuple[str, ...] = get_args(Weighting)
+#: Lowest ``max_order`` per method (one key per name of :data:`METHOD_NAMES`): a
+#: stabilization diagram needs at least six orders (pLSCF with one reference
+#: computes every second order).
+MIN_ORDER: dict[str, int] = {"plscf": 12, "sdypy-lscf": 10}
+#: Highest ``max_order`` (the data may support less:
+#: :func:`ema_pipeline.identification.resources.order_cap`).
+MAX_ORDER = 1000
+
+
+def _real(name: str, value: Any, rule: str, ok: Callable[[float], bool]) -> float:
+    """``value`` as a float when it is a finite real number (not a bool) that
+    ``ok`` accepts, else an OptionError ``"<name> must be <rule>, got <value>"``."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real) or not (
+        math.isfinite(float(value)) and ok(float(value))
+    ):
+        raise OptionError(name, f"must be {rule}, got {value!r}")
+    return float(value)
+
+
+def _optional(check: Callable[[str, Any], Any]) -> Callable[[str, Any], Any]:
+    return lambda name, value: None if value is None else check(name, value)
+
+
+def _fraction(hi: float) -> Callable[[str, Any], float]:
+    return lambda name, value: _real(name, value, f"a number in (0, {hi:g}]",
+                                     lambda x: 0 < x <= hi)
+
+
+def _positive(name: str, value: Any) -> float:
+    return _real(name, value, "a finite number > 0", lambda x: x > 0)
+
+
+def _flag(name: str, value: Any) -> bool:
+    if not isinstance(value, bool | np.bool_):
+        raise OptionError(name, f"must be a boolean (true or false), got {value!r}")
+    return bool(value)
+
+
+def _choice(names: tuple[str, ...]) -> Callable[[str, Any], str]:
+    def check(name: str, value: Any) -> str:
+        if not isinstance(value, str) or value not in names:
+            raise OptionError(name, f"must be one of {', '.join(map(repr, names))}, "
+                                    f"got {value!r}")
+        return value
+
+    return check
+
+
+def _band(name: str, value: Any) -> tuple[float, float]:
+    rule = "(low, high) in Hz with 0 <= low < high, both finite"
+    try:
+        if isinstance(value, str) or len(value) != 2:
+            raise TypeError
+        lo = _real(name, value[0], rule, lambda x: x >= 0)
+        hi = _real(name, value[1], rule, lambda x: x > lo)
+    except (TypeError, OptionError):
+        raise OptionError(name, f"must be {rule}, got {_shown(value)}") from None
+    return lo, hi
+
+
+def _max_order(name: str, value: Any) -> int:
+    # the lower bound depends on the method: IdentificationOptions.__post_init__
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral) or (
+        int(value) > MAX_ORDER
+    ):
+        raise OptionError(name, f"must be an integer of at most {MAX_ORDER}, got {value!r}")
+    return int(value)
+
+
+def _frequencies(name: str, value: Any) -> tuple[float, ...]:
+    items = np.atleast_1d(np.asarray(value, dtype=object)).tolist()
+    rule = "frequencies in Hz, finite and > 0"
+    try:
+        return tuple(_real(name, item, rule, lambda x: x > 0) for item in items)
+    except OptionError:
+        raise OptionError(name, f"must be {rule}, got {_shown(value)}") from None
+
+
+def _shown(value: Any) -> str:
+    """A sequence as a list of its items (``[-5.0, 20.0]``), anything else by repr."""
+    if isinstance(value, tuple | list | np.ndarray):
+        return repr(np.asarray(value, dtype=object).tolist())
+    return repr(value)
+
+
+def _thresholds(name: str, value: Any) -> SelectionThresholds:
+    if not isinstance(value, SelectionThresholds):
+        raise OptionError(name, f"must be a SelectionThresholds, got {value!r}")
+    return value
+
+
+#: The rule of each field of :class:`IdentificationOptions` (see its attributes).
+_RULES: dict[str, Callable[[str, Any], Any]] = {
+    "band_hz": _optional(_band),
+    "max_order": _optional(_max_order),
+    "method": _choice(METHOD_NAMES),
+    "expect_hz": lambda name, value: () if value is None else _frequencies(name, value),
+    "exp_window_tau_s": _optional(_positive),
+    "weighting": _choice(WEIGHTING_NAMES),
+    "tol_freq": _optional(_fraction(1.0)),
+    "tol_zeta": _optional(_fraction(10.0)),
+    "tol_mac": _optional(_fraction(1.0)),
+    "min_fraction": _fraction(1.0),
+    "refine": _flag,
+    "lower_residual": _flag,
+    "upper_residual": _flag,
+    "window_searches": _flag,
+    "thresholds": _thresholds,
+}
+
+
+def check_option(name: str, value: Any) -> Any:
+    """``value`` checked and normalised for the field ``name`` of
+    :class:`IdentificationOptions` (sequences become tuples of floats); an
+    impossible value raises :class:`~ema_pipeline.data.OptionError` naming the
+    field. The rule of ``max_order`` that depends on the method
+    (:data:`MIN_ORDER`) is checked by the options as a whole.
+
+    Examples
+    --------
+    >>> check_option("band_hz", [5, 395])
+    (5.0, 395.0)
+    >>> check_option("min_fraction", 5)
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.OptionError: min_fraction must be a number in (0, 1], got 5
+    """
+    rule = _RULES.get(name)
+    if rule is None:
+        raise OptionError(name, f"is not an option (known: {', '.join(_RULES)})")
+    return rule(name, value)
 
 
 @dataclass(frozen=True)
 class IdentificationOptions:
     """Options of :func:`ema_pipeline.identification.identify` (``None`` = the method's default).
 
+    Every field is checked when the options are made: an impossible value
+    raises :class:`~ema_pipeline.data.OptionError` (a ``ValueError``) naming
+    the field. The rules are given with each field below.
+
     Attributes
     ----------
-    band_hz : (lo, hi) band in Hz; default: from the 6th line (skipping 0 Hz
-        and the first lines) to the last line.
-    max_order : highest pLSCF denominator order p (p * n_in poles), fixed;
-        default adaptive: from :func:`ema_pipeline.identification.default_max_order`
+    band_hz : (lo, hi) band in Hz, finite, 0 <= lo < hi; default: from the 6th
+        line (skipping 0 Hz and the first lines) to the last line.
+    max_order : highest pLSCF denominator order p (p * n_in poles), fixed, an
+        integer from :data:`MIN_ORDER` of the method (12 for ``"plscf"``, 10
+        for ``"sdypy-lscf"``) to :data:`MAX_ORDER`; default adaptive: from
+        :func:`ema_pipeline.identification.default_max_order`
         doubled while the diagram gains modes, up to
         :func:`ema_pipeline.identification.resources.order_cap`. For
         ``"sdypy-lscf"`` sdypy-EMA's ``pol_order_high`` (default 100).
     method : a name in :data:`ema_pipeline.identification.METHODS`:
         ``"plscf"`` (this package) or ``"sdypy-lscf"`` (sdypy-EMA).
-    expect_hz : approximate natural frequencies in Hz; the nearest stable pole
+    expect_hz : approximate natural frequencies in Hz (finite, > 0); the nearest stable pole
         cluster is taken for each (one mode per entry) instead of the automatic
         choice. Empty: automatic selection.
-    exp_window_tau_s : time constant (s) of the exponential window, overriding
+    exp_window_tau_s : time constant (s, finite, > 0) of the exponential window, overriding
         the one stored with the FRFs (foreign UFF files lack it); ``None`` keeps
         the FRF set's.
     weighting : "none" (each output scaled by its RMS in the band) or
         "coherence" (additionally every line weighted by the coherence).
     tol_freq, tol_zeta, tol_mac : stabilization tolerances (relative frequency,
-        relative damping, 1 - MAC of participation vectors). A value given is
+        relative damping, 1 - MAC of participation vectors; in (0, 1], (0, 10]
+        and (0, 1]). A value given is
         used by both the pole linking of the selection
         (:func:`~ema_pipeline.identification.selection.track_poles`: looser
         tolerances join more poles into a trajectory) and the stabilization
         diagram's flags. ``None`` (default): each uses its tuned default,
         ``thresholds.link_tol_*`` (1 %, 30 %, 0.05) and
         ``thresholds.diagram_tol_*`` (1 %, 5 %, 0.02).
-    min_fraction : a pole trajectory must hold poles of at least this fraction
+    min_fraction : (0, 1]; a pole trajectory must hold poles of at least this fraction
         of the computed orders (and at least 6) to count as a physical mode;
         where in the diagram it starts does not matter (a mode that
         stabilises late is kept once it holds them).
@@ -66,13 +217,10 @@ class IdentificationOptions:
         candidates (:func:`~ema_pipeline.identification.order_search.add_window_modes`:
         a weak mode between strong ones forms a trajectory there, and a
         window's candidate stands in for a full-band pole that fails the
-        final tests); ``False`` skips them: much faster on a band of many
-        modes, at the risk of missing such modes. Measured beam without a
-        band: the same 19 modes within 0.01 Hz in 1.8 s instead of 3.9 s;
-        bands 5-790 and 250-700 Hz: 603.0 Hz missed (its full-band pole
-        fails, the window's is the mode); the dense hard cases, seeds
-        400-403: 14 of 259 modes missed without the windows, 4 with them.
-        The doubtful rule ``found_only_in_some_bands`` then rests on the
+        final tests); ``False`` skips them: faster on a band of many
+        modes, at the risk of missing such modes (what it costs and saves on
+        the measured beam and the hard cases: :doc:`/validation`). The
+        doubtful rule ``found_only_in_some_bands`` then rests on the
         low-band search alone.
     thresholds : the tuned thresholds of the selection and the final tests
         (:class:`~ema_pipeline.identification.thresholds.SelectionThresholds`);
@@ -104,11 +252,14 @@ class IdentificationOptions:
     thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
 
     def __post_init__(self) -> None:
-        # normalise sequences so that options compare and hash by value
-        if self.band_hz is not None:
-            object.__setattr__(self, "band_hz", tuple(float(b) for b in self.band_hz))
-        expect = () if self.expect_hz is None else np.atleast_1d(self.expect_hz)
-        object.__setattr__(self, "expect_hz", tuple(float(f) for f in expect))
+        # every field checked, sequences normalised (options compare and hash by value)
+        for f in fields(self):
+            object.__setattr__(self, f.name, check_option(f.name, getattr(self, f.name)))
+        low = MIN_ORDER[self.method]
+        if self.max_order is not None and self.max_order < low:
+            raise OptionError("max_order", f"must be at least {low} for method "
+                                           f"{self.method!r} (a stabilization diagram needs "
+                                           f"six model orders), got {self.max_order}")
 
     def link_tolerances(self) -> tuple[float, float, float]:
         """(tol_freq, tol_zeta, tol_mac) of the selection's pole linking: the

@@ -48,13 +48,14 @@ from ema_pipeline.identification.lsfd import mpc
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf import plscf
 from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, refine_poles
-from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
-from ema_pipeline.identification.selection import SelectedPoles, link_fragments, track_poles
-from ema_pipeline.identification.stabilization import (
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    SelectedPoles,
     StabilizationData,
-    pole_to_modal,
-    stabilization,
 )
+from ema_pipeline.identification.selection import link_fragments, track_poles
+from ema_pipeline.identification.stabilization import pole_to_modal, stabilization
 
 #: A diagram pick matches the pole of its order whose natural frequency is
 #: within this relative distance (nearest first).

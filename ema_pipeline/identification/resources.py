@@ -23,15 +23,13 @@ import os
 import numpy as np
 
 from ema_pipeline.data import ConfigError, FRFSet
+from ema_pipeline.identification.common import single_reference
 from ema_pipeline.identification.options import IdentificationOptions
 
 #: Default memory limit of one identification, GiB.
 DEFAULT_MEMORY_LIMIT_GB = 4.0
 #: Environment variable that overrides the default limit (GiB).
 MEMORY_LIMIT_ENV = "EMA_MEMORY_LIMIT_GB"
-#: Lowest ``max_order`` per method: a stabilization diagram needs at least six orders
-#: (pLSCF with one reference computes every second order).
-MIN_ORDER = {"plscf": 12, "sdypy-lscf": 10}
 #: Fewest frequency lines in the band.
 MIN_BAND_LINES = 16
 #: Largest companion matrix (poles) of a fixed-order pLSCF run.
@@ -118,13 +116,13 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
                          memory_limit_gb: float | None = None, source: str = "") -> None:
     """Refuse settings that cannot work on ``frf`` before identifying it.
 
-    Checks the band against the frequency axis (inside it, at least
-    :data:`MIN_BAND_LINES` lines), ``max_order`` against :data:`MIN_ORDER` and
-    :func:`order_cap` (pLSCF),
-    ``expect_hz`` inside the band, the window time constant (> 0), and the
-    memory estimate against the limit (at ``max_order``, or with the adaptive
-    order search at the highest order it may reach, :func:`order_cap`). Raises
-    ConfigError naming ``source``.
+    Checks what depends on the data (the options themselves were checked
+    when they were made, :class:`IdentificationOptions`): the band against the
+    frequency axis (inside it, at least :data:`MIN_BAND_LINES` lines),
+    ``max_order`` against :func:`order_cap` (pLSCF), ``expect_hz`` inside the
+    band, and the memory estimate against the limit (at ``max_order``, or with
+    the adaptive order search at the highest order it may reach,
+    :func:`order_cap`). Raises ConfigError naming ``source``.
 
     Examples
     --------
@@ -139,8 +137,6 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
     f = np.asarray(frf.freq_hz, dtype=float)
     lo_axis, hi_axis = float(f[0]), float(f[-1])
     lo, hi = options.band_hz if options.band_hz is not None else (lo_axis, hi_axis)
-    if not (math.isfinite(lo) and math.isfinite(hi) and 0 <= lo < hi):
-        raise ConfigError(f"{where}band {lo:g}..{hi:g} Hz must be finite with 0 <= LO < HI")
     if options.band_hz is not None and (lo < lo_axis - frf.df_hz or hi > hi_axis + frf.df_hz):
         raise ConfigError(
             f"{where}band {lo:g}..{hi:g} Hz reaches beyond the frequency axis "
@@ -156,21 +152,12 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
         if not (math.isfinite(fx) and lo <= fx <= hi):
             raise ConfigError(f"{where}expected frequency {fx:g} Hz is outside the band "
                               f"{lo:g}..{hi:g} Hz")
-    tau = options.exp_window_tau_s
-    if tau is not None and not (math.isfinite(tau) and tau > 0):
-        raise ConfigError(f"{where}exp_window_tau_s must be a positive time in s, got {tau!r}")
     method = str(options.method)
-    n_in = 1 if frf.n_out == 1 and frf.n_in > 1 else frf.n_in  # roving hammer: reciprocity
-    n_out = frf.n_in if n_in != frf.n_in else frf.n_out
+    identified = single_reference(frf)  # the set identify() works on
+    n_in, n_out = identified.n_in, identified.n_out
     cap = order_cap(n_lines, n_in)
     p = options.max_order
     if p is not None:
-        low = MIN_ORDER.get(method, 2)
-        if p < low:
-            raise ConfigError(
-                f"{where}max order {p} is too low for {method}: a stabilization diagram needs "
-                f"at least {low}"
-            )
         if method == "plscf" and p > cap:
             raise ConfigError(
                 f"{where}max order {p} is more than the {n_lines} lines in the band support "

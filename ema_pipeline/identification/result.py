@@ -1,5 +1,12 @@
-"""What :func:`ema_pipeline.identification.identify` returns: the result and the
-resolved record of the settings it used."""
+"""What :func:`ema_pipeline.identification.identify` returns: the result, its
+parts (the stabilization data, the selected poles) and the resolved record of
+the settings it used, with the tables read from them.
+
+A light module: it imports numpy, pandas, :mod:`ema_pipeline.data`,
+:mod:`ema_pipeline.modal` and the thresholds, never the numerics (no scipy),
+so that :mod:`ema_pipeline.io` can read and write results without loading
+the identification (``tests/test_style.py``).
+"""
 
 from __future__ import annotations
 
@@ -9,10 +16,98 @@ import numpy as np
 import pandas as pd
 
 from ema_pipeline.data import ModalParameters, notebook_table_html
-from ema_pipeline.identification.lsfd import mpd
-from ema_pipeline.identification.selection import SelectedPoles
-from ema_pipeline.identification.stabilization import StabilizationData
 from ema_pipeline.identification.thresholds import SelectionThresholds
+from ema_pipeline.modal import mpd
+
+#: Bits of :attr:`StabilizationData.flags`.
+STABLE_FREQ = 1
+STABLE_DAMP = 2
+STABLE_VECTOR = 4
+STABLE_ALL = STABLE_FREQ | STABLE_DAMP | STABLE_VECTOR
+
+
+@dataclass(frozen=True)
+class StabilizationData:
+    """Poles of all model orders with their stability flags (plain arrays for HDF5).
+
+    Attributes
+    ----------
+    order : (n,) int          model (polynomial) order of each pole
+    freq_hz : (n,) float      natural frequency f_n of the window-corrected pole, Hz
+    zeta : (n,) float         damping ratio of the window-corrected pole
+    flags : (n,) uint8        bit 1: frequency stable (< ``tol_freq`` relative change
+                              against the nearest pole of the previous order),
+                              bit 2: damping stable (< ``tol_zeta``),
+                              bit 4: participation vector stable (MAC > 1 - ``tol_mac``)
+    pole : (n,) complex       identified pole lambda (rad/s, before window correction)
+    cluster : (n,) int        cluster of the automatic selection, -1 = none
+    tol_freq, tol_zeta, tol_mac : the tolerances used (NaN: no diagram, e.g.
+                              the sdypy backend).
+    mode_pole : (n_modes,) complex  the start pole of each kept mode (result
+                              order, before window correction): a trajectory's
+                              median or a pole found outside the diagram; what
+                              the report's diagram and ``--picks`` use
+                              (:mod:`ema_pipeline.identification.picks`).
+    companion_pole : (n,) complex  the start poles of the candidates refined
+                              together with the kept modes in their final
+                              fit that the final tests then dropped (before
+                              window correction): ``--picks`` refines them
+                              with the picks and drops them again, so that
+                              the untouched picks reproduce the kept modes.
+    """
+
+    order: np.ndarray
+    freq_hz: np.ndarray
+    zeta: np.ndarray
+    flags: np.ndarray
+    pole: np.ndarray
+    cluster: np.ndarray
+    tol_freq: float = float("nan")
+    tol_zeta: float = float("nan")
+    tol_mac: float = float("nan")
+    mode_pole: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
+    companion_pole: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Poles stable in frequency, damping and participation vector."""
+        return (self.flags & STABLE_ALL) == STABLE_ALL
+
+
+@dataclass(frozen=True)
+class SelectedPoles:
+    """Physical poles chosen from the stabilization data, ascending frequency.
+
+    Attributes
+    ----------
+    pole : (n_modes,) complex   identified pole (trajectory median, before window correction)
+    cluster : (n_modes,) int    trajectory label in :attr:`StabilizationData.cluster`
+    n_members : (n_modes,) int  number of model orders the trajectory holds
+    scatter_fn_hz, scatter_zeta : (n_modes,) std of f_n and zeta over the
+        settled (last half) members
+    first_order : (n_modes,) int  model order at which the trajectory starts
+        (the mode is stable from there on); empty when unknown
+    """
+
+    pole: np.ndarray
+    cluster: np.ndarray
+    n_members: np.ndarray
+    scatter_fn_hz: np.ndarray
+    scatter_zeta: np.ndarray
+    first_order: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+
+    def subset(self, keep: np.ndarray) -> SelectedPoles:
+        """The rows ``keep`` (boolean mask or indices) of every field."""
+        return SelectedPoles(
+            **{k: (v[keep] if v.size else v) for k, v in self.__dict__.items()}
+        )
+
+    def concatenate(self, other: SelectedPoles) -> SelectedPoles:
+        """The rows of ``self`` followed by those of ``other``."""
+        return SelectedPoles(**{k: np.concatenate([v, getattr(other, k)])
+                                for k, v in self.__dict__.items()})
+
+
 
 
 @dataclass(frozen=True)

@@ -40,8 +40,11 @@ from ema_pipeline.identification.expect import EXPECT_TOL_PCT, match_expected
 from ema_pipeline.identification.lsfd import frac, normalised_error
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf_backend import identify_plscf
-from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
-from ema_pipeline.identification.stabilization import StabilizationData
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    StabilizationData,
+)
 from ema_pipeline.modal import pole_fd_hz
 
 

@@ -17,48 +17,15 @@ and cannot use the order structure; the linking needs only one
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
 from ema_pipeline.identification.plscf import PoleSet
+from ema_pipeline.identification.result import SelectedPoles  # a light result type
 from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, poles_overlap
-
-
-@dataclass(frozen=True)
-class SelectedPoles:
-    """Physical poles chosen from the stabilization data, ascending frequency.
-
-    Attributes
-    ----------
-    pole : (n_modes,) complex   identified pole (trajectory median, before window correction)
-    cluster : (n_modes,) int    trajectory label in :attr:`StabilizationData.cluster`
-    n_members : (n_modes,) int  number of model orders the trajectory holds
-    scatter_fn_hz, scatter_zeta : (n_modes,) std of f_n and zeta over the
-        settled (last half) members
-    first_order : (n_modes,) int  model order at which the trajectory starts
-        (the mode is stable from there on); empty when unknown
-    """
-
-    pole: np.ndarray
-    cluster: np.ndarray
-    n_members: np.ndarray
-    scatter_fn_hz: np.ndarray
-    scatter_zeta: np.ndarray
-    first_order: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
-
-    def subset(self, keep: np.ndarray) -> SelectedPoles:
-        """The rows ``keep`` (boolean mask or indices) of every field."""
-        return SelectedPoles(
-            **{k: (v[keep] if v.size else v) for k, v in self.__dict__.items()}
-        )
-
-    def concatenate(self, other: SelectedPoles) -> SelectedPoles:
-        """The rows of ``self`` followed by those of ``other``."""
-        return SelectedPoles(**{k: np.concatenate([v, getattr(other, k)])
-                                for k, v in self.__dict__.items()})
 
 
 def track_poles(

@@ -1,22 +1,22 @@
 """Stabilization data: pole stability between model orders.
 
+The record, :class:`~ema_pipeline.identification.result.StabilizationData`,
+is one of the light result types of :mod:`~ema_pipeline.identification.result`.
 The diagram is drawn by :func:`ema_pipeline.plots.plot_stabilization`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from ema_pipeline.identification.plscf import PoleSet
+from ema_pipeline.identification.result import (  # the result types live in result
+    STABLE_DAMP,
+    STABLE_FREQ,
+    STABLE_VECTOR,
+    StabilizationData,
+)
 from ema_pipeline.modal import mac_pairs, pole_fd_hz, pole_fn_hz
-
-#: Bits of :attr:`StabilizationData.flags`.
-STABLE_FREQ = 1
-STABLE_DAMP = 2
-STABLE_VECTOR = 4
-STABLE_ALL = STABLE_FREQ | STABLE_DAMP | STABLE_VECTOR
 
 
 def pole_to_modal(pole: np.ndarray, window_decay_rate: float = 0.0) -> tuple[np.ndarray, ...]:
@@ -34,54 +34,6 @@ def pole_to_modal(pole: np.ndarray, window_decay_rate: float = 0.0) -> tuple[np.
     with np.errstate(divide="ignore", invalid="ignore"):
         zeta = -lam.real / np.abs(lam)
     return pole_fn_hz(lam), pole_fd_hz(lam), zeta
-
-
-@dataclass(frozen=True)
-class StabilizationData:
-    """Poles of all model orders with their stability flags (plain arrays for HDF5).
-
-    Attributes
-    ----------
-    order : (n,) int          model (polynomial) order of each pole
-    freq_hz : (n,) float      natural frequency f_n of the window-corrected pole, Hz
-    zeta : (n,) float         damping ratio of the window-corrected pole
-    flags : (n,) uint8        bit 1: frequency stable (< ``tol_freq`` relative change
-                              against the nearest pole of the previous order),
-                              bit 2: damping stable (< ``tol_zeta``),
-                              bit 4: participation vector stable (MAC > 1 - ``tol_mac``)
-    pole : (n,) complex       identified pole lambda (rad/s, before window correction)
-    cluster : (n,) int        cluster of the automatic selection, -1 = none
-    tol_freq, tol_zeta, tol_mac : the tolerances used (NaN: no diagram, e.g.
-                              the sdypy backend).
-    mode_pole : (n_modes,) complex  the start pole of each kept mode (result
-                              order, before window correction): a trajectory's
-                              median or a pole found outside the diagram; what
-                              the report's diagram and ``--picks`` use
-                              (:mod:`ema_pipeline.identification.picks`).
-    companion_pole : (n,) complex  the start poles of the candidates refined
-                              together with the kept modes in their final
-                              fit that the final tests then dropped (before
-                              window correction): ``--picks`` refines them
-                              with the picks and drops them again, so that
-                              the untouched picks reproduce the kept modes.
-    """
-
-    order: np.ndarray
-    freq_hz: np.ndarray
-    zeta: np.ndarray
-    flags: np.ndarray
-    pole: np.ndarray
-    cluster: np.ndarray
-    tol_freq: float = float("nan")
-    tol_zeta: float = float("nan")
-    tol_mac: float = float("nan")
-    mode_pole: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
-    companion_pole: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=complex))
-
-    @property
-    def stable(self) -> np.ndarray:
-        """Poles stable in frequency, damping and participation vector."""
-        return (self.flags & STABLE_ALL) == STABLE_ALL
 
 
 def stabilization(

@@ -13,13 +13,34 @@ It is a field of :class:`~ema_pipeline.identification.IdentificationOptions`
 imported as module constants: a study of one threshold is
 ``identify(frf, thresholds=replace(SelectionThresholds(), max_rel_decay_std=0.3))``.
 The result keeps the record it was made with
-(``result.settings.thresholds``). This module imports nothing from the
-package.
+(``result.settings.thresholds``). Every field is checked when the record is
+made (:meth:`SelectionThresholds.__post_init__`: numbers, not NaN, not
+negative; tolerances and widths above zero; MAC and MPC levels and shares at
+most 1): an impossible value is an :class:`~ema_pipeline.data.OptionError`
+naming the field. This module imports only that error from the package.
 """
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass, fields
+
+from ema_pipeline.data import OptionError
+
+#: Fields that must be above zero (tolerances, widths and divisors; counts of at least one).
+_ABOVE_ZERO = frozenset({
+    "diagram_tol_freq", "diagram_tol_zeta", "diagram_tol_mac", "link_tol_freq",
+    "link_tol_zeta", "link_tol_mac", "max_zeta", "fragment_tol_zeta", "expect_tol",
+    "mature_fraction", "zoom_ratio", "local_half_width", "split_half_width", "peak_lines",
+    "min_members", "expect_min_members", "young_min_members", "diagram_orders",
+    "window_modes", "window_step", "window_min_lines", "local_min_lines", "min_frfs",
+})
+#: Fields that are fractions, levels of the MAC or the MPC, or damping ratios: at most 1.
+_AT_MOST_ONE = frozenset({
+    "max_zeta", "mature_fraction", "min_frf_share", "weak_min_mpc", "partner_min_mpc",
+    "duplicate_min_mac", "split_max_mpc", "split_mpc_gap", "min_mpc",
+})
 
 
 @dataclass(frozen=True)
@@ -37,6 +58,32 @@ class SelectionThresholds:
     >>> str(th), str(replace(th, max_rel_decay_std=0.3))  # what reports show
     ('tuned defaults', 'max_rel_decay_std=0.3 (others tuned defaults)')
     """
+
+    def __post_init__(self) -> None:
+        """Refuse an impossible value (:class:`~ema_pipeline.data.OptionError`
+        naming the field): every number real and not NaN, not negative (inf is
+        allowed: no limit); integer fields integers; the fields of
+        ``_ABOVE_ZERO`` above zero, of ``_AT_MOST_ONE`` at most 1;
+        ``band_edge`` two fractions in [0, 0.5)."""
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if f.name == "band_edge":
+                if not (isinstance(value, tuple | list) and len(value) == 2 and all(
+                        _real(x) and 0 <= x < 0.5 for x in value)):
+                    raise OptionError(f.name, f"must be two fractions in [0, 0.5), got {value!r}")
+                object.__setattr__(self, f.name, (float(value[0]), float(value[1])))
+                continue
+            integer = f.type == "int"
+            ok = (isinstance(value, numbers.Integral) if integer else _real(value)) and (
+                not isinstance(value, bool) and not math.isnan(value) and value >= 0)
+            ok = ok and (value > 0 or f.name not in _ABOVE_ZERO) and (
+                value <= 1 or f.name not in _AT_MOST_ONE)
+            if not ok:
+                what = "an integer" if integer else "a number"
+                bounds = ("> 0" if f.name in _ABOVE_ZERO else ">= 0") + (
+                    " and <= 1" if f.name in _AT_MOST_ONE else "")
+                raise OptionError(f.name, f"must be {what} {bounds}, got {value!r}")
+            object.__setattr__(self, f.name, int(value) if integer else float(value))
 
     def __str__(self) -> str:
         """The fields that differ from the tuned defaults, or ``"tuned defaults"``."""
@@ -293,5 +340,10 @@ class SelectionThresholds:
     #: (seeds 1-9) ...
     min_band_searches: int = 3
     #: ... a search holds a mode when the mode lies inside its band by this
-    #: fraction of its frequency (issue 31's margin).
+    #: fraction of its frequency.
     band_support_margin: float = 0.03
+
+
+def _real(value: object) -> bool:
+    """A real number (an int, a float or a numpy scalar), not a bool."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)

@@ -104,9 +104,12 @@ from ema_pipeline.data import (
     ModalParameters,
     Provenance,
 )
-from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
-from ema_pipeline.identification.selection import SelectedPoles
-from ema_pipeline.identification.stabilization import StabilizationData
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    SelectedPoles,
+    StabilizationData,
+)
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.io.files import atomic_path, check_readable, open_regular, sha256_file
 

@@ -25,7 +25,7 @@ from ema_pipeline.identification import (
     identify,
     modes_table,
 )
-from ema_pipeline.identification.common import ends_at_usable_top
+from ema_pipeline.identification.common import ends_at_usable_top, single_reference
 from ema_pipeline.identification.expect import (
     match_expected,
     not_found_message,
@@ -107,39 +107,16 @@ def output_paths(path: Path, out_dir: Path) -> tuple[Path, Path]:
     return out_dir / f"{stem}_modes.csv", out_dir / f"{stem}_result.h5"
 
 
-def single_reference(frf: FRFSet) -> FRFSet:
-    """A roving-hammer set (one response, several references) made
-    single-reference by reciprocity (:meth:`ema_pipeline.data.FRFSet.reciprocal`),
-    which keeps the pLSCF model small; any other set unchanged.
-
-    Examples
-    --------
-    >>> from ema_pipeline.data import DOF
-    >>> roving = FRFSet(freq_hz=np.arange(1.0, 6.0), H=np.ones((1, 3, 5), complex),
-    ...                 response_dofs=(DOF(1),), reference_dofs=(DOF(2), DOF(3), DOF(4)))
-    >>> single_reference(roving).H.shape, single_reference(roving.reciprocal()).H.shape
-    ((3, 1, 5), (3, 1, 5))
-    """
-    return frf.reciprocal() if frf.n_out == 1 and frf.n_in > 1 else frf
-
-
 def load_frf(path: Path, options: IdentificationOptions) -> FRFSet:
     """Read an FRF file for identification (fewer than
     :data:`ema_pipeline.data.MIN_FRF_LINES` lines is a :class:`DataError` naming
     the file), apply the window override (``options.exp_window_tau_s``), and
-    make roving-hammer sets single-reference (:func:`single_reference`)."""
+    make roving-hammer sets single-reference
+    (:func:`ema_pipeline.identification.common.single_reference`, the set
+    :func:`~ema_pipeline.identification.identify` works on, so the FRFs kept
+    with the result match its shapes and fitted FRFs)."""
     frf = options.apply_window(io.read_frf(path, min_lines=MIN_FRF_LINES))
     return single_reference(frf)
-
-
-def identify_frf(
-    frf: FRFSet, options: IdentificationOptions | None = None, *, picks: Picks | None = None
-) -> IdentificationResult:
-    """:func:`ema_pipeline.identification.identify` with these options, on
-    :func:`single_reference` of ``frf``: a roving-hammer set (one response,
-    several references) is identified in its reciprocal form, as the command
-    line does, so ``result.modes.shapes`` has one row per hammer point."""
-    return identify(single_reference(frf), options, picks=picks)
 
 
 def identify_file(
@@ -178,7 +155,7 @@ def identify_file(
         frf = load_frf(path, options)
         outcome.configuration = frf.configuration
         check_identification(frf, options, source=str(path))
-        result = identify_frf(frf, options, picks=picks)
+        result = identify(frf, options, picks=picks)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_table(result)

@@ -50,16 +50,13 @@ from ema_pipeline.data import (
     ModalParameters,
 )
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
+from ema_pipeline.identification import identify
+from ema_pipeline.identification.common import single_reference
 from ema_pipeline.identification.resources import check_identification
 from ema_pipeline.io.experiment import experiment_recording_paths
 from ema_pipeline.pipeline.frf import configuration_frf
 from ema_pipeline.pipeline.simulate import simulate_configuration
-from ema_pipeline.pipeline.single import (
-    identify_frf,
-    load_frf,
-    single_reference,
-    write_result_uff,
-)
+from ema_pipeline.pipeline.single import load_frf, write_result_uff
 from ema_pipeline.report.wording import plural
 
 Progress = Callable[[str], None]
@@ -234,7 +231,7 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
             else:
                 frf = simulate_configuration(exp, spec) if path is None else map_dofs(
                     exp, replace(load_frf(path, options), configuration=spec.name), path)
-            ident = identify_frf(frf, options)
+            ident = identify(frf, options)
         except DataError as exc:
             result.problems.append(f"configuration {spec.name!r}: {exc}")
             say(f"    failed: {exc}")

@@ -15,7 +15,7 @@ import pandas as pd
 
 from ema_pipeline import paper
 from ema_pipeline.data import FRFSet
-from ema_pipeline.identification.stabilization import STABLE_ALL, STABLE_DAMP, STABLE_FREQ
+from ema_pipeline.identification.result import STABLE_ALL, STABLE_DAMP, STABLE_FREQ
 from ema_pipeline.report.svg import SCALE, Canvas
 
 if TYPE_CHECKING:  # pragma: no cover

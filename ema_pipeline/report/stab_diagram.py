@@ -36,8 +36,12 @@ import numpy as np
 
 from ema_pipeline.data import FRFSet
 from ema_pipeline.identification.picks import is_picked, picks_from_result, pole_mpc
-from ema_pipeline.identification.result import IdentificationResult
-from ema_pipeline.identification.stabilization import STABLE_ALL, STABLE_DAMP, STABLE_FREQ
+from ema_pipeline.identification.result import (
+    STABLE_ALL,
+    STABLE_DAMP,
+    STABLE_FREQ,
+    IdentificationResult,
+)
 from ema_pipeline.report.htmlparts import esc
 
 __all__ = ["stab_diagram_html"]
