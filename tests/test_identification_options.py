@@ -266,3 +266,29 @@ def test_thresholds_refuse_impossible_values(name, value, says):
     for field, fine in (("max_rel_decay_std", 1e-9), ("min_stable_orders", 1000),
                         ("min_weak_peak_snr", float("inf"))):
         assert getattr(replace(SelectionThresholds(), **{field: fine}), field) == fine
+
+
+def test_the_alternates_gate_has_thresholds_of_its_own():
+    """Issue 38, item 6: the gate of the narrower searches' alternates
+    (``alternate_min_frfs``, ``alternate_peak_lines``) is not the listing of
+    resonances not kept (``min_frfs``, ``peak_lines``): changing one leaves
+    the other's rule alone."""
+    from dataclasses import replace
+
+    from ema_pipeline.identification.narrower_searches import shown_by_the_frfs
+    from ema_pipeline.identification.thresholds import SelectionThresholds
+
+    f = np.linspace(0.0, 100.0, 401)
+    jw = 2j * np.pi * f
+    lam = -0.5 + 2j * np.pi * 40.0
+    H = np.tile(1 / (jw - lam) + 1 / (jw - np.conj(lam)), (2, 1))  # 2 FRFs show it
+    poles = np.array([lam])
+    th = SelectionThresholds()
+    assert shown_by_the_frfs(f, H, poles, th).tolist() == [True]
+    assert shown_by_the_frfs(f, H, poles, replace(th, min_frfs=3, peak_lines=0.1)).tolist() \
+        == [True]
+    assert shown_by_the_frfs(f, H, poles, replace(th, alternate_min_frfs=3)).tolist() == [False]
+    # a peak 1 line off the pole's frequency: inside 1.5 lines, outside 0.5
+    off = np.array([-0.5 + 2j * np.pi * 40.25])
+    assert shown_by_the_frfs(f, H, off, th).tolist() == [True]
+    assert shown_by_the_frfs(f, H, off, replace(th, alternate_peak_lines=0.5)).tolist() == [False]

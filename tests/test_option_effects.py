@@ -1071,3 +1071,30 @@ def test_batch_geometry(two_mode_folder: Path, tmp_path: Path,
     assert _run(["batch", two_mode_folder, "--out", out, "--report", "--force",
                  "--workers", "1", "--quiet"], capsys)[0] == 0
     assert "data-mode-shape" not in (out / "two_report.html").read_text()
+
+
+def test_a_fixed_order_says_it_turned_the_narrower_searches_off(
+        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 38, item 3: ``--max-order`` fixes the diagram and turns off the
+    narrower searches, which run with the adaptive order only. On the twelve-mode
+    FRF (a dense band, 0-800 Hz) ``identify --max-order 60`` says so on stderr and
+    the stored band support is empty; the adaptive run says nothing and its
+    windows hold the middle modes."""
+    from ema_pipeline.identification import identify
+
+    f = np.linspace(0.0, 800.0, 2049)
+    phi = np.random.default_rng(3).standard_normal((3, 12))
+    frf = FRFSet(freq_hz=f, H=modal_frf(f, TWELVE_MODES, phi, phi[:1], quantity="receptance"),
+                 quantity="receptance")
+    src = tmp_path / "twelve.h5"
+    io.write_frf(frf, src)
+    code, _, err = _run(["identify", src, "--out", tmp_path / "fixed", "--quiet",
+                         "--max-order", "60"], capsys)
+    assert code == 0
+    assert "--max-order" in err and "the windows of a dense band" in err
+    fixed = read_results_h5(tmp_path / "fixed" / "twelve_result.h5")["identification"]
+    assert np.asarray(fixed["band_support"]).sum() == 0
+    code, _, err = _run(["identify", src, "--out", tmp_path / "auto", "--quiet"], capsys)
+    assert code == 0 and "narrower searches" not in err
+    with pytest.warns(UserWarning, match="turned off the narrower searches"):
+        identify(frf, max_order=60)

@@ -146,7 +146,10 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         default=None,
         help="highest polynomial order of the stabilization diagram (fixed; "
         + ", ".join(f"at least {low} for {name}" for name, low in MIN_ORDER.items())
-        + f", at most {MAX_ORDER}; default: the adaptive order search)",
+        + f", at most {MAX_ORDER}; default: the adaptive order search). A fixed order "
+        "also turns off the narrower searches (a wide band's lowest part, a dense band's "
+        "windows), which run with the adaptive order only: identify warns where they would "
+        "have run",
     )
     p.add_argument(
         "--method",
@@ -155,7 +158,8 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         help="plscf (ours, default) or sdypy-lscf (sdypy-EMA's LSCF)",
     )
     _add_numbers(p, "--expect", "approximate natural frequencies in Hz: pick the nearest "
-                 "stable modes")
+                 "stable modes (answered from the automatic selection, narrower searches "
+                 "included; without refinement the narrower searches are off)")
     p.add_argument(
         "--exp-window-tau",
         type=float,

@@ -25,6 +25,7 @@ from ema_pipeline.identification.common import (
     source_prefix,
 )
 from ema_pipeline.identification.expect import match_expected, not_found_message
+from ema_pipeline.identification.narrower_searches import searches_turned_off
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.picks import Picks, identify_picks
 from ema_pipeline.identification.plscf_backend import identify_plscf
@@ -132,6 +133,10 @@ def identify(
                   else backend(frf, checked))
     if picks is not None:
         return result
+    if options.method == "plscf":  # a fixed order or --expect turned searches off: say so
+        note = searches_turned_off(checked, (lo, hi), result.fn_hz)
+        if note:
+            warnings.warn(f"{where}{note}", stacklevel=2)
     if expect_hz.size:  # a guess no mode answers: say so (UserWarning)
         message = not_found_message(expect_hz, match_expected(result.fn_hz, expect_hz))
         if message:

@@ -14,7 +14,7 @@ After the final tests of :mod:`ema_pipeline.identification.acceptance`:
   kept mode, which the doubtful rule ``found_only_in_some_bands`` reads
   (:func:`~ema_pipeline.identification.result.doubtful_flags`).
 
-Thresholds (``min_frfs``, ``peak_lines``, ``band_support_margin``) are fields
+Thresholds (``alternate_min_frfs``, ``alternate_peak_lines``, ``band_support_margin``) are fields
 of :class:`~ema_pipeline.identification.thresholds.SelectionThresholds`.
 """
 
@@ -25,12 +25,13 @@ from collections.abc import Sequence
 import numpy as np
 
 from ema_pipeline.identification.not_kept import visible_peaks
-from ema_pipeline.identification.order_search import SearchedBand
+from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.order_search import SearchedBand, mode_windows
 from ema_pipeline.identification.selection import SelectedPoles
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, pole_fn_hz, poles_overlap
 
-__all__ = ["band_support", "shown_by_the_frfs", "uncovered_alternates"]
+__all__ = ["band_support", "searches_turned_off", "shown_by_the_frfs", "uncovered_alternates"]
 
 
 def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None]) -> np.ndarray:
@@ -64,8 +65,8 @@ def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None
 
 def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
                       thresholds: SelectionThresholds | None = None) -> np.ndarray:
-    """Per pole: at least ``min_frfs`` of the FRFs ``H`` (n_ch, n_freq) show a
-    peak of their own within ``peak_lines`` lines of its natural frequency
+    """Per pole: at least ``alternate_min_frfs`` of the FRFs ``H`` (n_ch, n_freq)
+    show a peak of their own within ``alternate_peak_lines`` lines of its natural frequency
     (:func:`~ema_pipeline.identification.not_kept.visible_peaks`). An
     alternate (:func:`uncovered_alternates`) is a second chance for a
     resonance whose cover failed, so it is tried only where the data show one:
@@ -86,8 +87,9 @@ def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
     if pole.size == 0:
         return np.zeros(0, dtype=bool)
     df = float(np.median(np.diff(freq_hz)))
-    n_frfs = visible_peaks(freq_hz, H, pole_fn_hz(pole), th.peak_lines * df, thresholds=th)
-    return np.asarray(n_frfs >= th.min_frfs)
+    n_frfs = visible_peaks(freq_hz, H, pole_fn_hz(pole), th.alternate_peak_lines * df,
+                           thresholds=th)
+    return np.asarray(n_frfs >= th.alternate_min_frfs)
 
 
 def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
@@ -119,3 +121,43 @@ def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
         if cand is not None and cand.pole.size:
             out[:, 1] += holds & np.any(poles_overlap(pole, cand.pole), axis=1)
     return out
+
+
+def searches_turned_off(options: IdentificationOptions, band_hz: tuple[float, float],
+                        fn_hz: np.ndarray) -> str:
+    """The note that ``options`` turned off narrower searches that would have
+    run on this band, else ``""``. They run with the adaptive order only:
+    a fixed ``max_order`` turns them off, and so do ``expect_hz`` without
+    refinement (with it, the expected modes come from the automatic
+    selection, which ran them). Would have run: the search of the band's
+    lowest part where the top is ``zoom_ratio`` times the bottom or more, the
+    windows where the modes ``fn_hz`` (Hz) make a dense band
+    (:func:`~ema_pipeline.identification.order_search.mode_windows`) and
+    ``options.window_searches`` is on.
+
+    Examples
+    --------
+    >>> note = searches_turned_off(IdentificationOptions(max_order=40), (5.0, 790.0),
+    ...                            np.array([17.0]))
+    >>> note.split(" (")[0], note.split("only ")[1].split(":")[0]
+    ('max_order', "(the band's lowest 1/8)")
+    >>> searches_turned_off(IdentificationOptions(), (5.0, 790.0), np.array([17.0]))
+    ''
+    """
+    if options.max_order is not None:
+        why = "max_order (--max-order)"
+    elif options.expect_hz and not options.refine:
+        why = "expect_hz (--expect) without refinement"
+    else:
+        return ""
+    th = options.thresholds
+    lo, hi = (float(b) for b in band_hz)
+    what = []
+    if hi >= th.zoom_ratio * lo:
+        what.append(f"the band's lowest 1/{th.zoom_ratio:g}")
+    if options.window_searches and mode_windows(np.asarray(fn_hz, float), (lo, hi), th):
+        what.append("the windows of a dense band")
+    if not what:
+        return ""
+    return (f"{why} turned off the narrower searches that run with the adaptive order only "
+            f"({' and '.join(what)}): modes only they find may be missing")

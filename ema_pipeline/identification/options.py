@@ -194,8 +194,13 @@ class IdentificationOptions:
     exp_window_tau_s : time constant (s, finite, > 0) of the exponential window, overriding
         the one stored with the FRFs (foreign UFF files lack it); ``None`` keeps
         the FRF set's.
-    weighting : "none" (each output scaled by its RMS in the band) or
-        "coherence" (additionally every line weighted by the coherence).
+    weighting : the weights of the pLSCF equations of the stabilization
+        diagrams (the band's, its lowest part's and the dense band's windows):
+        "none" (each output scaled by its RMS in the band) or "coherence"
+        (additionally every line weighted by the square root of the mean
+        coherence). The pole refinement and the LSFD weight the lines by their
+        own noise model (:mod:`~ema_pipeline.identification.uncertainty`),
+        whatever this says.
     tol_freq, tol_zeta, tol_mac : stabilization tolerances (relative frequency,
         relative damping, 1 - MAC of participation vectors; in (0, 1], (0, 10]
         and (0, 1]). A value given is
@@ -211,7 +216,13 @@ class IdentificationOptions:
         stabilises late is kept once it holds them).
     refine : refine the selected poles by variable-projection nonlinear least
         squares (:func:`ema_pipeline.identification.refine.refine_poles`), which
-        also gives their covariance.
+        also gives their covariance, and judge them on the refined values: the
+        final tests, the close partners, the residual search and the list of
+        resonances not kept all work on refined poles, so ``False`` skips them
+        too and keeps every candidate the diagrams select (the measured beam in
+        250-700 Hz: 20 candidates instead of 6 modes), with the trajectories'
+        scatter as their uncertainty. For a look at the raw selection, not
+        for results.
     lower_residual, upper_residual : residual terms in LSFD.
     window_searches : search a dense band again in windows of consecutive
         candidates (:func:`~ema_pipeline.identification.order_search.add_window_modes`:

@@ -31,6 +31,7 @@ from ema_pipeline.identification.expect import (
     not_found_message,
     with_expected_rows,
 )
+from ema_pipeline.identification.narrower_searches import searches_turned_off
 from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.identification.picks import Picks
 from ema_pipeline.identification.resources import check_identification
@@ -169,6 +170,10 @@ def identify_file(
                 f"{path}: the identification band ends at {result.settings.band_hz[1]:.5g} Hz, "
                 f"past the usable band of the hammer: the force spectrum is 20 dB below its "
                 f"low-frequency level from {force_band[1]:.5g} Hz")
+        note = (searches_turned_off(options, result.settings.band_hz, result.fn_hz)
+                if result.settings.method == "plscf" else "")
+        if note:
+            outcome.warnings.append(f"{path}: {note}")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
             table = with_expected_rows(table, options.expect_hz)
             message = not_found_message(options.expect_hz, match_expected(
