@@ -131,7 +131,9 @@ def _start_script(prefix: str, script: str,
     """``python tests/SCRIPT ARGS`` in a child process with the repository on
     its path, output to ROOT/runner.log, ROOT a fresh folder (``args(ROOT)``)."""
     root = Path(tempfile.mkdtemp(prefix=prefix))
-    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
+    # one process each: the jobs run beside the suite on 2 cores (no worker
+    # processes of their own, ema_pipeline.threads)
+    env = dict(os.environ, EMA_PIPELINE_WORKERS="1", PYTHONPATH=os.pathsep.join(
         filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
     with open(root / "runner.log", "wb") as log:
         proc = subprocess.Popen(

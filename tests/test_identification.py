@@ -33,6 +33,7 @@ from ema_pipeline.data import (  # noqa: E402
     Provenance,
 )
 from ema_pipeline.identification import (  # noqa: E402
+    FOUND_BY,
     IdentificationResult,
     SelectionThresholds,
     identify,
@@ -92,6 +93,17 @@ def noise_free() -> tuple[FRFSet, ModalParameters, IdentificationResult]:
     return frf, modes, identify(frf)
 
 
+def test_found_by_names_how_each_mode_was_found(noise_free):
+    """The modes table's found_by: trajectories of the diagram by default,
+    the answers to expected frequencies with --expect."""
+    from ema_pipeline.identification import found_by_names
+
+    frf, modes, res = noise_free
+    assert found_by_names(res) == ["diagram"] * 4
+    expected = identify(frf, expect_hz=tuple(np.round(modes.fn_hz[:2])))
+    assert found_by_names(expected) == ["expected", "expected"]
+
+
 def test_noise_free_table1_exact(noise_free):
     frf, modes, res = noise_free
     assert res.modes.n_modes == 4
@@ -123,8 +135,9 @@ def test_modes_table_columns(noise_free):
     table = modes_table(res)
     assert list(table.columns) == ["mode", "fn_hz", "fd_hz", "zeta_pct", "fn_std_hz",
                                    "zeta_std_pct", "mpc", "mpd_deg", "stable_from_order",
-                                   "n_stable_orders", "doubtful", "doubtful_reason"]
+                                   "n_stable_orders", "found_by", "doubtful", "doubtful_reason"]
     assert list(table["mode"]) == [1, 2, 3, 4]
+    assert list(table["found_by"]) == ["diagram"] * 4  # trajectories of the band's diagram
     assert np.all(np.diff(table["fn_hz"]) > 0)
     np.testing.assert_allclose(table["zeta_pct"], 100 * res.zeta)
     assert np.all(np.isfinite(table["fn_std_hz"])) and np.all(table["zeta_std_pct"] > 0)
@@ -456,6 +469,14 @@ def test_real_roving_hammer_data(beam_results):
     assert res.band_support.shape == (res.modes.n_modes, 2)
     assert np.all(res.band_support[:, 0] >= 1) and np.all(res.band_support[:, 1] >= 1)
     assert res.modes.shapes.shape == (30, res.modes.n_modes)
+    # issue 38: a mode outside the stored diagram (0 stable orders) says how it
+    # was found (the beam: 42.2 and 119.4 Hz by windows, 118.0, 879.3 and
+    # 941.2 Hz by the band's diagrams at other orders)
+    table = modes_table(res)
+    assert set(table["found_by"]) <= set(FOUND_BY) and "window" in set(table["found_by"])
+    unstored = table["n_stable_orders"] == 0
+    assert unstored.any() and not (table["found_by"][unstored] == "diagram").any()
+    assert (table["found_by"][~unstored] == "diagram").all()
     assert np.all(res.zeta > 0) and np.all(res.zeta < 0.05)
     assert np.median(res.frac) > 0.8
     # resonances the FRFs show that are not published are kept or listed as

@@ -16,7 +16,7 @@ import pytest
 from ema_pipeline import io
 from ema_pipeline.cli import main
 from ema_pipeline.data import DOF, DataError, FRFSet
-from ema_pipeline.identification import IdentificationOptions, identify
+from ema_pipeline.identification import IdentificationOptions, found_by_names, identify
 from ema_pipeline.identification.picks import Pick, is_picked, picks_from_result
 
 FN_HZ = np.array([42.0, 97.0, 161.0])
@@ -108,6 +108,7 @@ def test_a_picked_diagram_pole_gives_the_mode_and_a_dropped_one_is_gone():
     chosen = (picks.picks[0], Pick(freq_hz=round(f_pick, 4), order=top))
     result = identify(frf, picks=type(picks)(picks.band_hz, picks.orders, chosen))
     assert is_picked(result) and not is_picked(auto)
+    assert found_by_names(result) == ["picked", "picked"]  # the modes table's found_by
     np.testing.assert_allclose(result.fn_hz, FN_HZ[[0, 2]], rtol=1e-3)  # the truth
     np.testing.assert_allclose(result.zeta, ZETA[[0, 2]], rtol=0.05)
     assert np.all(np.isfinite(result.modes.fn_std_hz))  # the same uncertainty chain

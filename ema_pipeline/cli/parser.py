@@ -41,7 +41,11 @@ MODES_CSV_HELP = """
   mpc               modal phase collinearity (1 = real mode)
   mpd_deg           mean phase deviation, degrees (0 = real mode)
   stable_from_order lowest model order at which the pole is stable
-  n_stable_orders   how many orders of the diagram hold it
+  n_stable_orders   how many orders of the diagram hold it (0: found outside the
+                    stored diagram, see found_by)
+  found_by          how it was found: diagram, other_order (the band's diagram at
+                    another order), window (a narrower search), alternate, partner,
+                    residual, expected or picked
   doubtful          True when a rule marks it for a second look (kept, never dropped)
   doubtful_reason   which rule fired (empty when not doubtful)
   expect_hz         with --expect: the guess the mode answers (a guess not found

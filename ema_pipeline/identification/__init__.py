@@ -56,6 +56,7 @@ if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checke
     from ema_pipeline.identification.plscf import PoleSet, plscf_normal_matrix
     from ema_pipeline.identification.refine import refine_poles
     from ema_pipeline.identification.result import (
+        FOUND_BY,
         STABLE_DAMP,
         STABLE_FREQ,
         STABLE_VECTOR,
@@ -64,6 +65,7 @@ if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checke
         SelectedPoles,
         StabilizationData,
         doubtful_reasons,
+        found_by_names,
         modes_table,
     )
     from ema_pipeline.identification.selection import select_trajectories, track_poles
@@ -72,6 +74,7 @@ if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checke
     from ema_pipeline.identification.uncertainty import modal_std
 
 __all__ = [
+    "FOUND_BY",
     "METHODS",
     "STABLE_DAMP",
     "STABLE_FREQ",
@@ -85,6 +88,7 @@ __all__ = [
     "StabilizationData",
     "default_max_order",
     "doubtful_reasons",
+    "found_by_names",
     "frac",
     "identify",
     "modal_std",
@@ -122,6 +126,8 @@ EXPORTS: dict[str, str] = {
     "SelectedPoles": "result",
     "StabilizationData": "result",
     "doubtful_reasons": "result",
+    "found_by_names": "result",
+    "FOUND_BY": "result",
     "modes_table": "result",
     "select_trajectories": "selection",
     "track_poles": "selection",

@@ -55,7 +55,7 @@ from ema_pipeline.identification.local_fits import (
 )
 from ema_pipeline.identification.lsfd import lsfd, mpc
 from ema_pipeline.identification.refine import RefinedPoles
-from ema_pipeline.identification.result import SelectedPoles
+from ema_pipeline.identification.result import SelectedPoles, found_by_code
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, pole_fd_hz
 
@@ -83,12 +83,14 @@ def add_found(
     partner: bool,
     strict: np.ndarray,
     retest: Callable[[SelectedPoles, np.ndarray, np.ndarray], tuple[RefinedPoles, np.ndarray]],
+    found_by: str = "residual",
 ) -> Candidates:
     """``found``'s kept candidates plus the start poles ``new`` (found outside
     the diagrams, each ``partner`` or not, ``strict`` per pole), refined and
     tested together by ``retest(candidates, partner, strict)`` -> (refined,
-    keep). When none of ``new`` passes, ``found`` stands (a failed candidate
-    bends its neighbours' local fits: on the measured beam two model-error
+    keep); ``found_by`` says how ``new`` were found (``SelectedPoles.found_by``).
+    When none of ``new`` passes, ``found`` stands (a failed candidate bends
+    its neighbours' local fits: on the measured beam two model-error
     peaks beside 414.6 Hz cost that mode); else the fit is repeated with
     those that pass until all do.
 
@@ -101,7 +103,7 @@ def add_found(
     """
     is_partner = np.full(new.size, partner)
     while new.size:
-        sel = found.sel.subset(found.keep).concatenate(unseen_candidates(new))
+        sel = found.sel.subset(found.keep).concatenate(unseen_candidates(new, found_by))
         partner_all = np.concatenate([found.partner[found.keep], is_partner])
         strict_all = np.concatenate([found.strict[found.keep], strict])
         ref, keep = retest(sel, partner_all, strict_all)
@@ -146,8 +148,9 @@ def refit_kept(
     return found
 
 
-def unseen_candidates(pole: np.ndarray) -> SelectedPoles:
-    """Candidates found outside the diagrams (trajectory label -1, no orders).
+def unseen_candidates(pole: np.ndarray, found_by: str = "residual") -> SelectedPoles:
+    """Candidates found outside the diagrams (trajectory label -1, no orders),
+    found by ``found_by`` (an entry of :data:`~ema_pipeline.identification.result.FOUND_BY`).
 
     Examples
     --------
@@ -156,7 +159,7 @@ def unseen_candidates(pole: np.ndarray) -> SelectedPoles:
     """
     n = pole.size
     return SelectedPoles(pole, np.full(n, -1), np.zeros(n, int), np.zeros(n), np.zeros(n),
-                         np.zeros(n, int))
+                         np.zeros(n, int), found_by_code(found_by, n))
 
 
 def decay_determined(pole: np.ndarray, cov: np.ndarray,

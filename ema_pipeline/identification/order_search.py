@@ -55,6 +55,7 @@ from ema_pipeline.identification.common import default_max_order
 from ema_pipeline.identification.local_fits import quick_significance
 from ema_pipeline.identification.plscf import PoleSet, plscf
 from ema_pipeline.identification.resources import order_cap
+from ema_pipeline.identification.result import found_by_code
 from ema_pipeline.identification.selection import (
     SelectedPoles,
     link_fragments,
@@ -243,7 +244,7 @@ class OrderSearch:
             chosen = best[0]
             for k, other in enumerate(resolved):
                 if k != best_at:
-                    chosen = add_uncovered(chosen, other)
+                    chosen = add_uncovered(chosen, other, "other_order")
             best = (chosen, best[1], best[2])
         return best
 
@@ -282,11 +283,13 @@ def search_window(
     return zsel
 
 
-def add_uncovered(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPoles:
+def add_uncovered(sel: SelectedPoles, new: SelectedPoles | None,
+                  found_by: str | None = None) -> SelectedPoles:
     """``sel`` plus the candidates of ``new`` (from another diagram) that no
     candidate of ``sel`` covers (within the sum of their half-power
     half-widths); they carry trajectory label -1 (their diagram is not the one
-    stored). Sorted by frequency.
+    stored) and, when given, ``found_by`` (``SelectedPoles.found_by``: a
+    narrower search's are ``"window"``). Sorted by frequency.
 
     Examples
     --------
@@ -303,7 +306,10 @@ def add_uncovered(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPole
     if not fresh.any():
         return sel
     add = new.subset(fresh)
-    merged = sel.concatenate(replace(add, cluster=np.full(add.pole.size, -1)))
+    add = replace(add, cluster=np.full(add.pole.size, -1))
+    if found_by is not None:
+        add = replace(add, found_by=found_by_code(found_by, add.pole.size))
+    merged = sel.concatenate(add)
     return merged.subset(np.argsort(merged.pole.imag))
 
 
@@ -365,7 +371,7 @@ def add_zoom_modes(
     sel = without_merged(sel, zsel)
     if searched is not None:
         searched.append(((lo, lo + (hi - lo) / zoom), zsel, covered_candidates(sel, zsel)))
-    return add_uncovered(sel, zsel)
+    return add_uncovered(sel, zsel, "window")
 
 
 def without_merged(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPoles:
@@ -453,5 +459,5 @@ def add_window_modes(
     for window, wsel in zip(windows, found, strict=True):
         if searched is not None:
             searched.append((window, wsel, covered_candidates(sel, wsel)))
-        sel = add_uncovered(sel, wsel)
+        sel = add_uncovered(sel, wsel, "window")
     return sel

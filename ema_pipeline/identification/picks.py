@@ -53,6 +53,7 @@ from ema_pipeline.identification.result import (
     ResolvedSettings,
     SelectedPoles,
     StabilizationData,
+    found_by_code,
 )
 from ema_pipeline.identification.selection import link_fragments, track_poles
 from ema_pipeline.identification.stabilization import pole_to_modal, stabilization
@@ -373,7 +374,8 @@ def identify_picks(frf: FRFSet, options: IdentificationOptions,
                       for c in cluster], dtype=int)
     nan = np.full(start.size, np.nan)
     sel = SelectedPoles(pole=start, cluster=cluster, n_members=n_members,
-                        scatter_fn_hz=nan, scatter_zeta=nan.copy(), first_order=first)
+                        scatter_fn_hz=nan, scatter_zeta=nan.copy(), first_order=first,
+                        found_by=found_by_code("picked", start.size))
     freq = sub.freq_hz
     Hc = sub.H.reshape(n_out * n_in, n_freq)
     cov = None

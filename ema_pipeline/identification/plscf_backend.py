@@ -59,7 +59,11 @@ from ema_pipeline.identification.order_search import (
 from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, refine_poles
 from ema_pipeline.identification.residual_search import residual_peaks
 from ema_pipeline.identification.resources import order_cap
-from ema_pipeline.identification.result import IdentificationResult, ResolvedSettings
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    found_by_code,
+)
 from ema_pipeline.identification.selection import (
     SelectedPoles,
     expected_from_automatic,
@@ -135,6 +139,7 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     auto: IdentificationResult | None = None
     if expect_hz is not None:
         sel = select_expected(sel, expect_hz, decay, thresholds=th)
+        sel = replace(sel, found_by=found_by_code("expected", sel.pole.size))
         if options.refine:
             auto = identify_with(frf, replace(options, expect_hz=()), map_)
             auto_start = auto.stabilization.mode_pole
@@ -182,17 +187,18 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
             # where a candidate failed, the narrower searches' candidate it covered
             alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
             alt = alt[shown_by_the_frfs(freq, Hc, alt, th)]
-            found = add_found(found, alt, False, np.zeros(alt.size, bool), retest)
+            found = add_found(found, alt, False, np.zeros(alt.size, bool), retest, "alternate")
             # close modes hidden in a kept resonance, then modes that no
             # diagram resolved (peaks of the residual)
             partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
                                       window_tau_s=tau, force_window_s=force_s, thresholds=th)
-            found = add_found(found, partners, True, np.zeros(partners.size, bool), retest)
+            found = add_found(found, partners, True, np.zeros(partners.size, bool), retest,
+                              "partner")
             # starts from a slope into the band's edge (a mode outside the band
             # looks the same) must pass the resonance test by their peak
             peaks, from_edge = residual_peaks(freq, Hc, found.kept_poles(), sub.quantity,
                                               thresholds=th)
-            found = add_found(found, peaks, False, from_edge, retest)
+            found = add_found(found, peaks, False, from_edge, retest, "residual")
             sel, ref, keep = found.sel, found.ref, found.keep
         order_s = np.argsort(ref.pole[keep].imag)
         start = sel.pole[keep][order_s]

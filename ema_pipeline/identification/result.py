@@ -74,6 +74,31 @@ class StabilizationData:
         return (self.flags & STABLE_ALL) == STABLE_ALL
 
 
+#: How a mode's candidate was found (``SelectedPoles.found_by`` indexes it, the
+#: modes table's ``found_by`` column names it): a trajectory of the band's
+#: stabilization diagram (``diagram``), of one of the band's diagrams at
+#: another order than the one stored (``other_order``), a narrower search's diagram (the
+#: band's lowest part or a dense band's window: ``window``), the narrower
+#: search's candidate tried where the full band's failed (``alternate``), a
+#: close mode hidden in a kept resonance (``partner``), a peak of the residual
+#: of the kept modes' fit (``residual``), the answer to an expected frequency
+#: (``expected``) or a pole picked by hand (``picked``). Modes found outside the
+#: stored diagram have ``stable_from_order`` and ``n_stable_orders`` 0.
+FOUND_BY = ("diagram", "other_order", "window", "alternate", "partner", "residual", "expected",
+            "picked")
+
+
+def found_by_code(name: str, n: int) -> np.ndarray:
+    """``n`` rows of :data:`FOUND_BY` entry ``name`` (int codes).
+
+    Examples
+    --------
+    >>> found_by_code("window", 2).tolist()
+    [2, 2]
+    """
+    return np.full(n, FOUND_BY.index(name), dtype=int)
+
+
 @dataclass(frozen=True)
 class SelectedPoles:
     """Physical poles chosen from the stabilization data, ascending frequency.
@@ -87,6 +112,9 @@ class SelectedPoles:
         settled (last half) members
     first_order : (n_modes,) int  model order at which the trajectory starts
         (the mode is stable from there on); empty when unknown
+    found_by : (n_modes,) int  how the candidate was found, an index into
+        :data:`FOUND_BY` (the diagram, a narrower search's window, ...);
+        empty when unknown (results stored before it)
     """
 
     pole: np.ndarray
@@ -95,6 +123,7 @@ class SelectedPoles:
     scatter_fn_hz: np.ndarray
     scatter_zeta: np.ndarray
     first_order: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    found_by: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def subset(self, keep: np.ndarray) -> SelectedPoles:
         """The rows ``keep`` (boolean mask or indices) of every field."""
@@ -266,6 +295,30 @@ def stable_orders(result: IdentificationResult) -> tuple[np.ndarray, np.ndarray,
     return first, last, count
 
 
+def found_by_names(result: IdentificationResult) -> list[str]:
+    """Per mode (result order), how its candidate was found (an entry of
+    :data:`FOUND_BY`), ``""`` where the result does not say (the sdypy
+    backend, results stored before it).
+
+    Examples
+    --------
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import FRFSet
+    >>> from ema_pipeline.identification import identify
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> found_by_names(identify(FRFSet(freq_hz=f, H=H)))
+    ['diagram', 'diagram']
+    """
+    n = result.modes.n_modes
+    sel = result.selected
+    codes = np.zeros(0, int) if sel is None else np.asarray(sel.found_by, dtype=int)
+    if codes.size < n:
+        return [""] * n
+    return [FOUND_BY[int(c)] for c in codes[:n]]
+
+
 #: The names of the rules of :func:`doubtful_reasons`, in the order they are listed.
 DOUBTFUL_RULES = ("few_stable_orders", "loose_damping", "complex_shape", "unresolved_damping",
                   "found_only_in_some_bands")
@@ -339,7 +392,8 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
     fn_std_hz, zeta_std_pct`` (zeta in percent) and the quality columns ``mpc``
     (modal phase collinearity, 1 = real), ``mpd_deg`` (mean phase deviation,
     degrees), ``stable_from_order``, ``n_stable_orders`` (see
-    :func:`stable_orders`), ``doubtful`` (see :func:`doubtful_modes`) and
+    :func:`stable_orders`), ``found_by`` (how it was found,
+    :func:`found_by_names`), ``doubtful`` (see :func:`doubtful_modes`) and
     ``doubtful_reason`` (the rules that fire, :func:`doubtful_reasons`)."""
     m = result.modes
     order = np.argsort(m.fn_hz)
@@ -357,6 +411,7 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
             "mpd_deg": np.asarray(mpd_deg, dtype=float)[order],
             "stable_from_order": first[order],
             "n_stable_orders": count[order],
+            "found_by": np.asarray(found_by_names(result), dtype=object)[order],
             "doubtful": doubtful_modes(result)[order],
             "doubtful_reason": np.asarray(doubtful_reasons(result), dtype=object)[order],
         }

@@ -22,7 +22,10 @@ from dataclasses import replace
 import numpy as np
 
 from ema_pipeline.identification.plscf import PoleSet
-from ema_pipeline.identification.result import SelectedPoles  # a light result type
+from ema_pipeline.identification.result import (  # light result types
+    SelectedPoles,
+    found_by_code,
+)
 from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, poles_overlap
@@ -261,6 +264,7 @@ def _selected(rows: list[tuple]) -> SelectedPoles:
         scatter_fn_hz=np.array([r[3] for r in rows], dtype=float),
         scatter_zeta=np.array([r[4] for r in rows], dtype=float),
         first_order=np.array([r[5] for r in rows], dtype=int),
+        found_by=found_by_code("diagram", len(rows)),
     )
 
 
@@ -380,7 +384,8 @@ def expected_from_automatic(
         else:
             n = 1
             rows.append(SelectedPoles(auto_start[[a]], np.full(n, -1), np.zeros(n, int),
-                                      np.zeros(n), np.zeros(n), np.zeros(n, int)))
+                                      np.zeros(n), np.zeros(n), np.zeros(n, int),
+                                      found_by_code("expected", n)))
     left = expected.subset(~used_e)
     if left.pole.size and auto_start.size:
         left = left.subset(~np.any(poles_overlap(left.pole, auto_start), axis=1))
