@@ -26,8 +26,9 @@ what each format adds:
   absent and is not a signal; so is a channel of time stamps. A file npTDMS reads
   only partly (truncated) is refused, and so is a channel that is empty or holds
   text, booleans or complex numbers (named).
-* **WAV** (scipy): channels are named ``0``, ``1``, ...; ``units`` and ``scale``
-  are required for every channel (``0=N``, ``ch1=g``; ``0=0.5``). Integer samples
+* **WAV** (scipy): channels are named ``0``, ``1``, ...; ``units`` are required
+  for every channel (``0=N``, ``ch1=g``) and ``scale`` for every channel of
+  integer samples (``0=0.5``); float samples are taken as stored, in the unit. Integer samples
   are read as fractions of full scale (int16 / 32768, int32 / 2^31, uint8
   (x - 128) / 128), float samples as stored; ``scale`` turns them into the unit
   (for integers the channel's full scale is ``scale``). The RIFF header is read
@@ -56,6 +57,7 @@ import struct
 import warnings
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -95,6 +97,7 @@ def read_recording(
     force_channel: str | None = None,
     scale: Mapping[str, float] | None = None,
     units: Mapping[str, str] | None = None,
+    channels: Mapping[str, DOF] | None = None,
 ) -> Recording:
     """Read a raw impact recording (UFF-58 time records, TDMS, WAV or CSV) in SI units.
 
@@ -106,6 +109,8 @@ def read_recording(
     scale : {CHANNEL: FACTOR} multiplying the stored numbers (before unit
         conversion); required for WAV.
     units : {CHANNEL: UNIT} replacing or supplying the file's units; required for WAV.
+    channels : {CHANNEL: DOF}: read only these channels (a channel sheet's rows),
+        each at its DOF; ``None``: every channel, DOFs as the file gives them.
 
     Returns
     -------
@@ -138,12 +143,48 @@ def read_recording(
         raise DataError(f"{path}: unknown recording format {suffix or '(no suffix)'!r}; "
                         f"expected one of {', '.join(sorted(RECORDING_SUFFIXES))}")
     check_readable(path, "a recording (UFF, TDMS, WAV or CSV)")
-    channels, starts = reader(path)
+    found, starts = reader(path)
+    if channels is not None:
+        names = [c.name for c in found]
+        def name(key: str) -> str:  # positions refer to the file's channels
+            return names[match_channel(key, names, str(path))]
+
+        chosen = {match_channel(key, names, str(path)): dof for key, dof in channels.items()}
+        found = [replace(found[k], dof=dof) for k, dof in chosen.items()]
+        scale = None if scale is None else {name(k): v for k, v in scale.items()}
+        units = None if units is None else {name(k): v for k, v in units.items()}
+        force_channel = None if force_channel is None else name(force_channel)
     if suffix == ".wav":
-        _require_wav_settings(path, channels, scale, units)
+        _require_wav_settings(path, found, scale, units)
     source = Provenance(path=str(path), sha256=sha256_file(path))
-    return assemble_recording(channels, where=str(path), force_channel=force_channel,
+    return assemble_recording(found, where=str(path), force_channel=force_channel,
                               scale=scale, units=units, segment_starts=starts, source=source)
+
+
+def recording_channels(path: str | os.PathLike[str]) -> list[tuple[str, str, str]]:
+    """The channels of a recording as the file holds them: (name, unit label, DOF
+    label), ``""`` where the file does not say (WAV units, CSV columns without one,
+    DOFs of anything but UFF); for a channel-sheet template (``init --recordings``).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "hit.csv"
+    >>> _ = p.write_text("time_s,force [N],acc\\n0,0,0\\n0.001,1,0\\n")
+    >>> recording_channels(p)
+    [('force', 'N', ''), ('acc', '', '')]
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    readers = {".tdms": _read_tdms, ".wav": _read_wav, ".csv": _read_csv}
+    reader = _read_uff if suffix in UFF_SUFFIXES else readers.get(suffix)
+    if reader is None:
+        raise DataError(f"{path}: unknown recording format {suffix or '(no suffix)'!r}; "
+                        f"expected one of {', '.join(sorted(RECORDING_SUFFIXES))}")
+    check_readable(path, "a recording (UFF, TDMS, WAV or CSV)")
+    found, _ = reader(path)
+    return [(c.name, c.unit.label if c.unit is not None and c.unit.label else c.unit_label,
+             c.dof.label() if c.dof is not None else "") for c in found]
 
 
 #: Suffixes that are recordings whatever their content (a CSV is one when its header
@@ -469,14 +510,17 @@ def wav_layout(path: str | os.PathLike[str]) -> tuple[int, int, int, int]:
 def _require_wav_settings(path: Path, channels: list[ChannelData],
                           scale: Mapping[str, float] | None,
                           units: Mapping[str, str] | None) -> None:
-    """Every WAV channel needs a unit and a scale (keys: name or position)."""
+    """Every WAV channel needs a unit, and an integer one a scale (keys: name or
+    position); float samples are taken as stored, in the unit."""
     names = [c.name for c in channels]
     for what, given in (("units", units), ("scale", scale)):
         covered = {match_channel(key, names, str(path), what) for key in (given or {})}
-        missing = [n for k, n in enumerate(names) if k not in covered]
+        missing = [n for k, n in enumerate(names) if k not in covered
+                   and not (what == "scale" and channels[k].full_scale is None)]
         if missing:
             raise DataError(f"{path}: a WAV file holds no units: give {what} for channel(s) "
-                            f"{', '.join(missing)} (e.g. units 0=N 1=g, scale 0=500 1=50)")
+                            f"{', '.join(missing)} (e.g. --unit 0=N --unit 1=g --scale 0=500 "
+                            "--scale 1=50)")
 
 
 def _read_wav(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
