@@ -11,7 +11,10 @@ frequencies, damping and shapes at the hammer points.
 
 from __future__ import annotations
 
+import os
 import re
+import tomllib
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -221,3 +224,57 @@ def test_estimator_in_any_case(plate, tmp_path):
         outs.append(io.read_frf(out))
     np.testing.assert_array_equal(outs[0].H, outs[1].H)
     assert outs[0].acquisition.estimator == "H1" and outs[2].acquisition.estimator == "H2"
+
+
+def _complete(template: pd.DataFrame, truth: pd.DataFrame) -> pd.DataFrame:
+    """What the engineer does with the template: node, direction, scale and the
+    units the files lack, from the test's own sheet."""
+    key = truth.assign(name=truth["file"].map(lambda f: f.split("/")[-1]),
+                       ch=truth["channel"].astype(str).str.lower()).set_index(["name", "ch"])
+    out = template.copy()
+    for k, row in template.iterrows():
+        t = key.loc[(row["file"].split("/")[-1], str(row["channel"]).lower())]
+        out.loc[k, ["node", "direction"]] = [str(int(t["node"])), str(t["direction"])]
+        out.loc[k, "scale"] = "" if pd.isna(t["scale"]) else f"{t['scale']:g}"
+        if not pd.isna(t["unit"]):
+            out.loc[k, "unit"] = str(t["unit"])
+    return out
+
+
+def test_init_recordings_then_run_has_shapes_over_the_hammer_points(plate, tmp_path, capsys):
+    """init --recordings writes the sheet template (channels, roles, the units the
+    files give); completed, `run` identifies the plate with its geometry: every mode
+    within 0.5 %, shapes animated over the 12 hammer points, reciprocity stated."""
+    raw = tmp_path / "raw"
+    assert main(["init", str(raw), "--recordings", str(plate)]) == 0
+    assert "12 recordings" in capsys.readouterr().out
+    template = pd.read_csv(raw / "channels.csv", comment="#", dtype=str, keep_default_na=False)
+    assert list(template.columns) == ["file", "channel", "role", "node", "direction", "scale",
+                                      "unit"]
+    assert len(template) == 24 and (template["role"] == "force").sum() == 12
+    by_file = template.groupby("file")["unit"].apply(list).to_dict()
+    rel = Path(os.path.relpath(plate, raw)).as_posix()
+    assert by_file[f"{rel}/rec/p1.csv"] == ["N", "m/s^2"]
+    assert by_file[f"{rel}/p5.wav"] == ["", ""]  # a WAV holds no units
+    assert by_file[f"{rel}/p9.tdms"] == ["N", "m/s^2"]
+    assert (template["node"] == "").all()
+    text = (raw / "experiment.toml").read_text(encoding="utf-8")
+    assert tomllib.loads(text)["recordings"]["channels"] == "channels.csv"
+    nodes = [[k, x, y, 0.0] for k, (x, y) in enumerate(POINTS, start=1)] + [[100, *SENSOR, 0.0]]
+    lines = [[1, 2], [2, 3], [3, 4], [5, 6], [6, 7], [7, 8], [9, 10], [10, 11], [11, 12],
+             [1, 5], [5, 9], [4, 8], [8, 12]]
+    text = text.replace('file = "geometry.uff"', f"nodes = {nodes}\nlines = {lines}")
+    text = text.replace("# band_hz = [5.0, 1000.0]", "band_hz = [20.0, 200.0]")
+    (raw / "experiment.toml").write_text(text, encoding="utf-8")
+    assert main(["run", "--raw", str(raw), "--results", str(tmp_path / "o0"), "--quiet"]) == 2
+    assert "node is blank" in capsys.readouterr().err  # not completed yet
+    _complete(template, pd.read_csv(plate / "channels.csv")).to_csv(raw / "channels.csv",
+                                                                   index=False)
+    out = tmp_path / "out"
+    assert main(["run", "--raw", str(raw), "--results", str(out), "--quiet"]) == 0
+    t1 = pd.read_csv(out / "tables" / "table1_modal_parameters.csv")
+    np.testing.assert_allclose(np.sort(t1["fn_hz"].to_numpy()), FN_HZ, rtol=0.005)
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert len(re.findall(r'data-mode-shape="(\d+)"', page)) >= FN_HZ.size
+    assert "identified by reciprocity" in page and "roving hammer (12 points)" in page
+    assert "p6.wav" in page  # the hit table with its file column

@@ -101,6 +101,10 @@ def _row(values: Mapping[str, object], folder: Path, line: int, where: str) -> C
         if role not in _ROLES:
             raise ValueError(f"role must be force or response, got {text('role')!r}")
         node_text = text("node")
+        for key in ("node", "direction"):
+            if not text(key):
+                raise ValueError(f"{key} is blank: give each channel's node and direction "
+                                 "(e.g. 3 and -Z)")
         try:
             node = int(float(node_text))
             if node != float(node_text):
