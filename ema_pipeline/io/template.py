@@ -126,7 +126,8 @@ def write_channel_template(
     ``folder``), channel name, role (force when in a force unit or named force or
     hammer; else, when nothing tells, the first channel), the unit the file gives;
     node and direction blank for the engineer (the DOF of a UFF channel filled in).
-    Returns the path and the number of files. An existing sheet is kept unless ``force``; no recording is a ConfigError."""
+    Returns the path and the number of files. An existing sheet is kept unless
+    ``force``; no recording is a ConfigError."""
     folder, recordings = Path(folder), Path(recordings)
     path = folder / CHANNEL_SHEET_FILE
     if path.exists() and not force:
