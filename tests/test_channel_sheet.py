@@ -278,3 +278,19 @@ def test_init_recordings_then_run_has_shapes_over_the_hammer_points(plate, tmp_p
     assert len(re.findall(r'data-mode-shape="(\d+)"', page)) >= FN_HZ.size
     assert "identified by reciprocity" in page and "roving hammer (12 points)" in page
     assert "p6.wav" in page  # the hit table with its file column
+
+
+def test_batch_takes_a_sheet_as_one_test(plate, tmp_path):
+    """batch on the plate's folder: the sheet is one input (its 12 recordings are not
+    inputs of their own); its FRFs are over the hammer points and its modes right."""
+    out = tmp_path / "out"
+    assert main(["batch", str(plate), "--out", str(out), "--band", "20", "200",
+                 "--quiet"]) == 0
+    summary = pd.read_csv(out / "summary.csv")
+    assert summary["file"].tolist() == ["channels.csv"]
+    assert (summary["status"] == "ok").all()
+    frf = io.read_frf(out / "channels.h5")
+    assert frf.n_out == 12 and frf.acquisition.layout == "reciprocal"
+    assert set(pd.read_csv(out / "channels_hits.csv")["file"]) >= {"rec/p1.csv", "p12.tdms"}
+    found = np.sort(pd.read_csv(out / "channels_modes.csv")["fn_hz"].to_numpy())
+    np.testing.assert_allclose(found, FN_HZ, rtol=0.005)

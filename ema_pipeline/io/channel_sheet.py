@@ -34,7 +34,7 @@ from ema_pipeline.data import DOF, DataError
 from ema_pipeline.io.files import check_readable, open_regular, write_text
 
 __all__ = ["SHEET_COLUMNS", "ChannelRow", "ChannelSheet", "channel_sheet_from_rows",
-           "read_channel_sheet", "write_channel_sheet"]
+           "is_channel_sheet", "read_channel_sheet", "write_channel_sheet"]
 
 #: The columns of a channel sheet, in this order.
 SHEET_COLUMNS = ("file", "channel", "role", "node", "direction", "scale", "unit")
@@ -150,6 +150,32 @@ def _checked(rows: list[ChannelRow], source: str) -> ChannelSheet:
                                     f"(also {sheet.where(first)})")
                 seen[key + what[:3]] = r
     return sheet
+
+
+def is_channel_sheet(path: str | os.PathLike[str]) -> bool:
+    """Whether ``path`` is a ``.csv`` whose first line that is not a comment holds
+    the columns of a channel sheet (any order, any letter case); read from its first
+    64 KiB only.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "channels.csv"
+    >>> _ = p.write_text("# my test\\nfile,channel,role,node,direction,scale,unit\\n")
+    >>> is_channel_sheet(p), is_channel_sheet(p.with_name("other.csv"))
+    (True, False)
+    """
+    path = Path(path)
+    if path.suffix.lower() != ".csv":
+        return False
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(1 << 16).decode("utf-8-sig", errors="replace")
+    except OSError:
+        return False
+    first = next((ln for ln in head.splitlines()
+                  if ln.strip() and not ln.lstrip().startswith("#")), "")
+    return {c.strip().lower() for c in first.split(",")} == set(SHEET_COLUMNS)
 
 
 def read_channel_sheet(path: str | os.PathLike[str]) -> ChannelSheet:

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import os
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -543,9 +545,12 @@ def identify_recording(
     *,
     force: bool = True,
     uff: bool = False,
+    make_frf: Callable[[Path], Any] | None = None,
 ) -> FileOutcome:
     """What ``batch`` does with a raw recording: ``frf`` with the default settings,
-    then ``identify`` on its FRFs. Writes ``<stem>.h5`` (the FRFs),
+    then ``identify`` on its FRFs. ``make_frf(path)``: what makes the FRFs and the hit
+    table instead of :func:`impact_frf` (a channel sheet's test:
+    :func:`ema_pipeline.pipeline.roving.identify_sheet`). Writes ``<stem>.h5`` (the FRFs),
     ``<stem>_hits.csv``, ``<stem>_modes.csv`` and ``<stem>_result.h5`` in
     ``out_dir``; the result records the recording's sha256, so that with
     ``force=False`` a recording already done is skipped. Problems are returned as
@@ -561,7 +566,8 @@ def identify_recording(
             return identify_file(frf_path, out_dir, options, force=False, sha256=sha)
         out_dir.mkdir(parents=True, exist_ok=True)
         check_output(frf_path, [path])
-        result = impact_frf([path], configuration=path.stem)
+        result = (impact_frf([path], configuration=path.stem) if make_frf is None
+                  else make_frf(path))
         with io.replace_together():
             io.write_csv(result.hits_table(), hits_csv_path(frf_path))
             io.write_frf(result.frf, frf_path, "h5")

@@ -34,6 +34,7 @@ import pandas as pd
 
 from ema_pipeline import io
 from ema_pipeline.data import DOF, DataError, FRFSet, Provenance, Recording
+from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.io.channel_sheet import ChannelSheet, read_channel_sheet
 from ema_pipeline.io.recording import recording_channels
 from ema_pipeline.pipeline.frf import (
@@ -42,9 +43,11 @@ from ema_pipeline.pipeline.frf import (
     check_output,
     frf_from_recording,
     hits_csv_path,
+    identify_recording,
 )
+from ema_pipeline.pipeline.single import FileOutcome
 
-__all__ = ["SheetFRF", "frf_from_sheet", "read_sheet_recordings", "sheet_frf"]
+__all__ = ["SheetFRF", "frf_from_sheet", "identify_sheet", "read_sheet_recordings", "sheet_frf"]
 
 
 @dataclass
@@ -260,3 +263,18 @@ def frf_from_sheet(
         io.write_csv(result.hits_table(), hits_csv_path(out))
         io.write_frf(result.frf, out, fmt)
     return result
+
+
+def identify_sheet(
+    path: str | os.PathLike[str],
+    out_dir: str | os.PathLike[str],
+    options: IdentificationOptions | None = None,
+    *,
+    force: bool = True,
+    uff: bool = False,
+) -> FileOutcome:
+    """What ``batch`` does with a channel sheet: :func:`sheet_frf` with the default
+    settings, then ``identify``; the outputs and the skip rule (on the sheet's sha256)
+    of :func:`ema_pipeline.pipeline.frf.identify_recording`."""
+    return identify_recording(path, out_dir, options, force=force, uff=uff,
+                              make_frf=lambda p: sheet_frf(p, configuration=p.stem))
