@@ -294,3 +294,34 @@ def test_batch_takes_a_sheet_as_one_test(plate, tmp_path):
     assert set(pd.read_csv(out / "channels_hits.csv")["file"]) >= {"rec/p1.csv", "p12.tdms"}
     found = np.sort(pd.read_csv(out / "channels_modes.csv")["fn_hz"].to_numpy())
     np.testing.assert_allclose(found, FN_HZ, rtol=0.005)
+
+
+def test_experiment_file_takes_the_sheet_inline_or_per_configuration(plate, tmp_path):
+    """[[configurations]] channels: a sheet file or its rows inline give the same
+    sheet; frf settings the sheet gives itself are refused; [sensors] without [beam]
+    is accepted (it places channels without DOFs)."""
+    from ema_pipeline.io.experiment import experiment_channel_sheet
+
+    rows = pd.read_csv(plate / "channels.csv", dtype=str, keep_default_na=False)
+    inline = ",\n  ".join(
+        "{" + ", ".join(f'{k} = "{v}"' for k, v in r.items() if v) + "}"
+        for r in rows.to_dict("records"))
+    path = plate / "experiment_inline.toml"
+    path.write_text('[geometry]\nnodes = [[1, 0.0, 0.0, 0.0]]\n[sensors]\nresponse_nodes = [100]\n'
+                    '[[configurations]]\nname = "by_file"\nchannels = "channels.csv"\n'
+                    f'[[configurations]]\nname = "inline"\nchannels = [\n  {inline}]\n')
+    exp = io.read_experiment(path)
+    by_file, inline_sheet = (experiment_channel_sheet(exp, spec) for spec in exp.configurations)
+    assert [(r.file, r.channel, r.dof, r.scale, r.unit) for r in by_file.rows] == [
+        (r.file, r.channel, r.dof, r.scale, r.unit) for r in inline_sheet.rows]
+    assert len(by_file.rows) == 24 and by_file.rows[10].scale == 1000.0
+    path.write_text('[recordings]\nchannels = "channels.csv"\n[recordings.frf]\n'
+                    'force_channel = "hammer"\n')
+    with pytest.raises(DataError, match=r"\[recordings\] frf: force_channel: the channel "
+                                        "sheet gives"):
+        io.read_experiment(path)
+    path.write_text('[[configurations]]\nname = "x"\nchannels = [{file = "p1.csv"}]\n')
+    with pytest.raises(DataError, match=r"\[\[configurations\]\] 1 channels: channel row 1: "
+                                        "channel is blank"):
+        io.read_experiment(path)
+    path.unlink()
