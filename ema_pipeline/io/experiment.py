@@ -382,7 +382,8 @@ def read_sheet_configuration(
         raise DataError(f"{where} frf: {', '.join(given)}: the channel sheet gives the force "
                         "channel, scales and units (its role, scale and unit columns)")
     channels = entry["channels"]
-    sheet, rows = "", ()
+    sheet = ""
+    rows: tuple[tuple[tuple[str, Any], ...], ...] = ()
     if isinstance(channels, str) and channels.strip():
         sheet = channels
     elif isinstance(channels, list) and channels:
