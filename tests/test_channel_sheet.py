@@ -325,3 +325,33 @@ def test_experiment_file_takes_the_sheet_inline_or_per_configuration(plate, tmp_
                                         "channel is blank"):
         io.read_experiment(path)
     path.unlink()
+
+
+def test_a_hit_3_ms_into_a_file_is_kept(tmp_path):
+    """A file that starts 3 ms before its first hit (pretrigger 10 ms): the hit is
+    kept, its record padded at the front and its row says so; the FRF equals that of
+    the whole recording within 0.5 % over the modes' band."""
+    force, acc = _signals(POINTS[0], seed=1)
+    k0 = int(round((HIT_TIMES_S[0] - 0.003) * FS))
+    paths = []
+    for name, lo in (("whole.csv", 0), ("cut.csv", k0)):
+        table = pd.DataFrame({"time_s": np.arange(force.size - lo) / FS,
+                              "Hammer [N]": force[lo:], "acc [m/s^2]": acc[lo:]})
+        table.to_csv(tmp_path / name, index=False)
+        paths.append(tmp_path / name)
+    results = []
+    for path in paths:
+        out = path.with_suffix(".h5")
+        assert main(["frf", str(path), "--out", str(out), "--quiet"]) == 0
+        results.append((io.read_frf(out), pd.read_csv(path.with_name(f"{out.stem}_hits.csv"),
+                                                      keep_default_na=False)))
+    (whole, whole_hits), (cut, cut_hits) = results
+    assert cut_hits["accepted"].tolist() == [True] * 4
+    # pretrigger round(0.01 * 2048) = 20 samples; the pulse starts 3 ms = 6.1 samples in
+    # and crosses the 5 % trigger at sample 7: 20 - 7 = 13 samples padded
+    assert cut_hits["note"].iloc[0] == ("near the data start: its record padded with 13 "
+                                        "samples before the data")
+    assert (cut_hits["note"].iloc[1:] == "").all() and (whole_hits["note"] == "").all()
+    band = (whole.freq_hz > 20) & (whole.freq_hz < 200)
+    h_whole, h_cut = whole.H[0, 0, band], cut.H[0, 0, band]
+    assert np.abs(h_cut - h_whole).max() < 0.005 * np.abs(h_whole).max()

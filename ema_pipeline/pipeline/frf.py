@@ -337,8 +337,8 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
     assert rec is not None
     fs, n = rec.sample_rate_hz, result.n_samples
     n_pre = int(round(result.records.trigger_s * fs))
-    if hit.record_start >= 0:
-        a, b = hit.record_start, hit.record_start + n
+    if hit.record_start >= 0:  # a padded front repeats the first sample of the data
+        a, b = hit.record_start - hit.padded, hit.record_start + n - hit.padded
     else:  # past_end: what the data hold of the record, within the hit's segment
         cross = int(np.ceil(hit.time_s * fs))
         seg_starts = np.array(rec.segment_starts + (rec.n_samples,))
@@ -350,8 +350,9 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
     w_exp = (np.ones(m) if tau is None
              else acquisition.exponential_window(m, fs, tau, result.records.trigger_s))
     w_force = np.ones(m) if not fw else acquisition.force_window(m, fs, fw)
-    force = rec.signals[0, a:b]
-    responses = rec.signals[1:, a:b]
+    idx = np.maximum(np.arange(a, b), a + (hit.padded if hit.record_start >= 0 else 0))
+    force = rec.signals[0, idx]
+    responses = rec.signals[1:, idx]
     end, _ = hitlib.tail_level(responses[None], min(n_pre, m - 1))
     j = int(np.argmax(end[0]))
     spec = np.abs(np.fft.rfft(force * w_force * w_exp, n))

@@ -31,8 +31,8 @@ __all__ = ["REASON_TEXT", "HitView", "HitsPageInput", "render_hits_html"]
 #: What each rejection reason means, as the page says it (rules:
 #: :mod:`ema_pipeline.acquisition.hits`).
 REASON_TEXT = {
-    "past_end": "past_end: the record would run past the end of the data (or start "
-                "before it)",
+    "past_end": "past_end: the record would run past the end of the data (or the hit "
+                "is the data's first sample)",
     "double_hit": "double_hit: a second force pulse in the record (or ripple in the "
                   "force spectrum)",
     "overload": "overload: a channel reaches its full scale or has flat tops (clipped)",
