@@ -355,3 +355,21 @@ def test_a_hit_3_ms_into_a_file_is_kept(tmp_path):
     band = (whole.freq_hz > 20) & (whole.freq_hz < 200)
     h_whole, h_cut = whole.H[0, 0, band], cut.H[0, 0, band]
     assert np.abs(h_cut - h_whole).max() < 0.005 * np.abs(h_whole).max()
+
+
+def test_truncated_csv_and_identify_on_a_recording_have_our_own_messages(plate, tmp_path,
+                                                                        capsys):
+    """A CSV cut mid-row: one line of ours (no pandas/numpy hint); `identify` on a
+    recording points to `ema-pipeline frf`."""
+    text = (plate / "rec" / "p1.csv").read_text()
+    cut = tmp_path / "cut.csv"
+    lines = text.splitlines()[:5000]
+    cut.write_text("\n".join(lines + [",".join(lines[-1].split(",")[:2])]) + "\n")
+    assert main(["frf", str(cut), "--out", str(tmp_path / "a.h5")]) == 2
+    err = capsys.readouterr().err
+    assert "cut.csv: truncated CSV file: its last row has 2 of the header's 3 columns" in err
+    assert "usecols" not in err and err.count("\n") == 1
+    assert main(["identify", str(plate / "p9.tdms"), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "p9.tdms: a raw recording (time data), not FRFs; make the FRFs first: " \
+           "ema-pipeline frf" in err

@@ -183,7 +183,8 @@ def test_bad_inputs_name_the_file(rec, tmp_path):
     }
     expected = {"nan.csv": "'acc' has NaN", "noforce.csv": "no force channel",
                 "unit.csv": "unknown unit 'furlong'", "nounit.csv": "'acc' has no unit",
-                "notime.csv": "time column 'time' has no unit", "ragged.csv": "unparsable",
+                "notime.csv": "time column 'time' has no unit",
+                "ragged.csv": "truncated CSV file: its last row has 2 of the header.s 3 columns",
                 "gap.csv": "not equally spaced", "empty.csv": "empty file",
                 "header.csv": "fewer than 2 data rows"}
     for name, make in cases.items():

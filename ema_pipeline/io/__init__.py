@@ -79,7 +79,7 @@ from ema_pipeline.io.hdf5 import (
     write_results_h5,
 )
 from ema_pipeline.io.picks import read_picks, write_picks
-from ema_pipeline.io.recording import RECORDING_SUFFIXES, read_recording
+from ema_pipeline.io.recording import RECORDING_SUFFIXES, is_recording, read_recording
 from ema_pipeline.io.uff import (
     UFF_SUFFIXES,
     read_frf_uff,
@@ -134,6 +134,10 @@ def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     """
     path = Path(path)
     check_readable(path, FRF_FILE_KIND)
+    if is_recording(path):  # time data: the FRFs come from `ema-pipeline frf` first
+        raise DataError(f"{path}: a raw recording (time data), not FRFs; make the FRFs "
+                        f"first: ema-pipeline frf {path} --out {path.stem}.h5 (a roving "
+                        "test of many files: ema-pipeline frf --channels SHEET.csv)")
     if frf_format(path) == "uff":
         frf = read_frf_uff(path, min_lines=min_lines)
     else:

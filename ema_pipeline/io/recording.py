@@ -587,10 +587,18 @@ def _read_csv(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
     body = [ln for ln in lines[first + 1:] if ln.strip()]
     if len(body) < 2:
         raise DataError(f"{path}: CSV file has fewer than 2 data rows")
+    n_cols = len(fields)
+    for k, ln in enumerate(body):  # our own words for a short row (a file cut short)
+        cells = ln.split(delim) if delim else ln.split()
+        if len(cells) != n_cols:
+            what = ("truncated CSV file: its last row" if k == len(body) - 1
+                    else f"CSV data row {k + 1}")
+            raise DataError(f"{path}: {what} has {len(cells)} of the header's {n_cols} "
+                            f"columns ({ln[:60]!r}); was the file cut short?")
     try:
         values = np.loadtxt(body, delimiter=delim, ndmin=2, dtype=float)
     except ValueError as exc:
-        raise DataError(f"{path}: unparsable or truncated CSV data ({exc})") from None
+        raise DataError(f"{path}: unparsable CSV data ({exc})") from None
     if values.shape[1] != len(fields):
         raise DataError(f"{path}: {values.shape[1]} data columns but {len(fields)} in the "
                         "header")
