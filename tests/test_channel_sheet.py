@@ -373,3 +373,25 @@ def test_truncated_csv_and_identify_on_a_recording_have_our_own_messages(plate, 
     err = capsys.readouterr().err
     assert "p9.tdms: a raw recording (time data), not FRFs; make the FRFs first: " \
            "ema-pipeline frf" in err
+
+
+def test_force_channel_warnings(plate, tmp_path, capsys):
+    """Peaks of about 200 N read as kN (200 kN) warn that the unit is implausible for
+    a hammer; the acceleration given as the force (it rings: every hit a double hit)
+    gets the hint to check the force channel. The peaks as recorded warn of nothing."""
+    table = pd.read_csv(plate / "rec" / "p1.csv")
+    assert main(["frf", str(plate / "rec" / "p1.csv"), "--out", str(tmp_path / "a.h5"),
+                 "--quiet"]) == 0
+    assert capsys.readouterr().err == ""
+    table.rename(columns={"Hammer [N]": "Hammer [kN]"}).to_csv(tmp_path / "kn.csv", index=False)
+    assert main(["frf", str(tmp_path / "kn.csv"), "--out", str(tmp_path / "b.h5"),
+                 "--quiet"]) == 0
+    err = capsys.readouterr().err
+    peak_kn = np.median(pd.read_csv(tmp_path / "b_hits.csv")["force_peak_n"]) / 1e3
+    assert 150 < peak_kn < 250
+    assert (f"warning: force channel 'Hammer': hit peaks of {peak_kn:.3g} kN (median) are "
+            "implausible for an impact hammer") in err
+    swapped = table.rename(columns={"Hammer [N]": "Hammer [m/s^2]", "acc [m/s^2]": "acc [N]"})
+    swapped.to_csv(tmp_path / "swapped.csv", index=False)
+    assert main(["frf", str(tmp_path / "swapped.csv"), "--out", str(tmp_path / "c.h5")]) == 2
+    assert "is it a response? check the force channel" in capsys.readouterr().err

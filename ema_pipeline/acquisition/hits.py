@@ -129,6 +129,43 @@ MAX_PRETRIGGER_S = 1e3
 MAX_RECORD_LENGTH_S = 1e4
 MAX_EXP_WINDOW_TAU_S = 1e4
 
+#: Median hit force peaks (N) outside this range are implausible for an impact hammer
+#: (a modal hammer on a light part gives a few N, a sledge up to about 20 kN): a unit
+#: off by 1000 (a [kN] label on data in N) is the usual cause.
+PLAUSIBLE_HAMMER_PEAK_N = (0.05, 30e3)
+#: A share of double hits from which the "force" is likely a response (it rings).
+RESPONSE_LIKE_DOUBLE_SHARE = 0.5
+
+
+def force_warnings(hits: tuple[Hit, ...] | list[Hit], force_name: str) -> list[str]:
+    """Warnings about the force channel from its hits: a median peak implausible for
+    a hammer (:data:`PLAUSIBLE_HAMMER_PEAK_N`), and at least
+    :data:`RESPONSE_LIKE_DOUBLE_SHARE` of 2 or more hits ``double_hit`` (a ringing
+    pulse: the channel may be a response).
+
+    Examples
+    --------
+    >>> force_warnings([Hit(1, 0.5, 80e3, True), Hit(2, 1.5, 75e3, True)], "hammer")[0][:50]
+    "force channel 'hammer': hit peaks of 78 kN (median)"
+    """
+    out = []
+    if not hits:
+        return out
+    median = float(np.median([h.force_peak_n for h in hits]))
+    lo, hi = PLAUSIBLE_HAMMER_PEAK_N
+    if not lo <= median <= hi:
+        shown = f"{median / 1e3:.3g} kN" if median >= 1e3 else f"{median:.3g} N"
+        out.append(f"force channel {force_name!r}: hit peaks of {shown} (median) are "
+                   f"implausible for an impact hammer ({lo:g} N to {hi / 1e3:g} kN): is its "
+                   "unit right? (a [kN] label on data in N gives 1000 times too much)")
+    doubles = sum("double_hit" in h.reasons for h in hits)
+    if len(hits) >= 2 and doubles >= RESPONSE_LIKE_DOUBLE_SHARE * len(hits):
+        out.append(f"force channel {force_name!r}: {doubles} of {len(hits)} hits are double "
+                   "hits (a ringing pulse): is it a response? check the force channel "
+                   "(--force-channel, or the role column of a channel sheet)")
+    return out
+
+
 #: The fixed vocabulary of rejection reasons, in the order they are reported.
 REASONS = ("past_end", "double_hit", "overload", "not_decayed", "low_force", "outlier")
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -149,6 +150,8 @@ def cmd_frf(args: argparse.Namespace) -> int:
     result = frf_from_files(list(args.inputs), args.out, settings,
                             force_channel=args.force_channel, scale=scale, units=units,
                             report=args.report)
+    for warning in result.warnings:  # also with --quiet: they question the data
+        print(f"warning: {warning}", file=sys.stderr)
     if not args.quiet:
         rejected = [h for h in result.hits if not h.accepted or h.reasons]
         print(f"{len(result.hits)} hits found, {result.n_accepted} averaged; records of "
@@ -173,6 +176,9 @@ def _frf_from_sheet(args: argparse.Namespace, settings: Any) -> int:
     from ema_pipeline.pipeline.roving import frf_from_sheet
 
     result = frf_from_sheet(args.channels, args.out, settings)
+    for name, point in zip(result.files, result.points, strict=True):
+        for warning in point.warnings:
+            print(f"warning: {name}: {warning}", file=sys.stderr)
     if not args.quiet:
         frf = result.frf
         print(f"{len(result.points)} files, {result.n_accepted} hits averaged; records of "

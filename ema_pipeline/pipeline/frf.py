@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -124,7 +124,7 @@ class ImpactFRF:
     exponential window's ``exp_window_tau_s`` (None: none), the force window
     (s, None: none), the usable band ``force_band_hz`` = (f_10dB, f_20dB) and
     the accepted ``records``, and for a report the ``recording`` (force first,
-    the responses used) and the ``settings``."""
+    the responses used), the ``settings`` and the force channel's ``warnings``."""
 
     frf: FRFSet
     hits: tuple[hitlib.Hit, ...]
@@ -136,6 +136,8 @@ class ImpactFRF:
     records: TimeRecords
     recording: Recording | None = None
     settings: FRFSettings | None = None
+    #: Warnings about the force channel (:func:`ema_pipeline.acquisition.hits.force_warnings`).
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def n_accepted(self) -> int:
@@ -214,10 +216,12 @@ def frf_from_recording(
     hits = hitlib.check_hits(rec, 0, found, exp_window=settings.exp_window_tau is not None,
                              keep_all=settings.keep_all)
     accepted = [h.index - 1 for h in hits if h.accepted]
+    warnings = hitlib.force_warnings(hits, rec.channels[0].name)
     if not accepted:
         summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {h.reasons_text()}"
                             for h in hits)
-        raise DataError(f"{where}: every hit rejected ({summary})")
+        hint = "".join(f"; {w}" for w in warnings if "double hits" in w)
+        raise DataError(f"{where}: every hit rejected ({summary}){hint}")
     records = hitlib.cut_records(rec, 0, found, accepted)
     records = replace(records, configuration=configuration)
     fs, n = rec.sample_rate_hz, found.n_samples
@@ -267,6 +271,7 @@ def frf_from_recording(
         records=records,
         recording=rec,
         settings=settings,
+        warnings=warnings,
     )
 
 
