@@ -395,3 +395,24 @@ def test_force_channel_warnings(plate, tmp_path, capsys):
     swapped.to_csv(tmp_path / "swapped.csv", index=False)
     assert main(["frf", str(tmp_path / "swapped.csv"), "--out", str(tmp_path / "c.h5")]) == 2
     assert "is it a response? check the force channel" in capsys.readouterr().err
+
+
+def test_sheet_hit_page(plate, tmp_path):
+    """frf --channels --report: one hit page for the test, every file's hits with the
+    file and their number in it, the double hit of p6.wav rejected."""
+    head = "file,channel,role,node,direction,scale,unit\n"
+    sheet = tmp_path / "channels.csv"
+    sheet.write_text(head + "".join(
+        f"{plate}/p{k}.wav,0,force,{k},-Z,1000,N\n{plate}/p{k}.wav,1,response,100,+Z,,g\n"
+        for k in (5, 6)))
+    out = tmp_path / "t.h5"
+    assert main(["frf", "--channels", str(sheet), "--out", str(out), "--quiet"]) == 0
+    assert not (tmp_path / "t_hits.html").exists()
+    assert main(["frf", "--channels", str(sheet), "--out", str(out), "--report",
+                 "--quiet"]) == 0
+    page = (tmp_path / "t_hits.html").read_text(encoding="utf-8")
+    rel = os.path.relpath(plate, tmp_path)
+    titles = re.findall(r"<h2[^>]*>([^<]*) at \d", page)
+    assert len(titles) == 8  # 4 hits in each file (p6.wav's hit 2 bounces 50 ms later)
+    assert titles[0] == f"{rel}/p5.wav, hit 1" and titles[-1] == f"{rel}/p6.wav, hit 4"
+    assert "2 files" in page and "double_hit" in page

@@ -128,11 +128,10 @@ def cmd_frf(args: argparse.Namespace) -> int:
                           "SHEET.csv)")
     if args.channels is not None:
         given = [o for o, v in (("--force-channel", args.force_channel), ("--scale", args.scale),
-                                ("--unit", args.unit), ("--report", args.report)) if v]
+                                ("--unit", args.unit)) if v]
         if given:
             raise ConfigError(f"{', '.join(given)}: not with --channels (the sheet gives the "
-                              "force channel, scales and units; the hit page of a sheet is "
-                              "not written yet)")
+                              "force channel, scales and units)")
     else:
         check_output(args.out, list(args.inputs), report=args.report)  # before any work
     settings = FRFSettings(  # ranges checked here, before any work
@@ -172,10 +171,10 @@ def cmd_frf(args: argparse.Namespace) -> int:
 
 def _frf_from_sheet(args: argparse.Namespace, settings: Any) -> int:
     """``frf --channels SHEET``: one FRF set from every file the sheet names."""
-    from ema_pipeline.pipeline.frf import hits_csv_path
+    from ema_pipeline.pipeline.frf import hits_csv_path, hits_report_path
     from ema_pipeline.pipeline.roving import frf_from_sheet
 
-    result = frf_from_sheet(args.channels, args.out, settings)
+    result = frf_from_sheet(args.channels, args.out, settings, report=args.report)
     for name, point in zip(result.files, result.points, strict=True):
         for warning in point.warnings:
             print(f"warning: {name}: {warning}", file=sys.stderr)
@@ -199,5 +198,6 @@ def _frf_from_sheet(args: argparse.Namespace, settings: Any) -> int:
             print(f"roving sensor: {frf.n_out} responses x {frf.n_in} hammer point(s)")
         f10, f20 = result.force_band_hz
         print(f"usable band (force spectrum): -10 dB at {f10:.5g} Hz, -20 dB at {f20:.5g} Hz")
-        print(f"wrote {args.out}, {hits_csv_path(args.out)}")
+        extra = f" and {hits_report_path(args.out)}" if args.report else ""
+        print(f"wrote {args.out}, {hits_csv_path(args.out)}{extra}")
     return EXIT_OK

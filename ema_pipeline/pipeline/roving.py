@@ -43,11 +43,14 @@ from ema_pipeline.pipeline.frf import (
     check_output,
     frf_from_recording,
     hits_csv_path,
+    hits_page_input,
+    hits_report_path,
     identify_recording,
 )
 from ema_pipeline.pipeline.single import FileOutcome
 
-__all__ = ["SheetFRF", "frf_from_sheet", "identify_sheet", "read_sheet_recordings", "sheet_frf"]
+__all__ = ["SheetFRF", "frf_from_sheet", "identify_sheet", "read_sheet_recordings",
+           "sheet_frf", "sheet_hits_page"]
 
 
 @dataclass
@@ -245,23 +248,47 @@ def sheet_frf(sheet: ChannelSheet | str | os.PathLike[str], settings: FRFSetting
                     layout=layout)
 
 
+def sheet_hits_page(result: SheetFRF) -> str:
+    """The hit page of a channel sheet's test: every file's hits (numbered through
+    the test, each with its file and its number in the file) and the assembled FRFs
+    (:func:`ema_pipeline.report.hits_page.render_hits_html`)."""
+    from ema_pipeline.report.hits_page import render_hits_html
+
+    views = []
+    for name, point in zip(result.files, result.points, strict=True):
+        for view in hits_page_input(point).hits:
+            views.append(replace(view, hit=replace(view.hit, index=len(views) + 1),
+                                 file=name, number=view.hit.index))
+    page = hits_page_input(result.points[0])
+    page = replace(page, title=f"Impact hits: {result.frf.source.path} ({result.layout}, "
+                   f"{len(result.points)} files)", source=result.frf.source.path,
+                   sha256=result.frf.source.sha256, frf=result.frf, hits=views,
+                   force_band_hz=result.force_band_hz)
+    return render_hits_html(page)
+
+
 def frf_from_sheet(
     sheet: str | os.PathLike[str],
     out: str | os.PathLike[str],
     settings: FRFSettings | None = None,
     *,
     configuration: str = "",
+    report: bool = False,
 ) -> SheetFRF:
     """:func:`sheet_frf` on the channel sheet ``sheet``, then write the FRFs to
     ``out`` (``.h5`` or ``.uff``) and the hit table (with its ``file`` column) to
-    ``<stem>_hits.csv`` beside it, together (none replaced on an error). An output
-    that is the sheet or one of its recordings is refused before any work."""
+    ``<stem>_hits.csv`` beside it, together (none replaced on an error); ``report``:
+    also the hit page ``<stem>_hits.html`` (:func:`sheet_hits_page`). An output that
+    is the sheet or one of its recordings is refused before any work."""
     parsed = read_channel_sheet(sheet)
-    fmt = check_output(out, [Path(sheet), *parsed.files()])
+    fmt = check_output(out, [Path(sheet), *parsed.files()], report=report)
     result = sheet_frf(parsed, settings, configuration=configuration)
+    page = sheet_hits_page(result) if report else None
     with io.replace_together():
         io.write_csv(result.hits_table(), hits_csv_path(out))
         io.write_frf(result.frf, out, fmt)
+        if page is not None:
+            io.write_text(page, hits_report_path(out))
     return result
 
 

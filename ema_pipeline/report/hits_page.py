@@ -55,7 +55,9 @@ class HitView:
     record runs past the data), the force window and exponential window over those
     samples (ones: none), the force spectrum (``freq_hz``, ``force_db`` re its
     largest line) and the response level at the record end relative to its peak
-    (``end_level``)."""
+    (``end_level``); ``file``: the recording it is in (a channel sheet's test; ``""``:
+    the page's one recording), with the hit's number within that file ``number``
+    (0: ``hit.index``)."""
 
     hit: Hit
     time_s: np.ndarray
@@ -67,6 +69,8 @@ class HitView:
     freq_hz: np.ndarray
     force_db: np.ndarray
     end_level: float
+    file: str = ""
+    number: int = 0
 
 
 @dataclass
@@ -171,8 +175,10 @@ def hit_figure(view: HitView, band: tuple[float, float]) -> str:
 
 
 def _hit_table(hits: Sequence[HitView]) -> pd.DataFrame:
+    files = {"file": [v.file for v in hits]} if any(v.file for v in hits) else {}
     return pd.DataFrame({
-        "hit": [v.hit.index for v in hits],
+        **files,
+        "hit": [v.number or v.hit.index for v in hits],
         "time / s": [f"{v.hit.time_s:.4f}" for v in hits],
         "force peak / N": [f"{v.hit.force_peak_n:.4g}" for v in hits],
         "accepted": ["yes" if v.hit.accepted else "no" for v in hits],
@@ -233,8 +239,8 @@ def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
                         "-20 dB red), response with the exponential window scaled to its "
                         "peak (red dashed) and the force window (green dotted)"
                         "</figcaption></figure>")
-        sec = page.section(f"hit-{v.hit.index}",
-                           f"Hit {v.hit.index} at {v.hit.time_s:.3f} s")
+        where = f"{v.file}, hit {v.number or v.hit.index}" if v.file else f"Hit {v.hit.index}"
+        sec = page.section(f"hit-{v.hit.index}", f"{where} at {v.hit.time_s:.3f} s")
         sec.append(f'<div class="hit" id="hit-body-{v.hit.index}">{"".join(body)}</div>')
     frf_part = [f"<p>Usable band of the averaged force spectrum: {esc(band_text)}.</p>"]
     if figures:
