@@ -416,3 +416,57 @@ def test_sheet_hit_page(plate, tmp_path):
     assert len(titles) == 8  # 4 hits in each file (p6.wav's hit 2 bounces 50 ms later)
     assert titles[0] == f"{rel}/p5.wav, hit 1" and titles[-1] == f"{rel}/p6.wav, hit 4"
     assert "2 files" in page and "double_hit" in page
+
+
+CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus" / "impact2"
+
+
+def _corpus_file(relative: str) -> Path:
+    path = CORPUS / relative
+    if not path.is_file():
+        pytest.skip(f"{path} is absent (third-party recordings, not in the repository)")
+    return path
+
+
+def test_mat_recording_written_here(tmp_path):
+    """A .mat written with scipy.io.savemat (a struct with time, force, acc and a
+    units string) reads as the data stored: the force in N first, the acceleration
+    in m/s^2, the sample rate from the time vector."""
+    from scipy.io import savemat
+
+    force, acc = _signals(POINTS[0], seed=3)
+    t = np.arange(force.size) / FS - 0.01
+    savemat(tmp_path / "hit.mat", {"rec": {"time": t, "hammer": force / 1e3, "acc": acc,
+                                           "units": "s, kN, m/s^2"}})
+    rec = io.read_recording(tmp_path / "hit.mat")
+    assert rec.sample_rate_hz == FS
+    assert [(c.name, c.quantity) for c in rec.channels] == [("hammer", "force"),
+                                                           ("acc", "acceleration")]
+    np.testing.assert_allclose(rec.signals[0], force, rtol=1e-12, atol=1e-9)
+    np.testing.assert_allclose(rec.signals[1], acc, rtol=1e-12)
+
+
+def test_real_lvm_and_mat_recordings(tmp_path, capsys):
+    """The real files of ../shared/corpus/impact2: the LVM (hammer F, labelled g, and
+    two accelerations, 2 hits at 0.083 and 8.086 s) gives FRFs once F is given in N;
+    the .mat with three accelerations and no force gets a clear error."""
+    lvm = _corpus_file("ladisk-lvm_read/long_single_header_multi_ch.lvm")
+    mat = _corpus_file("brb-hammer/HammerImpact.mat")
+    from ema_pipeline.io.recording import recording_channels
+
+    assert recording_channels(lvm) == [("F", "g", ""), ("m_1", "m/s^2", ""),
+                                       ("m_2", "m/s^2", "")]
+    out = tmp_path / "lvm.h5"
+    assert main(["frf", str(lvm), "--out", str(out), "--unit", "F=N", "--quiet"]) == 0
+    hits = pd.read_csv(tmp_path / "lvm_hits.csv")
+    # SOURCES.txt times the pulses at 50 % of the peak, our trigger at 5 %: at most 3
+    # samples (2.9 ms) earlier on these 1-2 sample pulses
+    assert np.all(hits["time_s"].to_numpy() <= [0.083, 8.086])
+    np.testing.assert_allclose(hits["time_s"], [0.083, 8.086], atol=3e-3)
+    frf = io.read_frf(out)
+    assert frf.n_out == 2 and frf.acquisition.sample_rate_hz == pytest.approx(1023.5, abs=0.1)
+    assert main(["frf", str(mat), "--out", str(tmp_path / "mat.h5")]) == 2
+    err = capsys.readouterr().err
+    assert ("HammerImpact.mat: no force channel: none is in a force unit (N, kN, lbf); "
+            "channels: 'acc1' (acceleration), 'acc2' (acceleration), 'acc3' (acceleration)."
+            " Without the hammer's force there are no FRFs") in err

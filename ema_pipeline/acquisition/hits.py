@@ -148,7 +148,7 @@ def force_warnings(hits: tuple[Hit, ...] | list[Hit], force_name: str) -> list[s
     >>> force_warnings([Hit(1, 0.5, 80e3, True), Hit(2, 1.5, 75e3, True)], "hammer")[0][:50]
     "force channel 'hammer': hit peaks of 78 kN (median)"
     """
-    out = []
+    out: list[str] = []
     if not hits:
         return out
     median = float(np.median([h.force_peak_n for h in hits]))

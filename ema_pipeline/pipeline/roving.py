@@ -252,9 +252,9 @@ def sheet_hits_page(result: SheetFRF) -> str:
     """The hit page of a channel sheet's test: every file's hits (numbered through
     the test, each with its file and its number in the file) and the assembled FRFs
     (:func:`ema_pipeline.report.hits_page.render_hits_html`)."""
-    from ema_pipeline.report.hits_page import render_hits_html
+    from ema_pipeline.report.hits_page import HitView, render_hits_html
 
-    views = []
+    views: list[HitView] = []
     for name, point in zip(result.files, result.points, strict=True):
         for view in hits_page_input(point).hits:
             views.append(replace(view, hit=replace(view.hit, index=len(views) + 1),
