@@ -470,3 +470,37 @@ def test_real_lvm_and_mat_recordings(tmp_path, capsys):
     assert ("HammerImpact.mat: no force channel: none is in a force unit (N, kN, lbf); "
             "channels: 'acc1' (acceleration), 'acc2' (acceleration), 'acc3' (acceleration)."
             " Without the hammer's force there are no FRFs") in err
+
+
+def test_hits_chosen_by_hand(plate, tmp_path, capsys):
+    """frf --hits HITS.toml averages exactly the hits it names: the automatic choice
+    written out gives the same FRFs bit for bit; dropping hit 2 averages 3 hits and
+    changes them; in a sheet's test, p6.wav's double hit is averaged when chosen."""
+    from ema_pipeline.io.hit_choice import write_hit_choice
+
+    rec = plate / "rec" / "p1.csv"
+    auto, same, fewer = (tmp_path / f"{n}.h5" for n in ("auto", "same", "fewer"))
+    assert main(["frf", str(rec), "--out", str(auto), "--quiet"]) == 0
+    write_hit_choice({"": [1, 2, 3, 4]}, tmp_path / "all.toml")
+    write_hit_choice({"": [1, 3, 4]}, tmp_path / "three.toml")
+    assert main(["frf", str(rec), "--out", str(same), "--hits", str(tmp_path / "all.toml"),
+                 "--quiet"]) == 0
+    assert main(["frf", str(rec), "--out", str(fewer), "--hits", str(tmp_path / "three.toml"),
+                 "--quiet"]) == 0
+    a, b, c = (io.read_frf(p) for p in (auto, same, fewer))
+    np.testing.assert_array_equal(a.H, b.H)
+    assert c.acquisition.n_averages == 3 and not np.array_equal(a.H, c.H)
+    assert pd.read_csv(tmp_path / "fewer_hits.csv")["accepted"].tolist() == [True, False,
+                                                                            True, True]
+    write_hit_choice({"": [1, 9]}, tmp_path / "bad.toml")
+    assert main(["frf", str(rec), "--out", str(fewer), "--hits", str(tmp_path / "bad.toml"),
+                 "--quiet"]) == 2
+    assert "the hit choice (--hits) names hit(s) 9; the recording has 4" in \
+        capsys.readouterr().err
+    write_hit_choice({"p6.wav": [1, 2, 3, 4]}, tmp_path / "p6.toml")
+    out = tmp_path / "sheet.h5"
+    assert main(["frf", "--channels", str(plate / "channels.csv"), "--out", str(out),
+                 "--hits", str(tmp_path / "p6.toml"), "--quiet"]) == 0
+    hits = pd.read_csv(tmp_path / "sheet_hits.csv")
+    assert hits[hits["file"] == "p6.wav"]["accepted"].all()
+    assert int(hits["accepted"].sum()) == 48

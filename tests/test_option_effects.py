@@ -151,6 +151,7 @@ INVENTORY: dict[str, tuple[str, ...]] = {
                     "test_init_run.py::test_run_on_a_plate_identifies_both_configurations"),
     "init --force": (INIT, "test_init_run.py::test_init_refuses_to_overwrite"),
     "init --recordings": (SHEET_RUN,),
+    "frf --hits": ("test_channel_sheet.py::test_hits_chosen_by_hand",),
     "frf --channels": ("test_channel_sheet.py::test_roving_hammer_plate_frf_and_modes",
                        "test_channel_sheet.py::test_roving_sensor_layout_and_mismatches"),
     # a configuration given by a channel sheet ([recordings] or [[configurations]] channels)

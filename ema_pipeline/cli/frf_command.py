@@ -106,6 +106,9 @@ def add_frf_parser(sub: Any) -> None:
                    help="also write the hit page <stem>_hits.html: every hit with its force "
                    "pulse, force spectrum, response and windows, and why it was kept or not; "
                    "the averaged FRF with coherence and the usable band")
+    p.add_argument("--hits", type=Path, default=None, metavar="HITS.toml",
+                   help="average exactly the hits chosen by hand ([[recording]] tables "
+                   "with file and accepted hit numbers), whatever the checks say")
     p.add_argument("--quiet", action="store_true", help="print only errors")
     p.set_defaults(func=cmd_frf)
 
@@ -144,11 +147,22 @@ def cmd_frf(args: argparse.Namespace) -> int:
     )
     scale = _pairs(args.scale, "--scale", number=True) or None
     units = _pairs(args.unit, "--unit", number=False) or None
+    choice = None
+    if args.hits is not None:
+        from ema_pipeline.io.hit_choice import read_hit_choice
+
+        choice = read_hit_choice(args.hits)
     if args.channels is not None:
-        return _frf_from_sheet(args, settings)
+        return _frf_from_sheet(args, settings, choice)
+    chosen = None
+    if choice is not None:
+        if len(choice) != 1:
+            raise ConfigError(f"{args.hits}: names {len(choice)} recordings; a plain frf "
+                              "takes one [[recording]] (several: a channel sheet, --channels)")
+        chosen = next(iter(choice.values()))
     result = frf_from_files(list(args.inputs), args.out, settings,
                             force_channel=args.force_channel, scale=scale, units=units,
-                            report=args.report)
+                            report=args.report, chosen=chosen)
     for warning in result.warnings:  # also with --quiet: they question the data
         print(f"warning: {warning}", file=sys.stderr)
     if not args.quiet:
@@ -169,12 +183,13 @@ def cmd_frf(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
-def _frf_from_sheet(args: argparse.Namespace, settings: Any) -> int:
+def _frf_from_sheet(args: argparse.Namespace, settings: Any, choice: Any = None) -> int:
     """``frf --channels SHEET``: one FRF set from every file the sheet names."""
     from ema_pipeline.pipeline.frf import hits_csv_path, hits_report_path
     from ema_pipeline.pipeline.roving import frf_from_sheet
 
-    result = frf_from_sheet(args.channels, args.out, settings, report=args.report)
+    result = frf_from_sheet(args.channels, args.out, settings, report=args.report,
+                            chosen=choice)
     for name, point in zip(result.files, result.points, strict=True):
         for warning in point.warnings:
             print(f"warning: {name}: {warning}", file=sys.stderr)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -172,8 +172,11 @@ def frf_from_recording(
     *,
     force_channel: str | None = None,
     configuration: str = "",
+    chosen: Sequence[int] | None = None,
 ) -> ImpactFRF:
-    """Find and check the hits of ``recording``, and average the accepted ones.
+    """Find and check the hits of ``recording``, and average the accepted ones
+    (``chosen``: exactly these hit numbers, 1-based, as chosen by hand on the hit
+    page: :mod:`ema_pipeline.io.hit_choice`).
 
     The force is the channel named ``force_channel`` or else the only channel of
     quantity ``force``; the responses are the channels of another quantity (all
@@ -215,6 +218,8 @@ def frf_from_recording(
                              record_length_s=settings.record_length_s)
     hits = hitlib.check_hits(rec, 0, found, exp_window=settings.exp_window_tau is not None,
                              keep_all=settings.keep_all)
+    if chosen is not None:
+        hits = choose_hits(hits, chosen, where)
     accepted = [h.index - 1 for h in hits if h.accepted]
     warnings = hitlib.force_warnings(hits, rec.channels[0].name)
     if not accepted:
@@ -273,6 +278,34 @@ def frf_from_recording(
         settings=settings,
         warnings=warnings,
     )
+
+
+def choose_hits(hits: tuple[hitlib.Hit, ...], chosen: Sequence[int],
+                where: str) -> tuple[hitlib.Hit, ...]:
+    """``hits`` with exactly the hit numbers ``chosen`` accepted (a choice by hand,
+    whatever the checks said; their reasons stay); a number that is no hit, or a hit
+    without a record (``past_end``), is a DataError naming ``where``.
+
+    Examples
+    --------
+    >>> hits = (hitlib.Hit(1, 0.5, 90.0, True, (), 10), hitlib.Hit(2, 2.5, 95.0, False,
+    ...         ("double_hit",), 2000))
+    >>> [h.accepted for h in choose_hits(hits, [2], "rec.csv")]
+    [False, True]
+    """
+    wanted = set(chosen)
+    numbers = {h.index: h for h in hits}
+    missing = sorted(wanted - set(numbers))
+    if missing:
+        raise DataError(f"{where}: the hit choice (--hits) names hit(s) "
+                        f"{', '.join(map(str, missing))}; the recording has {len(hits)}")
+    no_record = sorted(k for k in wanted if numbers[k].record_start < 0)
+    if no_record:
+        raise DataError(f"{where}: the hit choice (--hits) names hit(s) "
+                        f"{', '.join(map(str, no_record))} without a record (past_end)")
+    if not wanted:
+        raise DataError(f"{where}: the hit choice (--hits) accepts no hit")
+    return tuple(replace(h, accepted=h.index in wanted) for h in hits)
 
 
 def concatenate_recordings(recordings: list[Recording]) -> Recording:
@@ -459,9 +492,11 @@ def impact_frf(
     scale: dict[str, float] | None = None,
     units: dict[str, str] | None = None,
     configuration: str = "",
+    chosen: Sequence[int] | None = None,
 ) -> ImpactFRF:
     """Read the recordings ``paths`` (segments of one test) and run
-    :func:`frf_from_recording`; nothing is written. The FRFs' source is the
+    :func:`frf_from_recording` (``chosen``: the hits chosen by hand); nothing is
+    written. The FRFs' source is the
     file list (with its sha256 for one file)."""
     from ema_pipeline.io.recording import read_recording
 
@@ -470,9 +505,9 @@ def impact_frf(
     recordings = [read_recording(Path(p), force_channel=force_channel, scale=scale,
                                  units=units) for p in paths]
     recording = concatenate_recordings(recordings)
-    chosen = None if force_channel is None else recording.channels[0].name  # force first
-    result = frf_from_recording(recording, settings, force_channel=chosen,
-                                configuration=configuration)
+    force = None if force_channel is None else recording.channels[0].name  # force first
+    result = frf_from_recording(recording, settings, force_channel=force,
+                                configuration=configuration, chosen=chosen)
     names = [str(p) for p in paths]
     result.frf = replace(result.frf, source=Provenance(
         path=", ".join(names),
@@ -518,6 +553,7 @@ def frf_from_files(
     units: dict[str, str] | None = None,
     configuration: str = "",
     report: bool = False,
+    chosen: Sequence[int] | None = None,
 ) -> ImpactFRF:
     """Read the recordings ``paths`` (segments of one test), run
     :func:`frf_from_recording`, and write the FRFs to ``out`` (``.h5`` or ``.uff``)
@@ -533,7 +569,7 @@ def frf_from_files(
     error none is replaced and no temporary is left."""
     fmt = check_output(out, paths, report=report)
     result = impact_frf(paths, settings, force_channel=force_channel, scale=scale,
-                        units=units, configuration=configuration)
+                        units=units, configuration=configuration, chosen=chosen)
     frf = result.frf
     page = render_hits_html(hits_page_input(result)) if report else None
     with io.replace_together():

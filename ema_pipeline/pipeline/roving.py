@@ -26,6 +26,7 @@ pair measured twice (a DOF named twice); an incomplete FRF matrix.
 from __future__ import annotations
 
 import os
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -149,11 +150,11 @@ def read_sheet_recordings(sheet: ChannelSheet) -> list[Recording]:
 
 
 def _point_frf(sheet: ChannelSheet, rec: Recording, settings: FRFSettings,
-               configuration: str) -> ImpactFRF:
+               configuration: str, chosen: Sequence[int] | None = None) -> ImpactFRF:
     force = rec.channels[0]
     try:
         return frf_from_recording(rec, settings, force_channel=force.name,
-                                  configuration=configuration)
+                                  configuration=configuration, chosen=chosen)
     except DataError as exc:
         point = force.dof.label() if force.dof is not None else "?"
         raise DataError(f"{sheet.source}: point {point} (hammer at {point}, "
@@ -217,35 +218,45 @@ def _assemble(sheet: ChannelSheet, points: list[ImpactFRF]) -> FRFSet:
 
 
 def sheet_frf(sheet: ChannelSheet | str | os.PathLike[str], settings: FRFSettings | None = None,
-              *, configuration: str = "") -> SheetFRF:
+              *, configuration: str = "",
+              chosen: Mapping[str, Sequence[int]] | None = None) -> SheetFRF:
     """FRFs of the whole test a channel sheet describes (module docstring); nothing
-    is written. ``sheet``: a :class:`ChannelSheet` or the path of its CSV."""
+    is written. ``sheet``: a :class:`ChannelSheet` or the path of its CSV.
+    ``chosen``: {file (relative to the sheet's folder, as the hit table's ``file``
+    column): the hit numbers to average}, a choice by hand (files not named: the
+    checks decide)."""
     if not isinstance(sheet, ChannelSheet):
         sheet = read_channel_sheet(sheet)
     settings = FRFSettings() if settings is None else settings
     recordings = read_sheet_recordings(sheet)
-    points = [_point_frf(sheet, rec, settings, configuration) for rec in recordings]
+    folder = Path(sheet.source).parent
+    files = [Path(os.path.relpath(rec.source.path, folder)).as_posix() for rec in recordings]
+    choice = dict(chosen or {})
+    unknown = sorted(set(choice) - set(files))
+    if unknown:
+        raise DataError(f"{sheet.source}: the hit choice (--hits) names file(s) "
+                        f"{', '.join(unknown)}, which the sheet does not")
+    picks = [choice.get(f) for f in files]
+    points = [_point_frf(sheet, rec, settings, configuration, pick)
+              for rec, pick in zip(recordings, picks, strict=True)]
     fs = recordings[0].sample_rate_hz
     n = min(p.n_samples for p in points)
     if any(p.n_samples != n for p in points):  # one frequency axis: the shortest record
         settings = replace(settings, record_length_s=n / fs)
-        points = [p if p.n_samples == n else _point_frf(sheet, rec, settings, configuration)
-                  for p, rec in zip(points, recordings, strict=True)]
+        points = [p if p.n_samples == n else _point_frf(sheet, rec, settings, configuration, k)
+                  for p, rec, k in zip(points, recordings, picks, strict=True)]
     if settings.exp_window_tau == "auto":  # one window: the shortest automatic tau
         taus = [p.exp_window_tau_s for p in points if p.exp_window_tau_s is not None]
         if taus and any(p.exp_window_tau_s != min(taus) for p in points):
             settings = replace(settings, exp_window_tau=min(taus))
             points = [p if p.exp_window_tau_s == min(taus)
-                      else _point_frf(sheet, rec, settings, configuration)
-                      for p, rec in zip(points, recordings, strict=True)]
+                      else _point_frf(sheet, rec, settings, configuration, k)
+                      for p, rec, k in zip(points, recordings, picks, strict=True)]
     frf = _assemble(sheet, points)
     layout = "roving sensor"
     if frf.n_in > frf.n_out:
         frf, layout = frf.reciprocal(), "roving hammer"
-    folder = Path(sheet.source).parent
-    files = [os.path.relpath(rec.source.path, folder) for rec in recordings]
-    return SheetFRF(frf=frf, points=points, files=[Path(f).as_posix() for f in files],
-                    layout=layout)
+    return SheetFRF(frf=frf, points=points, files=files, layout=layout)
 
 
 def sheet_hits_page(result: SheetFRF) -> str:
@@ -274,6 +285,7 @@ def frf_from_sheet(
     *,
     configuration: str = "",
     report: bool = False,
+    chosen: Mapping[str, Sequence[int]] | None = None,
 ) -> SheetFRF:
     """:func:`sheet_frf` on the channel sheet ``sheet``, then write the FRFs to
     ``out`` (``.h5`` or ``.uff``) and the hit table (with its ``file`` column) to
@@ -282,7 +294,7 @@ def frf_from_sheet(
     is the sheet or one of its recordings is refused before any work."""
     parsed = read_channel_sheet(sheet)
     fmt = check_output(out, [Path(sheet), *parsed.files()], report=report)
-    result = sheet_frf(parsed, settings, configuration=configuration)
+    result = sheet_frf(parsed, settings, configuration=configuration, chosen=chosen)
     page = sheet_hits_page(result) if report else None
     with io.replace_together():
         io.write_csv(result.hits_table(), hits_csv_path(out))
