@@ -13,7 +13,8 @@ atomic results folder of ``run``), :mod:`.hdf5` (FRF files
 and results stores), :mod:`.uff` (dataset 58 in and out, modes out as datasets
 164/15/82/55), :mod:`.uff_format` (the dataset parser), :mod:`.uff_units` (unit
 labels, dataset 164), :mod:`.experiment` (TOML), :mod:`.recording` (raw time
-recordings: UFF-58 time records, TDMS, WAV, CSV).
+recordings: UFF-58 time records, TDMS, WAV, CSV, LVM, MAT), :mod:`.channel_sheet` (the
+channel sheet of a roving test), :mod:`.hit_choice` (hits chosen by hand).
 """
 
 from __future__ import annotations
