@@ -68,7 +68,7 @@ def _signals(point: tuple[float, float], seed: int,
     return force, acc
 
 
-def _write_test(folder, double_hit_point: int | None = None) -> None:
+def write_plate_test(folder, double_hit_point: int | None = None) -> None:
     """One recording per hammer point (1-4 CSV, 5-8 float WAV in g, 9-12 TDMS) and
     ``channels.csv``; the sensor is node 100, +Z; the hammer hits in -Z."""
     from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
@@ -104,7 +104,7 @@ def _write_test(folder, double_hit_point: int | None = None) -> None:
 @pytest.fixture(scope="module")
 def plate(tmp_path_factory):
     folder = tmp_path_factory.mktemp("plate")
-    _write_test(folder, double_hit_point=6)
+    write_plate_test(folder, double_hit_point=6)
     return folder
 
 

@@ -393,12 +393,18 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
     responses = rec.signals[1:, idx]
     end, _ = hitlib.tail_level(responses[None], min(n_pre, m - 1))
     j = int(np.argmax(end[0]))
+    spectra = None
+    if hit.record_start >= 0 and m == n:  # the averaged record: its spectra, to choose by hand
+        f_spec = np.fft.rfft(force * w_force * w_exp, n)
+        x_spec = np.fft.rfft(responses[0] * w_exp, n)
+        spectra = (np.abs(f_spec) ** 2, np.conj(f_spec) * x_spec, np.abs(x_spec) ** 2)
     spec = np.abs(np.fft.rfft(force * w_force * w_exp, n))
     db = 20 * np.log10(np.maximum(spec, np.finfo(float).tiny) / max(spec.max(), 1e-300))
     return HitView(
         hit=hit, time_s=np.arange(a, b) / fs, force_n=force, response=responses[j],
         response_name=rec.channels[1 + j].name, force_window=w_force, exp_window=w_exp,
         freq_hz=np.fft.rfftfreq(n, 1.0 / fs), force_db=db, end_level=float(end[0, j]),
+        spectra=spectra,
     )
 
 

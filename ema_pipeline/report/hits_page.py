@@ -71,6 +71,9 @@ class HitView:
     end_level: float
     file: str = ""
     number: int = 0
+    #: (Sff, Sfx, Sxx) of the record on ``freq_hz`` (force x first response), for the
+    #: choice by hand (:mod:`ema_pipeline.report.hit_choice_view`); None: no record.
+    spectra: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
 
 @dataclass
@@ -226,6 +229,12 @@ def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
     }
     page.section("summary", "Summary").append(kv_table(summary))
     page.section("hits", "Hit table").append(html_table(_hit_table(p.hits), split=False))
+    if p.hits:
+        from ema_pipeline.report.hit_choice_view import hit_choice_html
+
+        choice = hit_choice_html(p.hits, p.hits[0].freq_hz, p.force_band_hz)
+        if choice:
+            page.section("choose", "Choose the hits").append(choice)
     for v in p.hits:
         cls = "ok" if v.hit.accepted and not v.hit.reasons else "bad"
         body = [f'<p class="status {cls}">{esc(verdict_text(v.hit, p.keep_all))}</p>']
