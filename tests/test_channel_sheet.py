@@ -533,3 +533,17 @@ def test_close_pair_1_2_percent_apart(tmp_path, monkeypatch):
     np.testing.assert_allclose(found.zeta[order], ZETA, rtol=0.15)
     truth = np.array([_shape(x, y) for x, y in mod.POINTS])
     assert mac_pairs(np.real(result.shapes_real)[:, order], truth).min() > 0.99
+
+
+def test_hit_page_plots_every_response_with_units(tmp_path):
+    """Two accelerometers: each hit's figure has a panel for each, labelled with its
+    unit (was: only the response that decayed least)."""
+    force, acc = _signals(POINTS[0], seed=4)
+    _, acc2 = _signals(POINTS[5], seed=4)
+    pd.DataFrame({"time_s": np.arange(force.size) / FS, "Hammer [N]": force,
+                  "acc [m/s^2]": acc, "other [g]": acc2 / 9.80665}).to_csv(
+        tmp_path / "two.csv", index=False)
+    assert main(["frf", str(tmp_path / "two.csv"), "--out", str(tmp_path / "two.h5"),
+                 "--report", "--quiet"]) == 0
+    page = (tmp_path / "two_hits.html").read_text(encoding="utf-8")
+    assert page.count("acc [m/s^2]") >= 4 and page.count("other [m/s^2]") >= 4

@@ -402,9 +402,12 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
     db = 20 * np.log10(np.maximum(spec, np.finfo(float).tiny) / max(spec.max(), 1e-300))
     return HitView(
         hit=hit, time_s=np.arange(a, b) / fs, force_n=force, response=responses[j],
-        response_name=rec.channels[1 + j].name, force_window=w_force, exp_window=w_exp,
+        response_name=f"{rec.channels[1 + j].name} [{rec.channels[1 + j].unit}]",
+        force_window=w_force, exp_window=w_exp,
         freq_hz=np.fft.rfftfreq(n, 1.0 / fs), force_db=db, end_level=float(end[0, j]),
         spectra=spectra,
+        others=tuple((f"{rec.channels[1 + i].name} [{rec.channels[1 + i].unit}]", responses[i])
+                     for i in range(responses.shape[0]) if i != j),
     )
 
 

@@ -211,6 +211,8 @@ def _assemble(sheet: ChannelSheet, points: list[ImpactFRF]) -> FRFSet:
     sha = ""
     if Path(sheet.source).is_file():
         sha = io.sha256_file(sheet.source)
+    if any(p.frf.coherence is None for p in points):
+        coh = None  # type: ignore[assignment]
     return FRFSet(freq_hz=first.freq_hz, H=H, coherence=coh, response_dofs=tuple(responses),
                   reference_dofs=tuple(references), quantity=first.quantity,
                   acquisition=info, configuration=first.configuration,

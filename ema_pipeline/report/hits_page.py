@@ -74,6 +74,8 @@ class HitView:
     #: (Sff, Sfx, Sxx) of the record on ``freq_hz`` (force x first response), for the
     #: choice by hand (:mod:`ema_pipeline.report.hit_choice_view`); None: no record.
     spectra: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    #: The other response channels over the same samples: (name with its unit, data).
+    others: tuple[tuple[str, np.ndarray], ...] = ()
 
 
 @dataclass
@@ -169,11 +171,21 @@ def _response_panel(c: Canvas, left: float, view: HitView) -> None:
 
 
 def hit_figure(view: HitView, band: tuple[float, float]) -> str:
-    """Three panels of one hit: force pulse, force spectrum, response with windows."""
-    c = Canvas(_W, 30 + _PANEL_H + 48, f"hit {view.hit.index}")
+    """Three panels of one hit: force pulse, force spectrum, response with windows;
+    then a row of three panels per three other response channels (``view.others``)."""
+    rows = 1 + (len(view.others) + 2) // 3
+    c = Canvas(_W, rows * (30 + _PANEL_H + 48), f"hit {view.hit.index}")
     _pulse_panel(c, 60, view)
     _spectrum_panel(c, 60 + 240, view, band)
     _response_panel(c, 60 + 480, view)
+    t = view.time_s - view.time_s[0]
+    for k, (name, x) in enumerate(view.others):
+        top = (1 + k // 3) * (30 + _PANEL_H + 48) + 30
+        peak = float(np.abs(x).max()) or 1.0
+        ax = c.axes((60 + 240 * (k % 3), top, _PANEL_W, _PANEL_H),
+                    (0.0, float(t[-1]) or 1.0), (-1.1 * peak, 1.1 * peak))
+        ax.line(t, x, COLORS[3], width=0.6)
+        ax.frame(xlabel="time in record / s", ylabel=name[:24], title="response")
     return c.to_svg()
 
 
