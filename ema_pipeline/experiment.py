@@ -41,6 +41,12 @@ class ConfigurationSpec:
     of ``ema-pipeline frf`` (``frf``: (key, value) pairs, e.g.
     ``(("pretrigger_s", 0.01), ("estimator", "H1"))``): ``run`` finds, checks and
     averages the hits (:mod:`ema_pipeline.pipeline.frf`) and identifies the FRFs.
+
+    A recorded configuration may instead name a *channel sheet* (``channels``: its
+    path, relative to the experiment file; or ``channel_rows``: its rows given
+    inline, each as (column, value) pairs): every file of the sheet is one point of
+    a roving test (:mod:`ema_pipeline.pipeline.roving`); ``recording`` then holds
+    the sheet's path (or the experiment file's, for inline rows).
     """
 
     name: str
@@ -53,6 +59,8 @@ class ConfigurationSpec:
     seed: int = 0
     recording: tuple[str, ...] = ()
     frf: tuple[tuple[str, object], ...] = ()
+    channels: str = ""
+    channel_rows: tuple[tuple[tuple[str, object], ...], ...] = ()
 
 
 @dataclass(frozen=True)

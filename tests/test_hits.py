@@ -128,7 +128,7 @@ def test_uff_and_tdms_copies_give_the_same_frf_and_identify_recovers_the_damping
     assert np.abs(a.H - b.H).max() <= 1e-9 * np.abs(a.H).max()
     assert a.acquisition.exp_window_tau_s == 0.25  # stored: identification corrects for it
     table = (tmp_path / "rec.uff_hits.csv").read_text().splitlines()
-    assert table[0] == "hit,time_s,force_peak_n,accepted,reasons"
+    assert table[0] == "hit,time_s,force_peak_n,accepted,reasons,note"
     assert len(table) == 1 + rec.hit_times_s.size
     result = identify(a, IdentificationOptions(band_hz=rec.band_hz))
     fn, zeta = result.modes.fn_hz, result.modes.zeta
@@ -163,7 +163,7 @@ def test_each_option_changes_the_result(tmp_path):
     H, hits = run("--keep-all")
     rows = [line.split(",") for line in hits.splitlines()[1:]]
     assert "False" in base_hits
-    assert all(accepted == "True" or reasons == "past_end" for *_, accepted, reasons in rows)
+    assert all(accepted == "True" or reasons == "past_end" for *_, accepted, reasons, _ in rows)
     assert np.abs(H - base).max() > 1e-6 * np.abs(base).max()
 
 

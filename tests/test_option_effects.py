@@ -52,6 +52,10 @@ INIT = f"{HERE}::test_init_writes_the_template_and_force_overwrites"
 BATCH_PAGES = "test_batch.py::test_batch_report_writes_the_identify_page_of_every_file"
 #: "COMMAND --option" (or "COMMAND positional") and "[table] key" -> the tests
 #: ("file.py::test_name") that show the option or key changes the result.
+SHEET_RUN = ("test_channel_sheet.py::"
+             "test_init_recordings_then_run_has_shapes_over_the_hammer_points")
+SHEET_KEYS = ("test_channel_sheet.py::"
+              "test_experiment_file_takes_the_sheet_inline_or_per_configuration")
 INVENTORY: dict[str, tuple[str, ...]] = {
     # simulate
     "simulate --configuration": (f"{HERE}::test_simulate_configuration_and_zeta_pct",),
@@ -146,6 +150,15 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "init folder": (INIT,
                     "test_init_run.py::test_run_on_a_plate_identifies_both_configurations"),
     "init --force": (INIT, "test_init_run.py::test_init_refuses_to_overwrite"),
+    "init --recordings": (SHEET_RUN,),
+    "frf --hits": ("test_channel_sheet.py::test_hits_chosen_by_hand",),
+    "frf --channels": ("test_channel_sheet.py::test_roving_hammer_plate_frf_and_modes",
+                       "test_channel_sheet.py::test_roving_sensor_layout_and_mismatches"),
+    # a configuration given by a channel sheet ([recordings] or [[configurations]] channels)
+    "[[configurations]] sheet: name": (SHEET_RUN, SHEET_KEYS),
+    "[[configurations]] sheet: channels": (SHEET_RUN, SHEET_KEYS),
+    "[[configurations]] sheet: description": (SHEET_KEYS,),
+    "[[configurations]] sheet: frf": (SHEET_KEYS,),
     # the experiment file
     "[experiment] name": (RUN_SIMULATED,),
     **{f"[test] {k}": (RUN_SIMULATED,)
@@ -233,6 +246,7 @@ def _experiment_keys() -> set[str]:
     for kind, checks in (("file", schema.FILE_CONFIGURATION),
                          ("simulated", schema.SIMULATED_CONFIGURATION),
                          ("recording", schema.RECORDING_CONFIGURATION),
+                         ("sheet", schema.SHEET_CONFIGURATION),
                          ("frf", schema.FRF_SETTINGS)):
         keys |= {f"[[configurations]] {kind}: {key}" for key in checks}
     try:  # the [geometry] table's keys, as io.geometry.geometry_from_table states them

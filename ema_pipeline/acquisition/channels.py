@@ -206,7 +206,8 @@ def _force_index(channels: Sequence[ChannelData], kinds: list[str], force_channe
     if not forces:
         listed = ", ".join(f"{n!r} ({kind})" for n, kind in zip(names, kinds, strict=True))
         raise DataError(f"{_prefix(where)}no force channel: none is in a force unit (N, kN, "
-                        f"lbf); channels: {listed}")
+                        f"lbf); channels: {listed}. Without the hammer's force there are no "
+                        "FRFs; if one of them is the hammer, give its unit (--unit NAME=N)")
     return forces[0]
 
 

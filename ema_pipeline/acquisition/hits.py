@@ -25,7 +25,13 @@ Records
     records start at the segments' starts, with the longest power of two of
     samples that the shortest holds, and the pretrigger is the median time of
     the crossings in their records. A hit whose record would run past the end of its
-    segment (or start before it) is dropped with the reason ``past_end``.
+    segment is dropped with the reason ``past_end``. A hit closer to the start of
+    its segment than the pretrigger (a file that starts 3 ms before the hit) is
+    kept: its record is padded at the front with the segment's first sample (the
+    records keep one common pretrigger, where the exponential window starts), and
+    its row says how much (``Hit.padded``, the hit table's ``note``); only a hit
+    whose crossing is the segment's first sample (the pulse may have begun before
+    the data) is ``past_end``.
 
 Checks (the reasons, :data:`REASONS`)
     ``past_end``: the record does not fit in its segment (never kept); the
@@ -123,6 +129,43 @@ MAX_PRETRIGGER_S = 1e3
 MAX_RECORD_LENGTH_S = 1e4
 MAX_EXP_WINDOW_TAU_S = 1e4
 
+#: Median hit force peaks (N) outside this range are implausible for an impact hammer
+#: (a modal hammer on a light part gives a few N, a sledge up to about 20 kN): a unit
+#: off by 1000 (a [kN] label on data in N) is the usual cause.
+PLAUSIBLE_HAMMER_PEAK_N = (0.05, 30e3)
+#: A share of double hits from which the "force" is likely a response (it rings).
+RESPONSE_LIKE_DOUBLE_SHARE = 0.5
+
+
+def force_warnings(hits: tuple[Hit, ...] | list[Hit], force_name: str) -> list[str]:
+    """Warnings about the force channel from its hits: a median peak implausible for
+    a hammer (:data:`PLAUSIBLE_HAMMER_PEAK_N`), and at least
+    :data:`RESPONSE_LIKE_DOUBLE_SHARE` of 2 or more hits ``double_hit`` (a ringing
+    pulse: the channel may be a response).
+
+    Examples
+    --------
+    >>> force_warnings([Hit(1, 0.5, 80e3, True), Hit(2, 1.5, 75e3, True)], "hammer")[0][:50]
+    "force channel 'hammer': hit peaks of 78 kN (median)"
+    """
+    out: list[str] = []
+    if not hits:
+        return out
+    median = float(np.median([h.force_peak_n for h in hits]))
+    lo, hi = PLAUSIBLE_HAMMER_PEAK_N
+    if not lo <= median <= hi:
+        shown = f"{median / 1e3:.3g} kN" if median >= 1e3 else f"{median:.3g} N"
+        out.append(f"force channel {force_name!r}: hit peaks of {shown} (median) are "
+                   f"implausible for an impact hammer ({lo:g} N to {hi / 1e3:g} kN): is its "
+                   "unit right? (a [kN] label on data in N gives 1000 times too much)")
+    doubles = sum("double_hit" in h.reasons for h in hits)
+    if len(hits) >= 2 and doubles >= RESPONSE_LIKE_DOUBLE_SHARE * len(hits):
+        out.append(f"force channel {force_name!r}: {doubles} of {len(hits)} hits are double "
+                   "hits (a ringing pulse): is it a response? check the force channel "
+                   "(--force-channel, or the role column of a channel sheet)")
+    return out
+
+
 #: The fixed vocabulary of rejection reasons, in the order they are reported.
 REASONS = ("past_end", "double_hit", "overload", "not_decayed", "low_force", "outlier")
 
@@ -133,7 +176,9 @@ class Hit:
     the recording), ``force_peak_n``, ``accepted`` and ``reasons`` (of
     :data:`REASONS`; a hit kept by ``keep_all`` is accepted with its reasons).
     ``record_start`` is the first sample of its record (-1: none, ``past_end``);
-    ``overloaded`` names the channels of an ``overload``."""
+    ``overloaded`` names the channels of an ``overload``; ``padded`` is the number
+    of samples its record is padded with at the front (a hit nearer the start of
+    the data than the pretrigger), 0 for most."""
 
     index: int
     time_s: float
@@ -143,6 +188,8 @@ class Hit:
     record_start: int = -1
     #: Names of the channels that made it an ``overload``.
     overloaded: tuple[str, ...] = ()
+    #: Samples of its record before the data start (padded with the first sample).
+    padded: int = 0
 
     def reasons_text(self) -> str:
         """The reasons for a console line, the overloaded channels named.
@@ -163,7 +210,10 @@ class HitSearch:
     ``time_s``, ``peak_n`` (force above the offset), ``segment``, and the record
     ``start`` (-1 when it does not fit); the common ``n_samples`` and
     ``n_pretrigger`` of the records, the ``trigger_n`` level, the force ``offset_n``
-    per segment and its ``polarity`` (+1 or -1)."""
+    per segment and its ``polarity`` (+1 or -1). ``pad`` (per hit; None: none)
+    counts the samples a record lacks before the data start: its record is
+    ``pad`` copies of sample ``start``, then ``n_samples - pad`` samples from
+    ``start`` on."""
 
     cross: np.ndarray
     time_s: np.ndarray
@@ -175,10 +225,23 @@ class HitSearch:
     trigger_n: float
     offset_n: np.ndarray
     polarity: float
+    pad: np.ndarray | None = None
 
     @property
     def n_hits(self) -> int:
         return int(self.cross.size)
+
+    def padding(self) -> np.ndarray:
+        """Samples padded at the front of each hit's record (zeros when none)."""
+        return np.zeros(self.n_hits, dtype=int) if self.pad is None else self.pad
+
+    def record_index(self, which: np.ndarray | list[int]) -> np.ndarray:
+        """(len(which), n_samples) sample indices of the records of hits ``which``
+        (the padded front repeats the first sample of the data)."""
+        which = np.asarray(which, dtype=int)
+        first = self.start[which][:, None]
+        idx = first - self.padding()[which][:, None] + np.arange(self.n_samples)[None, :]
+        return np.maximum(idx, first)
 
 
 def _segments(recording: Recording) -> list[tuple[int, int]]:
@@ -326,7 +389,13 @@ def find_hits(
         raise DataError(f"{where}records of {n_samples / fs:g} s would give FRF lines "
                         f"{fs / n_samples:.3g} Hz apart, finer than the {MIN_DF_HZ:g} Hz an FRF "
                         "file may hold; give a shorter --record-length-s")
-    fits = (start >= seg_starts[seg_arr]) & (start + n_samples <= ends[seg_arr])
+    seg_lo = seg_starts[seg_arr]
+    room = start + n_samples <= ends[seg_arr]
+    # near the data start: pad the record's front, when the pulse's start is in the data
+    pad = np.where(room & (start < seg_lo) & (cross > seg_lo), seg_lo - start, 0)
+    fits = room & (start + pad >= seg_lo)
+    start = start + pad
+    pad = np.where(fits, pad, 0).astype(int)
     return HitSearch(
         cross=cross,
         time_s=time_s,
@@ -338,6 +407,7 @@ def find_hits(
         trigger_n=float(trigger),
         offset_n=offsets,
         polarity=polarity,
+        pad=pad,
     )
 
 
@@ -455,8 +525,9 @@ def pulse_end_s(
         if a < 0:
             continue
         c = int(found.cross[k])
-        end = _pulse_end(g, c, found.trigger_n, a + n, fs)
-        latest = max(latest, (end - a) / fs)
+        pad = int(found.padding()[k])
+        end = _pulse_end(g, c, found.trigger_n, a + n - pad, fs)
+        latest = max(latest, (end - a + pad) / fs)
     return latest
 
 
@@ -526,7 +597,7 @@ def check_hits(
     overloaded: list[list[str]] = [[] for _ in range(found.n_hits)]
     for k in range(found.n_hits):
         c, peak = found.cross[k], found.peak_n[k]
-        a, b = found.start[k], found.start[k] + n
+        a, b = found.start[k], found.start[k] + n - found.padding()[k]
         if a < 0:  # no record; the other checks still look at the data there is
             reasons[k].add("past_end")
             seg = found.segment[k]
@@ -591,6 +662,7 @@ def check_hits(
             reasons=ordered,
             record_start=int(found.start[k]),
             overloaded=tuple(overloaded[k]),
+            padded=int(found.padding()[k]),
         ))
     return tuple(hits)
 
@@ -615,8 +687,7 @@ def cut_records(
         raise DataError(f"{recording.source.path or 'recording'}: no hit to cut")
     if np.any(found.start[which] < 0):
         raise DataError("a hit without a record (past_end) cannot be cut")
-    n = found.n_samples
-    idx = found.start[which][:, None] + np.arange(n)[None, :]  # (n_rec, n)
+    idx = found.record_index(which)  # (n_rec, n)
     responses = [k for k in range(len(recording.channels)) if k != force_index]
     force = recording.signals[force_index][idx]
     response = recording.signals[responses][:, idx].transpose(1, 0, 2)
@@ -688,8 +759,9 @@ def force_band(freq_hz: np.ndarray, force_auto: np.ndarray) -> tuple[float, floa
 
 
 def hits_columns(hits: tuple[Hit, ...] | list[Hit]) -> dict[str, list]:
-    """The hit table as columns ``hit,time_s,force_peak_n,accepted,reasons``
-    (reasons joined by ``;``), for a CSV or a report.
+    """The hit table as columns ``hit,time_s,force_peak_n,accepted,reasons,note``
+    (reasons joined by ``;``; ``note``: a record padded at the front, e.g.
+    ``pretrigger 3 ms of 10 ms: 7 ms padded``), for a CSV or a report.
 
     Examples
     --------
@@ -702,4 +774,12 @@ def hits_columns(hits: tuple[Hit, ...] | list[Hit]) -> dict[str, list]:
         "force_peak_n": [h.force_peak_n for h in hits],
         "accepted": [h.accepted for h in hits],
         "reasons": [";".join(h.reasons) for h in hits],
+        "note": [_pad_note(h) for h in hits],
     }
+
+
+def _pad_note(hit: Hit) -> str:
+    """The hit table's note of a hit whose record is padded at the front."""
+    if not hit.padded or hit.record_start < 0:
+        return ""
+    return f"near the data start: its record padded with {hit.padded} samples before the data"

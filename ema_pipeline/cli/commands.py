@@ -396,8 +396,19 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 def cmd_init(args: argparse.Namespace) -> int:
     """``init``: a commented experiment-file template in a folder."""
-    from ema_pipeline.io.template import write_experiment_template
+    from ema_pipeline.io.template import write_channel_template, write_experiment_template
 
+    if args.recordings is not None:
+        exists = (args.folder / "experiment.toml").exists()
+        if exists and not args.force:  # before the sheet is written
+            raise ConfigError(f"{args.folder / 'experiment.toml'} exists; give --force to "
+                              "overwrite it")
+        sheet, n_files = write_channel_template(args.folder, args.recordings, force=args.force)
+        path = write_experiment_template(args.folder, force=args.force, recordings=True)
+        print(f"wrote {sheet} ({n_files} recordings): complete node and direction of every "
+              f"row; and {path}: edit it, put the geometry beside it, then "
+              f"`ema-pipeline run --raw {args.folder}`")
+        return EXIT_OK
     path = write_experiment_template(args.folder, force=args.force)
     print(f"wrote {path}: edit it, put the FRF and geometry files beside it, then "
           f"`ema-pipeline run --raw {args.folder}`")

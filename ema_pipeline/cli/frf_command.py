@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -53,6 +54,11 @@ def _tau(text: str) -> str | float | None:
     return tau
 
 
+def _estimator(text: str) -> str:
+    """The argparse type of ``--estimator``: H1, H2 or Hv in any letter case."""
+    return {"h1": "H1", "h2": "H2", "hv": "Hv"}.get(text.strip().lower(), text)
+
+
 def add_frf_parser(sub: Any) -> None:
     """Declare ``ema-pipeline frf`` on ``sub``, the subcommands' action of the
     ``ema-pipeline`` parser (``parser.add_subparsers()``)."""
@@ -65,7 +71,13 @@ def add_frf_parser(sub: Any) -> None:
         "accepted ones into FRFs with coherence and write FILE (.h5 or .uff) and "
         "<stem>_hits.csv beside it.",
     )
-    p.add_argument("inputs", nargs="+", type=Path, metavar="INPUT", help="recordings")
+    p.add_argument("inputs", nargs="*", type=Path, metavar="INPUT",
+                   help="recordings (segments of one test); or give --channels")
+    p.add_argument("--channels", type=Path, default=None, metavar="SHEET.csv",
+                   help="channel sheet (file,channel,role,node,direction,scale,unit; one "
+                   "row per channel per file): every file it names is one point of a "
+                   "roving test, assembled into one FRF set with the sheet's DOFs (a "
+                   "roving-hammer test over the hammer points, by reciprocity)")
     p.add_argument("--out", required=True, type=Path, metavar="FILE",
                    help="FRF file to write (.h5 or .uff)")
     p.add_argument("--pretrigger-s", type=float, default=None, metavar="S",
@@ -80,7 +92,7 @@ def add_frf_parser(sub: Any) -> None:
                    help="exponential window on force and responses: auto (the response "
                    "decays to about 1 %% at the record end), none (records that have not "
                    "decayed are rejected), or a time constant in s; stored with the FRFs")
-    p.add_argument("--estimator", choices=("H1", "H2", "Hv"), default="H1",
+    p.add_argument("--estimator", type=_estimator, choices=("H1", "H2", "Hv"), default="H1",
                    help="FRF estimator (default H1)")
     p.add_argument("--keep-all", action="store_true",
                    help="average every hit that has a record, even rejected ones")
@@ -94,6 +106,9 @@ def add_frf_parser(sub: Any) -> None:
                    help="also write the hit page <stem>_hits.html: every hit with its force "
                    "pulse, force spectrum, response and windows, and why it was kept or not; "
                    "the averaged FRF with coherence and the usable band")
+    p.add_argument("--hits", type=Path, default=None, metavar="HITS.toml",
+                   help="average exactly the hits chosen by hand ([[recording]] tables "
+                   "with file and accepted hit numbers), whatever the checks say")
     p.add_argument("--quiet", action="store_true", help="print only errors")
     p.set_defaults(func=cmd_frf)
 
@@ -109,7 +124,19 @@ def cmd_frf(args: argparse.Namespace) -> int:
         hits_report_path,
     )
 
-    check_output(args.out, list(args.inputs), report=args.report)  # before any work
+    if (args.channels is None) == (not args.inputs):
+        raise ConfigError("give the recordings (INPUT ...) or a channel sheet (--channels "
+                          "SHEET.csv), not both" if args.inputs else
+                          "give the recordings (INPUT ...) or a channel sheet (--channels "
+                          "SHEET.csv)")
+    if args.channels is not None:
+        given = [o for o, v in (("--force-channel", args.force_channel), ("--scale", args.scale),
+                                ("--unit", args.unit)) if v]
+        if given:
+            raise ConfigError(f"{', '.join(given)}: not with --channels (the sheet gives the "
+                              "force channel, scales and units)")
+    else:
+        check_output(args.out, list(args.inputs), report=args.report)  # before any work
     settings = FRFSettings(  # ranges checked here, before any work
         pretrigger_s=DEFAULT_PRETRIGGER_S if args.pretrigger_s is None else args.pretrigger_s,
         record_length_s=args.record_length_s,
@@ -120,9 +147,24 @@ def cmd_frf(args: argparse.Namespace) -> int:
     )
     scale = _pairs(args.scale, "--scale", number=True) or None
     units = _pairs(args.unit, "--unit", number=False) or None
+    choice = None
+    if args.hits is not None:
+        from ema_pipeline.io.hit_choice import read_hit_choice
+
+        choice = read_hit_choice(args.hits)
+    if args.channels is not None:
+        return _frf_from_sheet(args, settings, choice)
+    chosen = None
+    if choice is not None:
+        if len(choice) != 1:
+            raise ConfigError(f"{args.hits}: names {len(choice)} recordings; a plain frf "
+                              "takes one [[recording]] (several: a channel sheet, --channels)")
+        chosen = next(iter(choice.values()))
     result = frf_from_files(list(args.inputs), args.out, settings,
                             force_channel=args.force_channel, scale=scale, units=units,
-                            report=args.report)
+                            report=args.report, chosen=chosen)
+    for warning in result.warnings:  # also with --quiet: they question the data
+        print(f"warning: {warning}", file=sys.stderr)
     if not args.quiet:
         rejected = [h for h in result.hits if not h.accepted or h.reasons]
         print(f"{len(result.hits)} hits found, {result.n_accepted} averaged; records of "
@@ -135,6 +177,41 @@ def cmd_frf(args: argparse.Namespace) -> int:
         f10, f20 = result.force_band_hz
         print(f"windows: force {'none' if not fw else f'{fw:g} s'}, exponential "
               f"{'none' if tau is None else f'tau = {tau:.4g} s'}; estimator {args.estimator}")
+        print(f"usable band (force spectrum): -10 dB at {f10:.5g} Hz, -20 dB at {f20:.5g} Hz")
+        extra = f" and {hits_report_path(args.out)}" if args.report else ""
+        print(f"wrote {args.out}, {hits_csv_path(args.out)}{extra}")
+    return EXIT_OK
+
+
+def _frf_from_sheet(args: argparse.Namespace, settings: Any, choice: Any = None) -> int:
+    """``frf --channels SHEET``: one FRF set from every file the sheet names."""
+    from ema_pipeline.pipeline.frf import hits_csv_path, hits_report_path
+    from ema_pipeline.pipeline.roving import frf_from_sheet
+
+    result = frf_from_sheet(args.channels, args.out, settings, report=args.report,
+                            chosen=choice)
+    for name, point in zip(result.files, result.points, strict=True):
+        for warning in point.warnings:
+            print(f"warning: {name}: {warning}", file=sys.stderr)
+    if not args.quiet:
+        frf = result.frf
+        print(f"{len(result.points)} files, {result.n_accepted} hits averaged; records of "
+              f"{result.n_samples} samples ({result.record_length_s:.4g} s)")
+        for name, point in zip(result.files, result.points, strict=True):
+            for h in point.hits:
+                if not h.accepted or h.reasons:
+                    state = "kept (--keep-all)" if h.accepted else "rejected"
+                    print(f"  {name} hit {h.index} at {h.time_s:.3f} s: {state}: "
+                          f"{h.reasons_text()}")
+        tau, fw = result.exp_window_tau_s, result.force_window_s
+        print(f"windows: force {'none' if not fw else f'{fw:g} s'}, exponential "
+              f"{'none' if tau is None else f'tau = {tau:.4g} s'} (common to every file)")
+        if result.layout == "roving hammer":
+            print(f"roving hammer: {frf.n_out} hammer points x {frf.n_in} fixed response(s), "
+                  "stored by reciprocity (responses = hammer points: shapes over them)")
+        else:
+            print(f"roving sensor: {frf.n_out} responses x {frf.n_in} hammer point(s)")
+        f10, f20 = result.force_band_hz
         print(f"usable band (force spectrum): -10 dB at {f10:.5g} Hz, -20 dB at {f20:.5g} Hz")
         extra = f" and {hits_report_path(args.out)}" if args.report else ""
         print(f"wrote {args.out}, {hits_csv_path(args.out)}{extra}")

@@ -435,6 +435,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("folder", type=Path, metavar="DIR", help="folder for experiment.toml "
                    "(created if needed)")
     p.add_argument("--force", action="store_true", help="overwrite an existing experiment.toml")
+    p.add_argument("--recordings", type=Path, default=None, metavar="RECORDINGS",
+                   help="also write DIR/channels.csv, a channel-sheet template with one row "
+                   "per channel of every recording under RECORDINGS (names, roles and the "
+                   "units the files give; complete node and direction), and make the "
+                   "experiment file's test that sheet ([recordings] channels)")
     p.set_defaults(func=cmd_init)
 
     p = sub.add_parser(

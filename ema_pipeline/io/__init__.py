@@ -13,7 +13,8 @@ atomic results folder of ``run``), :mod:`.hdf5` (FRF files
 and results stores), :mod:`.uff` (dataset 58 in and out, modes out as datasets
 164/15/82/55), :mod:`.uff_format` (the dataset parser), :mod:`.uff_units` (unit
 labels, dataset 164), :mod:`.experiment` (TOML), :mod:`.recording` (raw time
-recordings: UFF-58 time records, TDMS, WAV, CSV).
+recordings: UFF-58 time records, TDMS, WAV, CSV, LVM, MAT), :mod:`.channel_sheet` (the
+channel sheet of a roving test), :mod:`.hit_choice` (hits chosen by hand).
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ from ema_pipeline.io.hdf5 import (
     write_results_h5,
 )
 from ema_pipeline.io.picks import read_picks, write_picks
-from ema_pipeline.io.recording import RECORDING_SUFFIXES, read_recording
+from ema_pipeline.io.recording import RECORDING_SUFFIXES, is_recording, read_recording
 from ema_pipeline.io.uff import (
     UFF_SUFFIXES,
     read_frf_uff,
@@ -134,6 +135,10 @@ def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     """
     path = Path(path)
     check_readable(path, FRF_FILE_KIND)
+    if is_recording(path):  # time data: the FRFs come from `ema-pipeline frf` first
+        raise DataError(f"{path}: a raw recording (time data), not FRFs; make the FRFs "
+                        f"first: ema-pipeline frf {path} --out {path.stem}.h5 (a roving "
+                        "test of many files: ema-pipeline frf --channels SHEET.csv)")
     if frf_format(path) == "uff":
         frf = read_frf_uff(path, min_lines=min_lines)
     else:

@@ -38,6 +38,11 @@ from ema_pipeline.acquisition.hits import (
 from ema_pipeline.data import DOF, Beam, DataError, OptionError
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.identification.options import IdentificationOptions, check_option
+from ema_pipeline.io.channel_sheet import (
+    ChannelSheet,
+    channel_sheet_from_rows,
+    read_channel_sheet,
+)
 from ema_pipeline.io.files import check_readable, read_toml
 from ema_pipeline.io.geometry import geometry_from_table
 
@@ -336,6 +341,56 @@ def read_recording_configuration(
     )
 
 
+#: keys of a ``[[configurations]]`` entry (or of the ``[recordings]`` table) that
+#: names a channel sheet: a roving test from many recordings.
+SHEET_CONFIGURATION: dict[str, Check] = {
+    "name": _name,
+    "channels": lambda v: v,  # a file name or inline rows, checked below
+    "description": _text,
+    "frf": lambda v: v,  # checked against FRF_SETTINGS
+}
+#: Settings of FRF_SETTINGS that a channel sheet gives itself.
+_SHEET_GIVES = ("force_channel", "scale", "units")
+
+
+def read_sheet_configuration(
+    table: Mapping[str, Any], where: str, path: Path, default_name: str | None = None
+) -> ConfigurationSpec:
+    """A configuration whose recordings a channel sheet names: ``channels`` = the
+    sheet's file (relative to the experiment file) or its rows inline (a list of
+    tables with the sheet's columns, :func:`ema_pipeline.io.channel_sheet.
+    channel_sheet_from_rows`), an optional ``frf`` table (:data:`FRF_SETTINGS`
+    but ``force_channel``, ``scale`` and ``units``, which the sheet gives)."""
+    for other in ("file", "added_mass", "recording"):
+        if other in table:
+            raise DataError(f"{where}: give either 'channels' or '{other}', not both")
+    if default_name is not None and "name" not in table:
+        table = {**table, "name": default_name}
+    entry = _check_table(table, SHEET_CONFIGURATION, where, required=("name",))
+    settings = _check_table(table.get("frf", {}), FRF_SETTINGS, f"{where} frf:")
+    given = [k for k in _SHEET_GIVES if k in settings]
+    if given:
+        raise DataError(f"{where} frf: {', '.join(given)}: the channel sheet gives the force "
+                        "channel, scales and units (its role, scale and unit columns)")
+    channels = entry["channels"]
+    sheet = ""
+    rows: tuple[tuple[tuple[str, Any], ...], ...] = ()
+    if isinstance(channels, str) and channels.strip():
+        sheet = channels
+    elif isinstance(channels, list) and channels:
+        channel_sheet_from_rows(channels, path.parent, f"{where} channels")  # checked now
+        rows = tuple(tuple((str(k), v) for k, v in row.items()) for row in channels)
+    else:
+        raise DataError(f"{where} channels: must be a channel sheet's file name or a list of "
+                        f"its rows (tables with file, channel, role, node, direction, scale, "
+                        f"unit), got {channels!r}")
+    return ConfigurationSpec(
+        name=entry["name"], file=sheet or path.name, description=entry.get("description", ""),
+        recording=(sheet or path.name,), frf=tuple(settings.items()), channels=sheet,
+        channel_rows=rows,
+    )
+
+
 def _hint(key: str, known: list[str]) -> str:
     close = difflib.get_close_matches(key, known, n=1, cutoff=0.6)
     return f" (did you mean {close[0]!r}?)" if close else f" (known: {', '.join(known)})"
@@ -382,7 +437,7 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
     """
     path = Path(path)
     doc = read_toml(path, "an experiment file (TOML)")
-    known = [*SCHEMA, "configurations", "geometry"]
+    known = [*SCHEMA, "configurations", "geometry", "recordings"]
     for key in doc:
         if key not in known:
             raise DataError(f"{path}: [{key}]: unknown table{_hint(key, known)}")
@@ -393,11 +448,23 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
     except DataError as exc:
         raise DataError(f"{path}: [beam] {exc}") from exc
     configs = doc.get("configurations", [])
-    if not isinstance(configs, list) or not configs:
-        raise DataError(f"{path}: needs at least one [[configurations]] entry")
     specs = []
+    if "recordings" in doc:  # [recordings] channels = "channels.csv": one roving test
+        if not isinstance(doc["recordings"], dict):
+            raise DataError(f"{path}: [recordings] must be a table")
+        if "channels" not in doc["recordings"]:
+            raise DataError(f"{path}: [recordings]: missing required key 'channels' (the "
+                            "channel sheet, e.g. channels = \"channels.csv\")")
+        specs.append(read_sheet_configuration(doc["recordings"], f"{path}: [recordings]", path,
+                                              default_name="test"))
+    if not isinstance(configs, list) or not (configs or specs):
+        raise DataError(f"{path}: needs at least one [[configurations]] entry (or a "
+                        "[recordings] table with a channel sheet)")
     for k, c in enumerate(configs, start=1):
         where = f"{path}: [[configurations]] {k}"
+        if isinstance(c, dict) and "name" in c and "channels" in c:
+            specs.append(read_sheet_configuration(c, where, path))
+            continue
         if isinstance(c, dict) and "name" in c and "recording" in c:
             specs.append(read_recording_configuration(c, k, path))
             continue
@@ -430,7 +497,7 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
     # FE model, update or added mass (beam defaults stay for the types only)
     has_beam = "beam" in doc or "geometry" not in doc
     if not has_beam:
-        for table in ("fe", "sensors"):
+        for table in ("fe",):  # [sensors] may place a recording's channels on any structure
             if table in doc:
                 raise DataError(f"{path}: [{table}] describes the beam's test: it needs a "
                                 "[beam] table (this file has a [geometry] and no [beam])")
@@ -452,7 +519,7 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
     hammer = sensors.get("hammer_node", 8)
     for key, nodes in (("response_nodes", response_nodes), ("hammer_node", (hammer,))):
         for node in nodes:
-            if not 1 <= node <= n_nodes:
+            if not 1 <= node <= (n_nodes if has_beam else 10**9):
                 raise DataError(
                     f"{path}: [sensors] {key}: sensor node {node} does not exist (1..{n_nodes})"
                 )
@@ -486,7 +553,16 @@ def read_experiment(path: str | os.PathLike[str], *, check_files: bool = True) -
     )
     if check_files:
         for k, spec in enumerate(specs, start=1):
-            if spec.recording:
+            if spec.channels:  # the sheet and every file it names
+                try:
+                    for file in read_channel_sheet(Path(path.parent) / spec.channels).files():
+                        check_readable(file, "a recording")
+                except DataError as exc:
+                    raise DataError(f"{path}: configuration {spec.name!r} channels: {exc}") \
+                        from None
+            elif spec.channel_rows:
+                pass  # inline rows: their files are checked when read
+            elif spec.recording:
                 for file in experiment_recording_paths(experiment, spec):
                     try:
                         check_readable(file, "a recording")
@@ -587,3 +663,14 @@ def experiment_recording_paths(experiment: Experiment, spec: ConfigurationSpec) 
     file); empty for other configurations."""
     return [p if p.is_absolute() else Path(experiment.base_dir) / p
             for p in map(Path, spec.recording)]
+
+
+def experiment_channel_sheet(experiment: Experiment, spec: ConfigurationSpec) -> ChannelSheet:
+    """The channel sheet of a configuration that names one (``channels`` file,
+    relative to the experiment file, or inline ``channel_rows``)."""
+    if spec.channels:
+        p = Path(spec.channels)
+        return read_channel_sheet(p if p.is_absolute() else Path(experiment.base_dir) / p)
+    rows = [dict(row) for row in spec.channel_rows]
+    return channel_sheet_from_rows(rows, experiment.base_dir,
+                                   str(Path(experiment.base_dir) / "experiment file"))

@@ -1,4 +1,4 @@
-"""Raw impact recordings (time data) in: UFF-58 time records, TDMS, WAV and CSV.
+"""Raw impact recordings (time data) in: UFF-58 time records, TDMS, WAV, CSV, LVM, MAT.
 
 :func:`read_recording` picks the format by suffix and returns a checked
 :class:`~ema_pipeline.data.Recording` in SI units, force first. The rules shared
@@ -26,8 +26,9 @@ what each format adds:
   absent and is not a signal; so is a channel of time stamps. A file npTDMS reads
   only partly (truncated) is refused, and so is a channel that is empty or holds
   text, booleans or complex numbers (named).
-* **WAV** (scipy): channels are named ``0``, ``1``, ...; ``units`` and ``scale``
-  are required for every channel (``0=N``, ``ch1=g``; ``0=0.5``). Integer samples
+* **WAV** (scipy): channels are named ``0``, ``1``, ...; ``units`` are required
+  for every channel (``0=N``, ``ch1=g``) and ``scale`` for every channel of
+  integer samples (``0=0.5``); float samples are taken as stored, in the unit. Integer samples
   are read as fractions of full scale (int16 / 32768, int32 / 2^31, uint8
   (x - 128) / 128), float samples as stored; ``scale`` turns them into the unit
   (for integers the channel's full scale is ``scale``). The RIFF header is read
@@ -41,6 +42,15 @@ what each format adds:
   channel ``NAME [UNIT]`` or ``NAME (UNIT)``, e.g. ``force [N],acc1 [g]``. A
   column without a unit needs ``units``. The time must be equally spaced (within
   a quarter step).
+
+* **LVM** (LabVIEW measurement files, with ``lvm_read``, the ``lvm`` extra): channel
+  names and units from the header (``Channel names``, ``Y_Unit_Label``), the sample
+  rate from ``Delta_X``; one X column or none; several segments are pre-cut records.
+* **MAT** (MATLAB v5, ``scipy.io.loadmat``; v7.3 is refused with a hint): the numeric
+  vectors of equal length among the top-level variables or a struct's fields are
+  the channels, named as stored; a vector ``time`` / ``t`` gives the sample rate
+  (else a scalar ``fs``); a text ``units`` (``"s, m/s^2"``: the time's unit, then one
+  for every channel or one each) gives the units.
 
 Errors are one-line :class:`~ema_pipeline.data.DataError` naming the file: empty,
 truncated or unparsable file, no force channel, different sample rates, NaN,
@@ -56,6 +66,7 @@ import struct
 import warnings
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -83,7 +94,7 @@ from ema_pipeline.io.uff_units import FORCE_TYPES, Unit, parse_unit_label
 log = logging.getLogger("ema_pipeline.io.recording")
 
 #: Suffixes :func:`read_recording` reads (compared in lower case).
-RECORDING_SUFFIXES = UFF_SUFFIXES | {".tdms", ".wav", ".csv"}
+RECORDING_SUFFIXES = UFF_SUFFIXES | {".tdms", ".wav", ".csv", ".lvm", ".mat"}
 
 _UFF_FUNC_TIME = 1
 _TIME_DIMS = (0, 1, 0)
@@ -95,6 +106,7 @@ def read_recording(
     force_channel: str | None = None,
     scale: Mapping[str, float] | None = None,
     units: Mapping[str, str] | None = None,
+    channels: Mapping[str, DOF] | None = None,
 ) -> Recording:
     """Read a raw impact recording (UFF-58 time records, TDMS, WAV or CSV) in SI units.
 
@@ -106,6 +118,8 @@ def read_recording(
     scale : {CHANNEL: FACTOR} multiplying the stored numbers (before unit
         conversion); required for WAV.
     units : {CHANNEL: UNIT} replacing or supplying the file's units; required for WAV.
+    channels : {CHANNEL: DOF}: read only these channels (a channel sheet's rows),
+        each at its DOF; ``None``: every channel, DOFs as the file gives them.
 
     Returns
     -------
@@ -129,7 +143,8 @@ def read_recording(
     """
     path = Path(path)
     suffix = path.suffix.lower()
-    readers = {".tdms": _read_tdms, ".wav": _read_wav, ".csv": _read_csv}
+    readers = {".tdms": _read_tdms, ".wav": _read_wav, ".csv": _read_csv, ".lvm": _read_lvm,
+               ".mat": _read_mat}
     if suffix in UFF_SUFFIXES:
         reader = _read_uff
     elif suffix in readers:
@@ -137,18 +152,55 @@ def read_recording(
     else:
         raise DataError(f"{path}: unknown recording format {suffix or '(no suffix)'!r}; "
                         f"expected one of {', '.join(sorted(RECORDING_SUFFIXES))}")
-    check_readable(path, "a recording (UFF, TDMS, WAV or CSV)")
-    channels, starts = reader(path)
+    check_readable(path, "a recording (UFF, TDMS, WAV, CSV, LVM or MAT)")
+    found, starts = reader(path)
+    if channels is not None:
+        names = [c.name for c in found]
+        def name(key: str) -> str:  # positions refer to the file's channels
+            return names[match_channel(key, names, str(path))]
+
+        chosen = {match_channel(key, names, str(path)): dof for key, dof in channels.items()}
+        found = [replace(found[k], dof=dof) for k, dof in chosen.items()]
+        scale = None if scale is None else {name(k): v for k, v in scale.items()}
+        units = None if units is None else {name(k): v for k, v in units.items()}
+        force_channel = None if force_channel is None else name(force_channel)
     if suffix == ".wav":
-        _require_wav_settings(path, channels, scale, units)
+        _require_wav_settings(path, found, scale, units)
     source = Provenance(path=str(path), sha256=sha256_file(path))
-    return assemble_recording(channels, where=str(path), force_channel=force_channel,
+    return assemble_recording(found, where=str(path), force_channel=force_channel,
                               scale=scale, units=units, segment_starts=starts, source=source)
+
+
+def recording_channels(path: str | os.PathLike[str]) -> list[tuple[str, str, str]]:
+    """The channels of a recording as the file holds them: (name, unit label, DOF
+    label), ``""`` where the file does not say (WAV units, CSV columns without one,
+    DOFs of anything but UFF); for a channel-sheet template (``init --recordings``).
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> p = pathlib.Path(tempfile.mkdtemp()) / "hit.csv"
+    >>> _ = p.write_text("time_s,force [N],acc\\n0,0,0\\n0.001,1,0\\n")
+    >>> recording_channels(p)
+    [('force', 'N', ''), ('acc', '', '')]
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    readers = {".tdms": _read_tdms, ".wav": _read_wav, ".csv": _read_csv, ".lvm": _read_lvm,
+               ".mat": _read_mat}
+    reader = _read_uff if suffix in UFF_SUFFIXES else readers.get(suffix)
+    if reader is None:
+        raise DataError(f"{path}: unknown recording format {suffix or '(no suffix)'!r}; "
+                        f"expected one of {', '.join(sorted(RECORDING_SUFFIXES))}")
+    check_readable(path, "a recording (UFF, TDMS, WAV, CSV, LVM or MAT)")
+    found, _ = reader(path)
+    return [(c.name, c.unit.label if c.unit is not None and c.unit.label else c.unit_label,
+             c.dof.label() if c.dof is not None else "") for c in found]
 
 
 #: Suffixes that are recordings whatever their content (a CSV is one when its header
 #: starts with a time column; a UFF when its first dataset 58 is a time record).
-RECORDING_ONLY_SUFFIXES = {".tdms", ".wav"}
+RECORDING_ONLY_SUFFIXES = {".tdms", ".wav", ".lvm", ".mat"}
 _SNIFF_BYTES = 1 << 16
 
 
@@ -469,14 +521,17 @@ def wav_layout(path: str | os.PathLike[str]) -> tuple[int, int, int, int]:
 def _require_wav_settings(path: Path, channels: list[ChannelData],
                           scale: Mapping[str, float] | None,
                           units: Mapping[str, str] | None) -> None:
-    """Every WAV channel needs a unit and a scale (keys: name or position)."""
+    """Every WAV channel needs a unit, and an integer one a scale (keys: name or
+    position); float samples are taken as stored, in the unit."""
     names = [c.name for c in channels]
     for what, given in (("units", units), ("scale", scale)):
         covered = {match_channel(key, names, str(path), what) for key in (given or {})}
-        missing = [n for k, n in enumerate(names) if k not in covered]
+        missing = [n for k, n in enumerate(names) if k not in covered
+                   and not (what == "scale" and channels[k].full_scale is None)]
         if missing:
             raise DataError(f"{path}: a WAV file holds no units: give {what} for channel(s) "
-                            f"{', '.join(missing)} (e.g. units 0=N 1=g, scale 0=500 1=50)")
+                            f"{', '.join(missing)} (e.g. --unit 0=N --unit 1=g --scale 0=500 "
+                            "--scale 1=50)")
 
 
 def _read_wav(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
@@ -543,10 +598,18 @@ def _read_csv(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
     body = [ln for ln in lines[first + 1:] if ln.strip()]
     if len(body) < 2:
         raise DataError(f"{path}: CSV file has fewer than 2 data rows")
+    n_cols = len(fields)
+    for k, ln in enumerate(body):  # our own words for a short row (a file cut short)
+        cells = ln.split(delim) if delim else ln.split()
+        if len(cells) != n_cols:
+            what = ("truncated CSV file: its last row" if k == len(body) - 1
+                    else f"CSV data row {k + 1}")
+            raise DataError(f"{path}: {what} has {len(cells)} of the header's {n_cols} "
+                            f"columns ({ln[:60]!r}); was the file cut short?")
     try:
         values = np.loadtxt(body, delimiter=delim, ndmin=2, dtype=float)
     except ValueError as exc:
-        raise DataError(f"{path}: unparsable or truncated CSV data ({exc})") from None
+        raise DataError(f"{path}: unparsable CSV data ({exc})") from None
     if values.shape[1] != len(fields):
         raise DataError(f"{path}: {values.shape[1]} data columns but {len(fields)} in the "
                         "header")
@@ -580,4 +643,132 @@ def _read_csv(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
             name, label = field, ""
         channels.append(ChannelData(name=name or f"column {k + 1}", data=values[:, k],
                                     sample_rate_hz=rate, unit_label=label or ""))
+    return channels, (0,)
+
+
+# ------------------------------------------------------------------- LVM, MAT
+def _read_lvm(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
+    """LabVIEW measurement files (lvm_read): every segment's channels, names and
+    units from the header (``Channel names``, ``Y_Unit_Label``), the sample rate from
+    ``Delta_X``; several segments are pre-cut records (``segment_starts``)."""
+    try:
+        import lvm_read  # type: ignore[import-untyped]
+    except ImportError:
+        raise DataError(f"{path}: reading LabVIEW .lvm files needs lvm_read "
+                        "(pip install lvm-read)") from None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            doc = lvm_read.read(str(path), read_from_pickle=False, dump_file=False)
+    except Exception as exc:  # lvm_read raises anything on a damaged file
+        raise DataError(f"{path}: not a readable LabVIEW LVM file ({type(exc).__name__}: "
+                        f"{exc})") from None
+    segments = [doc[k] for k in sorted(k for k in doc if isinstance(k, int))]
+    if not segments:
+        raise DataError(f"{path}: LVM file without data segments")
+    x_columns = str(doc.get("X_Columns", "No"))
+    if x_columns not in ("No", "One"):
+        raise DataError(f"{path}: LVM with X_Columns = {x_columns!r} (a time column per "
+                        "channel) is not read; save it with one or no X column")
+    parts: list[list[ChannelData]] = []
+    for seg in segments:
+        n_ch = int(seg.get("Channels", 0))
+        data = np.asarray(seg.get("data"), dtype=float)
+        if data.ndim != 2 or data.shape[1] < n_ch or n_ch < 1:
+            raise DataError(f"{path}: LVM segment of shape {data.shape} for {n_ch} channels")
+        data = data[:, data.shape[1] - n_ch:]  # after the X column, if any
+        names = [str(n) for n in seg.get("Channel names", [])][:n_ch]
+        labels = [str(u) for u in seg.get("Y_Unit_Label", [])][:n_ch]
+        steps = list(seg.get("Delta_X", []))[:n_ch]
+        if len(names) < n_ch or len(steps) < n_ch:
+            raise DataError(f"{path}: LVM header lists fewer channel names or Delta_X than "
+                            f"its {n_ch} channels")
+        part = []
+        for k in range(n_ch):
+            step = float(steps[k])
+            rate = check_sample_rate(1.0 / step if step > 0 else float("nan"), str(path),
+                                     f"channel {names[k]!r} Delta_X", step_s=step)
+            part.append(ChannelData(name=names[k], data=data[:, k], sample_rate_hz=nice_rate(rate),
+                                    unit_label=labels[k] if k < len(labels) else ""))
+        parts.append(part)
+    return _join_segments(path, parts)
+
+
+def _join_segments(path: Path, parts: list[list[ChannelData]]
+                   ) -> tuple[list[ChannelData], tuple[int, ...]]:
+    """Segments with the same channels as one list of channels and their starts."""
+    first = parts[0]
+    starts, offset = [], 0
+    for part in parts:
+        if [c.name for c in part] != [c.name for c in first]:
+            raise DataError(f"{path}: segments hold different channels")
+        starts.append(offset)
+        offset += part[0].data.size
+    if len(parts) == 1:
+        return first, (0,)
+    joined = [replace(c, data=np.concatenate([p[k].data for p in parts]))
+              for k, c in enumerate(first)]
+    return joined, tuple(starts)
+
+
+_MAT_TIME_NAMES = ("time", "t", "time_s", "timestamps")
+_MAT_RATE_NAMES = ("fs", "sample_rate", "sample_rate_hz", "samplerate", "sr")
+
+
+def _read_mat(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
+    """MATLAB v5 ``.mat`` files (scipy.io.loadmat): the numeric vectors of equal
+    length among the top-level variables and the fields of structs; a vector named
+    ``time`` / ``t`` gives the sample rate (else a scalar ``fs``); a text ``units``
+    beside them gives the units (``"s, m/s^2"``: the time's, then one for every
+    channel or one each)."""
+    from scipy.io import loadmat
+
+    try:
+        doc = loadmat(str(path), squeeze_me=True, struct_as_record=False)
+    except NotImplementedError:
+        raise DataError(f"{path}: a MATLAB v7.3 file (HDF5); save it with -v7 or read it "
+                        "as HDF5") from None
+    except Exception as exc:  # scipy raises anything on a damaged file
+        raise DataError(f"{path}: not a readable MATLAB .mat file ({type(exc).__name__}: "
+                        f"{exc})") from None
+    tables: list[tuple[str, dict]] = [("", {k: v for k, v in doc.items()
+                                            if not k.startswith("__")})]
+    for name, value in list(tables[0][1].items()):
+        if hasattr(value, "_fieldnames"):
+            tables.append((name, {f: getattr(value, f) for f in value._fieldnames}))
+    best: tuple[str, dict] | None = None
+    for name, table in tables:
+        found = {k: np.asarray(v) for k, v in table.items()
+                   if isinstance(v, np.ndarray) and v.ndim == 1 and v.size >= 2
+                   and np.issubdtype(v.dtype, np.number)}
+        if found and (best is None or len(found) > len(best[1]["__vectors__"])):
+            best = (name, {**table, "__vectors__": found})
+    if best is None:
+        raise DataError(f"{path}: no numeric vectors (channels) in the .mat file")
+    table = best[1]
+    vectors: dict[str, np.ndarray] = table["__vectors__"]
+    time_key = next((k for k in vectors if k.lower() in _MAT_TIME_NAMES), None)
+    lengths = {v.size for k, v in vectors.items() if k != time_key}
+    if len(lengths) != 1:
+        raise DataError(f"{path}: the .mat vectors have different lengths "
+                        f"({', '.join(f'{k} {v.size}' for k, v in vectors.items())})")
+    if time_key is not None:
+        rate = rate_from_time(vectors[time_key], str(path), f"time vector {time_key!r}")
+    else:
+        fs = next((table[k] for k in table if str(k).lower() in _MAT_RATE_NAMES), None)
+        if fs is None or np.ndim(fs) != 0:
+            raise DataError(f"{path}: no time vector (time, t) nor sample rate (fs) in the "
+                            ".mat file")
+        rate = check_sample_rate(float(fs), str(path), "fs")
+    names = [k for k in vectors if k != time_key]
+    units_text = next((str(v) for k, v in table.items() if str(k).lower() == "units"
+                       and isinstance(v, str)), "")
+    units = [u.strip() for u in units_text.split(",")] if units_text else []
+    if time_key is not None and units:
+        units = units[1:]  # the time's first
+    if len(units) == 1:
+        units = units * len(names)
+    labels = units if len(units) == len(names) else [""] * len(names)
+    channels = [ChannelData(name=n, data=vectors[n].astype(float), sample_rate_hz=rate,
+                            unit_label=u) for n, u in zip(names, labels, strict=True)]
     return channels, (0,)

@@ -10,8 +10,14 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from ema_pipeline.data import ConfigError
+from ema_pipeline.data import ConfigError, DataError
+from ema_pipeline.io.channel_sheet import write_channel_sheet
 from ema_pipeline.io.files import write_text
+from ema_pipeline.io.recording import is_recording, recording_channels
+from ema_pipeline.units import parse_unit_label
+
+#: The channel sheet ``init --recordings`` writes beside the experiment file.
+CHANNEL_SHEET_FILE = "channels.csv"
 
 #: The file name ``init`` writes and ``run --raw DIR`` reads.
 EXPERIMENT_FILE = "experiment.toml"
@@ -82,9 +88,81 @@ description = "the structure with the modification"
 """
 
 
-def write_experiment_template(folder: str | os.PathLike[str], *, force: bool = False) -> Path:
+#: What replaces the ``[[configurations]]`` of the template when ``init --recordings``
+#: writes a channel sheet: one roving test from the recordings it names.
+RECORDINGS_TEMPLATE = """\
+[recordings]                   # a roving test: every file of the channel sheet is one point
+channels = "channels.csv"      # file,channel,role,node,direction,scale,unit: complete it
+name = "test"                  # the configuration's name in the report
+# [recordings.frf]             # settings of `ema-pipeline frf` (defaults shown)
+# pretrigger_s = 0.01
+# exp_window_tau = "auto"
+"""
+
+_SHEET_HELP = """\
+Channel sheet written by `ema-pipeline init --recordings`: one row per channel per file.
+Complete node (a whole number >= 1, the geometry's node) and direction (+X .. -Z) of
+every row; check role (force or response, one force per file), unit (after scaling:
+N, kN, g, m/s^2, ...; blank: the file's) and scale (multiplies the stored numbers;
+integer WAV samples are fractions of full scale). channel: the name in the file, or
+its 0-based position. Delete the rows of channels you do not use."""
+
+
+def _role(name: str, unit: str) -> str:
+    try:
+        if parse_unit_label(unit).signal == "force":
+            return "force"
+    except ValueError:
+        pass
+    return "force" if any(w in name.lower() for w in ("force", "hammer")) else "response"
+
+
+def write_channel_template(
+    folder: str | os.PathLike[str], recordings: str | os.PathLike[str], *, force: bool = False
+) -> tuple[Path, int]:
+    """Write ``folder/channels.csv``, a channel-sheet template with one row per
+    channel of every recording under ``recordings`` (found by
+    :func:`ema_pipeline.io.recording.is_recording`, sorted): file (relative to
+    ``folder``), channel name, role (force when in a force unit or named force or
+    hammer; else, when nothing tells, the first channel), the unit the file gives;
+    node and direction blank for the engineer (the DOF of a UFF channel filled in).
+    Returns the path and the number of files. An existing sheet is kept unless
+    ``force``; no recording is a ConfigError."""
+    folder, recordings = Path(folder), Path(recordings)
+    path = folder / CHANNEL_SHEET_FILE
+    if path.exists() and not force:
+        raise ConfigError(f"{path} exists; give --force to overwrite it")
+    if not recordings.is_dir():
+        raise ConfigError(f"{recordings}: --recordings must be a folder of recordings")
+    files = sorted(p for p in recordings.rglob("*") if p.is_file() and not p.name.startswith(".")
+                   and p.resolve() != path.resolve() and is_recording(p))
+    if not files:
+        raise ConfigError(f"{recordings}: no recording found (CSV with a time column, WAV, "
+                          "TDMS, UFF-58 time records)")
+    rows = []
+    for file in files:
+        try:
+            channels = recording_channels(file)
+        except DataError as exc:
+            raise ConfigError(f"--recordings: {exc}") from None
+        rel = Path(os.path.relpath(file.absolute(), folder.absolute())).as_posix()
+        roles = [_role(name, unit) for name, unit, _ in channels]
+        if "force" not in roles:  # nothing tells (WAV): the hammer on the first channel
+            roles[0] = "force"
+        for (name, unit, dof), role in zip(channels, roles, strict=True):
+            node, direction = (dof[:-2], dof[-2:]) if dof else ("", "")
+            rows.append({"file": rel, "channel": name, "role": role,
+                         "node": node, "direction": direction, "scale": "", "unit": unit})
+    folder.mkdir(parents=True, exist_ok=True)
+    return write_channel_sheet(rows, path, _SHEET_HELP), len(files)
+
+
+def write_experiment_template(folder: str | os.PathLike[str], *, force: bool = False,
+                              recordings: bool = False) -> Path:
     """Write ``folder/experiment.toml`` from :data:`EXPERIMENT_TEMPLATE` (the
-    folder is created); an existing file is kept unless ``force``
+    folder is created; ``recordings``: with :data:`RECORDINGS_TEMPLATE`, the channel
+    sheet's test, instead of the two configurations); an existing file is kept unless
+    ``force``
     (:class:`ConfigError` naming it).
 
     Examples
@@ -101,4 +179,10 @@ def write_experiment_template(folder: str | os.PathLike[str], *, force: bool = F
     if Path(folder).exists() and not Path(folder).is_dir():
         raise ConfigError(f"{folder} is not a folder")
     Path(folder).mkdir(parents=True, exist_ok=True)
-    return write_text(EXPERIMENT_TEMPLATE, path)
+    text = EXPERIMENT_TEMPLATE
+    if recordings:  # the channel sheet's test instead of two FRF files
+        start = text.index("[[configurations]]")
+        end = text.index("# A cantilever beam")
+        text = text[:start] + RECORDINGS_TEMPLATE + "\n" + text[end:]
+        text = text.replace('genuine = "reference"', 'genuine = "test"  ')
+    return write_text(text, path)

@@ -14,8 +14,10 @@ from __future__ import annotations
 
 import os
 import time
-from dataclasses import dataclass, replace
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -122,7 +124,7 @@ class ImpactFRF:
     exponential window's ``exp_window_tau_s`` (None: none), the force window
     (s, None: none), the usable band ``force_band_hz`` = (f_10dB, f_20dB) and
     the accepted ``records``, and for a report the ``recording`` (force first,
-    the responses used) and the ``settings``."""
+    the responses used), the ``settings`` and the force channel's ``warnings``."""
 
     frf: FRFSet
     hits: tuple[hitlib.Hit, ...]
@@ -134,6 +136,8 @@ class ImpactFRF:
     records: TimeRecords
     recording: Recording | None = None
     settings: FRFSettings | None = None
+    #: Warnings about the force channel (:func:`ema_pipeline.acquisition.hits.force_warnings`).
+    warnings: list[str] = field(default_factory=list)
 
     @property
     def n_accepted(self) -> int:
@@ -168,8 +172,11 @@ def frf_from_recording(
     *,
     force_channel: str | None = None,
     configuration: str = "",
+    chosen: Sequence[int] | None = None,
 ) -> ImpactFRF:
-    """Find and check the hits of ``recording``, and average the accepted ones.
+    """Find and check the hits of ``recording``, and average the accepted ones
+    (``chosen``: exactly these hit numbers, 1-based, as chosen by hand on the hit
+    page: :mod:`ema_pipeline.io.hit_choice`).
 
     The force is the channel named ``force_channel`` or else the only channel of
     quantity ``force``; the responses are the channels of another quantity (all
@@ -211,11 +218,15 @@ def frf_from_recording(
                              record_length_s=settings.record_length_s)
     hits = hitlib.check_hits(rec, 0, found, exp_window=settings.exp_window_tau is not None,
                              keep_all=settings.keep_all)
+    if chosen is not None:
+        hits = choose_hits(hits, chosen, where)
     accepted = [h.index - 1 for h in hits if h.accepted]
+    warnings = hitlib.force_warnings(hits, rec.channels[0].name)
     if not accepted:
         summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {h.reasons_text()}"
                             for h in hits)
-        raise DataError(f"{where}: every hit rejected ({summary})")
+        hint = "".join(f"; {w}" for w in warnings if "double hits" in w)
+        raise DataError(f"{where}: every hit rejected ({summary}){hint}")
     records = hitlib.cut_records(rec, 0, found, accepted)
     records = replace(records, configuration=configuration)
     fs, n = rec.sample_rate_hz, found.n_samples
@@ -265,7 +276,36 @@ def frf_from_recording(
         records=records,
         recording=rec,
         settings=settings,
+        warnings=warnings,
     )
+
+
+def choose_hits(hits: tuple[hitlib.Hit, ...], chosen: Sequence[int],
+                where: str) -> tuple[hitlib.Hit, ...]:
+    """``hits`` with exactly the hit numbers ``chosen`` accepted (a choice by hand,
+    whatever the checks said; their reasons stay); a number that is no hit, or a hit
+    without a record (``past_end``), is a DataError naming ``where``.
+
+    Examples
+    --------
+    >>> hits = (hitlib.Hit(1, 0.5, 90.0, True, (), 10), hitlib.Hit(2, 2.5, 95.0, False,
+    ...         ("double_hit",), 2000))
+    >>> [h.accepted for h in choose_hits(hits, [2], "rec.csv")]
+    [False, True]
+    """
+    wanted = set(chosen)
+    numbers = {h.index: h for h in hits}
+    missing = sorted(wanted - set(numbers))
+    if missing:
+        raise DataError(f"{where}: the hit choice (--hits) names hit(s) "
+                        f"{', '.join(map(str, missing))}; the recording has {len(hits)}")
+    no_record = sorted(k for k in wanted if numbers[k].record_start < 0)
+    if no_record:
+        raise DataError(f"{where}: the hit choice (--hits) names hit(s) "
+                        f"{', '.join(map(str, no_record))} without a record (past_end)")
+    if not wanted:
+        raise DataError(f"{where}: the hit choice (--hits) accepts no hit")
+    return tuple(replace(h, accepted=h.index in wanted) for h in hits)
 
 
 def concatenate_recordings(recordings: list[Recording]) -> Recording:
@@ -335,8 +375,8 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
     assert rec is not None
     fs, n = rec.sample_rate_hz, result.n_samples
     n_pre = int(round(result.records.trigger_s * fs))
-    if hit.record_start >= 0:
-        a, b = hit.record_start, hit.record_start + n
+    if hit.record_start >= 0:  # a padded front repeats the first sample of the data
+        a, b = hit.record_start - hit.padded, hit.record_start + n - hit.padded
     else:  # past_end: what the data hold of the record, within the hit's segment
         cross = int(np.ceil(hit.time_s * fs))
         seg_starts = np.array(rec.segment_starts + (rec.n_samples,))
@@ -348,16 +388,26 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
     w_exp = (np.ones(m) if tau is None
              else acquisition.exponential_window(m, fs, tau, result.records.trigger_s))
     w_force = np.ones(m) if not fw else acquisition.force_window(m, fs, fw)
-    force = rec.signals[0, a:b]
-    responses = rec.signals[1:, a:b]
+    idx = np.maximum(np.arange(a, b), a + (hit.padded if hit.record_start >= 0 else 0))
+    force = rec.signals[0, idx]
+    responses = rec.signals[1:, idx]
     end, _ = hitlib.tail_level(responses[None], min(n_pre, m - 1))
     j = int(np.argmax(end[0]))
+    spectra = None
+    if hit.record_start >= 0 and m == n:  # the averaged record: its spectra, to choose by hand
+        f_spec = np.fft.rfft(force * w_force * w_exp, n)
+        x_spec = np.fft.rfft(responses[0] * w_exp, n)
+        spectra = (np.abs(f_spec) ** 2, np.conj(f_spec) * x_spec, np.abs(x_spec) ** 2)
     spec = np.abs(np.fft.rfft(force * w_force * w_exp, n))
     db = 20 * np.log10(np.maximum(spec, np.finfo(float).tiny) / max(spec.max(), 1e-300))
     return HitView(
         hit=hit, time_s=np.arange(a, b) / fs, force_n=force, response=responses[j],
-        response_name=rec.channels[1 + j].name, force_window=w_force, exp_window=w_exp,
+        response_name=f"{rec.channels[1 + j].name} [{rec.channels[1 + j].unit}]",
+        force_window=w_force, exp_window=w_exp,
         freq_hz=np.fft.rfftfreq(n, 1.0 / fs), force_db=db, end_level=float(end[0, j]),
+        spectra=spectra,
+        others=tuple((f"{rec.channels[1 + i].name} [{rec.channels[1 + i].unit}]", responses[i])
+                     for i in range(responses.shape[0]) if i != j),
     )
 
 
@@ -451,9 +501,11 @@ def impact_frf(
     scale: dict[str, float] | None = None,
     units: dict[str, str] | None = None,
     configuration: str = "",
+    chosen: Sequence[int] | None = None,
 ) -> ImpactFRF:
     """Read the recordings ``paths`` (segments of one test) and run
-    :func:`frf_from_recording`; nothing is written. The FRFs' source is the
+    :func:`frf_from_recording` (``chosen``: the hits chosen by hand); nothing is
+    written. The FRFs' source is the
     file list (with its sha256 for one file)."""
     from ema_pipeline.io.recording import read_recording
 
@@ -462,9 +514,9 @@ def impact_frf(
     recordings = [read_recording(Path(p), force_channel=force_channel, scale=scale,
                                  units=units) for p in paths]
     recording = concatenate_recordings(recordings)
-    chosen = None if force_channel is None else recording.channels[0].name  # force first
-    result = frf_from_recording(recording, settings, force_channel=chosen,
-                                configuration=configuration)
+    force = None if force_channel is None else recording.channels[0].name  # force first
+    result = frf_from_recording(recording, settings, force_channel=force,
+                                configuration=configuration, chosen=chosen)
     names = [str(p) for p in paths]
     result.frf = replace(result.frf, source=Provenance(
         path=", ".join(names),
@@ -510,6 +562,7 @@ def frf_from_files(
     units: dict[str, str] | None = None,
     configuration: str = "",
     report: bool = False,
+    chosen: Sequence[int] | None = None,
 ) -> ImpactFRF:
     """Read the recordings ``paths`` (segments of one test), run
     :func:`frf_from_recording`, and write the FRFs to ``out`` (``.h5`` or ``.uff``)
@@ -525,7 +578,7 @@ def frf_from_files(
     error none is replaced and no temporary is left."""
     fmt = check_output(out, paths, report=report)
     result = impact_frf(paths, settings, force_channel=force_channel, scale=scale,
-                        units=units, configuration=configuration)
+                        units=units, configuration=configuration, chosen=chosen)
     frf = result.frf
     page = render_hits_html(hits_page_input(result)) if report else None
     with io.replace_together():
@@ -543,9 +596,12 @@ def identify_recording(
     *,
     force: bool = True,
     uff: bool = False,
+    make_frf: Callable[[Path], Any] | None = None,
 ) -> FileOutcome:
     """What ``batch`` does with a raw recording: ``frf`` with the default settings,
-    then ``identify`` on its FRFs. Writes ``<stem>.h5`` (the FRFs),
+    then ``identify`` on its FRFs. ``make_frf(path)``: what makes the FRFs and the hit
+    table instead of :func:`impact_frf` (a channel sheet's test:
+    :func:`ema_pipeline.pipeline.roving.identify_sheet`). Writes ``<stem>.h5`` (the FRFs),
     ``<stem>_hits.csv``, ``<stem>_modes.csv`` and ``<stem>_result.h5`` in
     ``out_dir``; the result records the recording's sha256, so that with
     ``force=False`` a recording already done is skipped. Problems are returned as
@@ -561,7 +617,8 @@ def identify_recording(
             return identify_file(frf_path, out_dir, options, force=False, sha256=sha)
         out_dir.mkdir(parents=True, exist_ok=True)
         check_output(frf_path, [path])
-        result = impact_frf([path], configuration=path.stem)
+        result = (impact_frf([path], configuration=path.stem) if make_frf is None
+                  else make_frf(path))
         with io.replace_together():
             io.write_csv(result.hits_table(), hits_csv_path(frf_path))
             io.write_frf(result.frf, frf_path, "h5")

@@ -53,8 +53,9 @@ from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.identification import identify
 from ema_pipeline.identification.common import single_reference
 from ema_pipeline.identification.resources import check_identification
-from ema_pipeline.io.experiment import experiment_recording_paths
-from ema_pipeline.pipeline.frf import configuration_frf
+from ema_pipeline.io.experiment import experiment_channel_sheet, experiment_recording_paths
+from ema_pipeline.pipeline.frf import FRFSettings, configuration_frf
+from ema_pipeline.pipeline.roving import sheet_frf
 from ema_pipeline.pipeline.simulate import simulate_configuration
 from ema_pipeline.pipeline.single import load_frf, write_result_uff
 from ema_pipeline.report.wording import plural
@@ -133,6 +134,11 @@ def recorded_frf(exp: Experiment, spec: ConfigurationSpec) -> tuple[FRFSet, pd.D
     the force at ``hammer_node``, the responses at ``response_nodes`` in channel
     order (their numbers must agree), in ``direction``.
     """
+    if spec.channels or spec.channel_rows:  # a channel sheet: a roving test
+        sheet = experiment_channel_sheet(exp, spec)
+        settings = FRFSettings(**dict(spec.frf))  # type: ignore[arg-type]
+        roving = sheet_frf(sheet, settings, configuration=spec.name)
+        return roving.frf, roving.hits_table()
     paths = experiment_recording_paths(exp, spec)
     result = configuration_frf(paths, spec.frf, configuration=spec.name)
     frf = result.frf
@@ -141,7 +147,10 @@ def recorded_frf(exp: Experiment, spec: ConfigurationSpec) -> tuple[FRFSet, pd.D
         if frf.n_out != len(exp.response_nodes):
             raise DataError(
                 f"{paths[0]}: {frf.n_out} response channel(s) without DOFs, but [sensors] "
-                f"response_nodes has {len(exp.response_nodes)}; they are placed in channel order"
+                f"response_nodes has {len(exp.response_nodes)} (they are placed in channel "
+                "order); give each channel its node and direction in a channel sheet "
+                "([recordings] channels = \"channels.csv\"; `ema-pipeline init DIR "
+                "--recordings RECORDINGS` writes one)"
             )
         frf = replace(frf, response_dofs=tuple(DOF(n, exp.direction) for n in exp.response_nodes),
                       reference_dofs=(DOF(exp.hammer_node, exp.direction),))

@@ -31,8 +31,8 @@ __all__ = ["REASON_TEXT", "HitView", "HitsPageInput", "render_hits_html"]
 #: What each rejection reason means, as the page says it (rules:
 #: :mod:`ema_pipeline.acquisition.hits`).
 REASON_TEXT = {
-    "past_end": "past_end: the record would run past the end of the data (or start "
-                "before it)",
+    "past_end": "past_end: the record would run past the end of the data (or the hit "
+                "is the data's first sample)",
     "double_hit": "double_hit: a second force pulse in the record (or ripple in the "
                   "force spectrum)",
     "overload": "overload: a channel reaches its full scale or has flat tops (clipped)",
@@ -55,7 +55,9 @@ class HitView:
     record runs past the data), the force window and exponential window over those
     samples (ones: none), the force spectrum (``freq_hz``, ``force_db`` re its
     largest line) and the response level at the record end relative to its peak
-    (``end_level``)."""
+    (``end_level``); ``file``: the recording it is in (a channel sheet's test; ``""``:
+    the page's one recording), with the hit's number within that file ``number``
+    (0: ``hit.index``)."""
 
     hit: Hit
     time_s: np.ndarray
@@ -67,6 +69,13 @@ class HitView:
     freq_hz: np.ndarray
     force_db: np.ndarray
     end_level: float
+    file: str = ""
+    number: int = 0
+    #: (Sff, Sfx, Sxx) of the record on ``freq_hz`` (force x first response), for the
+    #: choice by hand (:mod:`ema_pipeline.report.hit_choice_view`); None: no record.
+    spectra: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    #: The other response channels over the same samples: (name with its unit, data).
+    others: tuple[tuple[str, np.ndarray], ...] = ()
 
 
 @dataclass
@@ -162,17 +171,29 @@ def _response_panel(c: Canvas, left: float, view: HitView) -> None:
 
 
 def hit_figure(view: HitView, band: tuple[float, float]) -> str:
-    """Three panels of one hit: force pulse, force spectrum, response with windows."""
-    c = Canvas(_W, 30 + _PANEL_H + 48, f"hit {view.hit.index}")
+    """Three panels of one hit: force pulse, force spectrum, response with windows;
+    then a row of three panels per three other response channels (``view.others``)."""
+    rows = 1 + (len(view.others) + 2) // 3
+    c = Canvas(_W, rows * (30 + _PANEL_H + 48), f"hit {view.hit.index}")
     _pulse_panel(c, 60, view)
     _spectrum_panel(c, 60 + 240, view, band)
     _response_panel(c, 60 + 480, view)
+    t = view.time_s - view.time_s[0]
+    for k, (name, x) in enumerate(view.others):
+        top = (1 + k // 3) * (30 + _PANEL_H + 48) + 30
+        peak = float(np.abs(x).max()) or 1.0
+        ax = c.axes((60 + 240 * (k % 3), top, _PANEL_W, _PANEL_H),
+                    (0.0, float(t[-1]) or 1.0), (-1.1 * peak, 1.1 * peak))
+        ax.line(t, x, COLORS[3], width=0.6)
+        ax.frame(xlabel="time in record / s", ylabel=name[:24], title="response")
     return c.to_svg()
 
 
 def _hit_table(hits: Sequence[HitView]) -> pd.DataFrame:
+    files = {"file": [v.file for v in hits]} if any(v.file for v in hits) else {}
     return pd.DataFrame({
-        "hit": [v.hit.index for v in hits],
+        **files,
+        "hit": [v.number or v.hit.index for v in hits],
         "time / s": [f"{v.hit.time_s:.4f}" for v in hits],
         "force peak / N": [f"{v.hit.force_peak_n:.4g}" for v in hits],
         "accepted": ["yes" if v.hit.accepted else "no" for v in hits],
@@ -220,6 +241,12 @@ def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
     }
     page.section("summary", "Summary").append(kv_table(summary))
     page.section("hits", "Hit table").append(html_table(_hit_table(p.hits), split=False))
+    if p.hits:
+        from ema_pipeline.report.hit_choice_view import hit_choice_html
+
+        choice = hit_choice_html(p.hits, p.hits[0].freq_hz, p.force_band_hz)
+        if choice:
+            page.section("choose", "Choose the hits").append(choice)
     for v in p.hits:
         cls = "ok" if v.hit.accepted and not v.hit.reasons else "bad"
         body = [f'<p class="status {cls}">{esc(verdict_text(v.hit, p.keep_all))}</p>']
@@ -233,8 +260,8 @@ def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
                         "-20 dB red), response with the exponential window scaled to its "
                         "peak (red dashed) and the force window (green dotted)"
                         "</figcaption></figure>")
-        sec = page.section(f"hit-{v.hit.index}",
-                           f"Hit {v.hit.index} at {v.hit.time_s:.3f} s")
+        where = f"{v.file}, hit {v.number or v.hit.index}" if v.file else f"Hit {v.hit.index}"
+        sec = page.section(f"hit-{v.hit.index}", f"{where} at {v.hit.time_s:.3f} s")
         sec.append(f'<div class="hit" id="hit-body-{v.hit.index}">{"".join(body)}</div>')
     frf_part = [f"<p>Usable band of the averaged force spectrum: {esc(band_text)}.</p>"]
     if figures:

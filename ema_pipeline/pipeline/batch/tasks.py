@@ -15,9 +15,11 @@ from typing import Any
 import numpy as np
 
 from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.io.channel_sheet import is_channel_sheet
 from ema_pipeline.io.recording import is_recording
 from ema_pipeline.pipeline.batch.resume import completed_details
 from ema_pipeline.pipeline.frf import identify_recording
+from ema_pipeline.pipeline.roving import identify_sheet
 from ema_pipeline.pipeline.single import identify_file
 
 __all__ = ["FileRecord", "FileTask", "naming", "process_file"]
@@ -68,7 +70,10 @@ def process_file(task: FileTask) -> FileRecord:
     """Identify one file (in a worker) and return its summary row; never raises."""
     start = time.perf_counter()
     try:
-        if is_recording(task.path):  # raw impact data: frf first (pipeline.frf)
+        if is_channel_sheet(task.path):  # a roving test: frf from its files first
+            outcome = identify_sheet(task.path, task.out_dir, task.options,
+                                     force=task.force, uff=task.uff)
+        elif is_recording(task.path):  # raw impact data: frf first (pipeline.frf)
             outcome = identify_recording(task.path, task.out_dir, task.options,
                                          force=task.force, uff=task.uff)
         else:
