@@ -32,11 +32,18 @@ __all__ = [
     "figure_mode_shapes",
     "figure_shapes_by_dof",
     "figure_stabilization",
+    "sum_abs_frf",
 ]
 
 COLORS = ("#1f4e79", "#c0504d", "#4f8a3c", "#7f6084", "#d08b26", "#3a9ca6", "#8c564b")
 _W = 720  # figure width, CSS px
 _LEFT, _RIGHT = 70, 20
+
+
+def sum_abs_frf(H: np.ndarray) -> np.ndarray:
+    """The sum of |H| over every output and input at each line: the curve drawn
+    under the stabilization diagrams (static and interactive)."""
+    return np.abs(H).sum(axis=(0, 1))
 
 
 def _log_limits(values: np.ndarray, floor_decades: float = 6.0) -> tuple[float, float]:
@@ -145,7 +152,7 @@ def figure_stabilization(
     top = float(orders.max()) + 2 if orders.size else 10.0
     box = (_LEFT, 30, _W - _LEFT - 70, height - 110)
     ax = c.axes(box, (lo, hi), (0.0, top))
-    total = np.abs(band.H).sum(axis=(0, 1))
+    total = sum_abs_frf(band.H)
     tw = c.axes(box, (lo, hi), _log_limits(total, 5), ylog=True)
     tw.line(band.freq_hz, total, "#222", width=0.7, opacity=0.55)
     fl = stab.flags
