@@ -74,7 +74,10 @@ def test_identify_help_lists_every_modes_csv_column(tmp_path: Path, capsys) -> N
     io.write_frf(frf, path, "h5")
     assert main(["identify", str(path), "--out", str(tmp_path / "o"), "--quiet",
                  "--expect", "30", "70"]) == 0
-    written = pd.read_csv(tmp_path / "o" / "two_modes.csv").columns
+    table = pd.read_csv(tmp_path / "o" / "two_modes.csv")
+    written = table.columns
+    # both modes answer a guess: selected as expected
+    assert list(table["selection"]) == ["expected", "expected"]
     with pytest.raises(SystemExit):
         main(["identify", "--help"])
     text = capsys.readouterr().out

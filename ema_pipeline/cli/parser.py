@@ -43,6 +43,8 @@ MODES_CSV_HELP = """
   n_stable_orders   how many orders of the diagram hold it
   doubtful          True when a rule marks it for a second look (kept, never dropped)
   doubtful_reason   which rule fired (empty when not doubtful)
+  selection         how the mode was selected: auto, picked (--picks) or
+                    expected (it answers an --expect guess)
   expect_hz         with --expect: the guess the mode answers (a guess not found
                     gets a row of its own with the other columns empty)
 """

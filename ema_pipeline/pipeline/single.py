@@ -2,7 +2,9 @@
 
 Used by ``ema-pipeline identify`` and by the batch runner. Outputs per input
 file ``<stem>``: ``<stem>_modes.csv`` (one row per mode: ``mode, fn_hz, fd_hz,
-zeta_pct`` and their standard deviations) and ``<stem>_result.h5`` (the FRFs,
+zeta_pct`` and their standard deviations, ..., ``selection``: ``auto``,
+``picked`` (``--picks``) or ``expected`` (a mode answering an ``--expect``
+guess)) and ``<stem>_result.h5`` (the FRFs,
 the full identification result with stabilization data, and the modal table;
 its root attributes ``input_sha256`` and ``complete`` make it a resumable
 record). Both are written atomically; the HDF5 file last, so a complete HDF5
@@ -58,6 +60,8 @@ class FileOutcome:
     modes_csv: Path | None = None
     result_h5: Path | None = None
     frf: FRFSet | None = None  # with identify_file(..., keep=True): what the report draws
+    picks_path: str = ""  # with --picks: the picks file and its content hash
+    picks_sha256: str = ""
     result: IdentificationResult | None = None
 
 
@@ -182,6 +186,10 @@ def identify_file(
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_table(result)
+        table["selection"] = "picked" if picks is not None else "auto"
+        if picks is not None and picks.source:
+            outcome.picks_path = picks.source
+            outcome.picks_sha256 = io.sha256_file(picks.source)
         message = not_kept_message(result.not_kept_hz, result.not_kept_frfs,
                                    frf.n_out * frf.n_in)
         if message:
@@ -194,6 +202,9 @@ def identify_file(
                 f"low-frequency level from {force_band[1]:.5g} Hz")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
             table = with_expected_rows(table, options.expect_hz)
+            answers = table["expect_hz"].notna() & table["mode"].notna()
+            table.loc[answers & (table["selection"] == "auto"), "selection"] = "expected"
+            table["selection"] = table["selection"].fillna("")
             message = not_found_message(options.expect_hz, match_expected(
                 result.fn_hz, options.expect_hz))
             if message:
@@ -207,7 +218,9 @@ def identify_file(
                 "identification": result,
                 "modes": table,
                 "input": {"path": str(path), "sha256": outcome.sha256,
-                          "warnings": tuple(outcome.warnings) or None},
+                          "warnings": tuple(outcome.warnings) or None,
+                          "picks_path": outcome.picks_path or None,
+                          "picks_sha256": outcome.picks_sha256 or None},
             },
             result_h5,
             attrs={"input_sha256": outcome.sha256},

@@ -319,11 +319,14 @@ def render_identify_html(
     figures: bool = True,
     geometry: Geometry | None = None,
     batch_page: str = "",
+    picks: tuple[str, str] | None = None,
 ) -> str:
     """The report of one identified FRF file: the study report's sections that
     apply to a single file (no FE or paper tables); with ``geometry`` the modes
     are animated on it (:mod:`.shape_views`); ``batch_page``: the link (URL) of
-    the batch page this page belongs to (``batch --report``), shown on top."""
+    the batch page this page belongs to (``batch --report``), shown on top;
+    ``picks``: the picks file the modes were fitted from and its sha256, named
+    in the summary and the provenance."""
     name = frf.configuration or frf.source.path or "FRF set"
     fg: dict[str, str] = {}
     if figures:
@@ -337,11 +340,13 @@ def render_identify_html(
     summary = pd.DataFrame(
         {
             "": ["file", "configuration", "modes", "natural frequencies / Hz", "fit quality",
-                 "model"],
+                 "model", *(["modes selected by"] if picks is not None else [])],
             "value": [frf.source.path, frf.configuration, str(m.n_modes),
                       ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)), fit_verdict(error),
                       model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual,
-                                 to_usable_top=ends_at_usable_top(frf, st.band_hz))],
+                                 to_usable_top=ends_at_usable_top(frf, st.band_hz)),
+                      *([f"hand, picks file {picks[0]} (sha256 {picks[1]})"]
+                        if picks is not None else [])],
         }
     )
     up = (f'<p><a class="batch-page" href="{esc(batch_page)}">Back to the batch report</a>'
@@ -375,6 +380,8 @@ def render_identify_html(
     sec.append(html_table(fit_table({name: result}, {name: frf}), titles=COLUMN_TITLES))
     sec.append(no + figure("fit_one", fg, "LSFD fit"))
     inputs = [("FRF file", frf.source.path, frf.source.sha256)]
+    if picks is not None:
+        inputs.append(("picks file", picks[0], picks[1]))
     page.section("provenance", "Provenance").append(
         provenance(inputs, dict(settings or {}), version, generated)
     )
