@@ -105,8 +105,14 @@ def test_study_report_content_a_test_engineer_checks(study, example_dir):
     assert rows["coherence"] == ["not in the file", "in the file", "not in the file"]
     assert "no coherence in this file" in html and 'id="fig-frf_larger_tank"' in html
     # mode table: MPC and stable orders per mode; AutoMAC with a unit diagonal
-    joined = "".join(page.text)  # headers may break after "_" (<wbr>)
-    assert "mpc" in joined and "stable_orders" in joined and "sigma_1_s" in joined
+    joined = "".join(page.text)
+    assert "MPC" in joined and "stable orders" in joined and "decay rate σ (1/s)" in joined
+    # headers in words with units, never identifiers; no code names in the text
+    headers = [h for t in page.tables if t for h in t[0]]
+    assert "f (Hz)" in headers and "ζ (%)" in headers and "fit error (%)" in headers
+    snake = [h for h in headers if re.fullmatch(r"[a-z0-9]+(_[a-z0-9]+)+", h)]
+    assert not snake, snake
+    assert not re.search(r"ema_pipeline\.|report\.wording|FIT_LIMITS|modal\.mac", text)
     assert "AutoMAC - genuine" in text
     diag = re.findall(r"color:#fff\">(1\.000)</td>", html)
     assert len(diag) >= 12  # 3 configurations x 4 modes
@@ -123,7 +129,8 @@ def test_study_report_content_a_test_engineer_checks(study, example_dir):
 
 def test_mode_table_decimals_follow_the_uncertainty(study, example_dir):
     page = _parse(study / "report.html")
-    head = ["mode", "fn_hz", "fd_hz", "zeta_pct", "sigma_1_s", "mpc", "stable_orders"]
+    head = ["mode", "f (Hz)", "damped f (Hz)", "ζ (%)", "decay rate σ (1/s)", "MPC",
+            "stable orders"]
     tables = [t for t in page.tables if t and t[0][:7] == head]
     assert len(tables) == 3
     frf = io.read_frf(example_dir / "genuine.uff")
@@ -155,7 +162,8 @@ def test_no_figures(example_study_uff_no_figures):
     res = example_study_uff_no_figures  # run --no-figures (and --uff, for test_uff_export_cli)
     assert not (res / "figures").exists()
     page = _parse(res / "report.html")
-    assert page.svgs == 0 and page.sections == SECTIONS
+    # no empty "Mode shapes" section: without figures it would hold nothing
+    assert page.svgs == 0 and page.sections == [s for s in SECTIONS if s != "shapes"]
     assert "Figures not drawn (--no-figures)" in " ".join(page.text)
 
 
@@ -199,6 +207,7 @@ def test_identify_report_per_file(tmp_path, example_dir):
                                  "shapes", "fit", "provenance"]
         html = page_path.read_text(encoding="utf-8")
         assert hashlib.sha256(path.read_bytes()).hexdigest() in html
+        assert "measured channel only" not in html
         assert "2000 Hz" in html and "AutoMAC" in html and page.svgs == 4
         assert page_path.stat().st_size < 150_000
     assert "no coherence in this file" in (tmp_path / "genuine_report.html").read_text()
@@ -295,3 +304,24 @@ def test_simulate_format_follows_the_suffix(tmp_path, capsys, args, code, fmt):
     else:
         assert io.frf_format(out) == fmt
         assert io.read_frf(out).H.shape == (2, 1, 8193)
+
+
+def test_one_channel_report_has_no_shapes_and_no_automac(tmp_path, pyfrf_uff):
+    """pyFRF's real recording (one hammer, one accelerometer): ``frf`` then
+    ``identify --report``: the modes and the fit, no AutoMAC and no shape
+    figure, and a sentence saying why."""
+    h5 = tmp_path / "real.h5"
+    assert main(["frf", str(pyfrf_uff), "--out", str(h5), "--quiet"]) == 0
+    assert main(["identify", str(h5), "--out", str(tmp_path / "id"), "--report",
+                 "--quiet"]) == 0
+    n_modes = len(pd.read_csv(tmp_path / "id" / "real_modes.csv"))
+    assert n_modes >= 2
+    page_path = tmp_path / "id" / "real_report.html"
+    page = _parse(page_path)
+    assert page.sections == ["summary", "setup", "frf", "stabilization", "modes", "fit",
+                             "provenance"]
+    text = " ".join(page.text)
+    assert "1 measured channel only (one response, one reference)" in text
+    html = page_path.read_text(encoding="utf-8")
+    assert "AutoMAC -" not in html and "fig-shapes_one" not in html
+    assert page.svgs == 3  # FRF, stabilization, fit

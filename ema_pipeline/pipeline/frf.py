@@ -358,6 +358,7 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
         hit=hit, time_s=np.arange(a, b) / fs, force_n=force, response=responses[j],
         response_name=rec.channels[1 + j].name, force_window=w_force, exp_window=w_exp,
         freq_hz=np.fft.rfftfreq(n, 1.0 / fs), force_db=db, end_level=float(end[0, j]),
+        response_unit=rec.channels[1 + j].unit,
     )
 
 

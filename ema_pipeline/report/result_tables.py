@@ -42,6 +42,7 @@ __all__ = [
     "report_tables",
     "setup_table",
     "stable_order_range",
+    "label_as_tested",
 ]
 
 
@@ -116,6 +117,21 @@ COLUMN_TITLES = {
 }
 
 
+def label_as_tested(dof: DOF, negative: str) -> str:
+    """The DOF's label with the direction as tested (the file's sign): ``3-Z``
+    when the file gave ``3-Z`` (listed in ``negative``, the acquisition's
+    ``response_negative`` or ``reference_negative``) and the reader flipped it
+    to ``3+Z``; one sign convention for every table of the report.
+
+    Examples
+    --------
+    >>> label_as_tested(DOF(3, 3), "3-Z"), label_as_tested(DOF(3, 3), "")
+    ('3-Z', '3+Z')
+    """
+    tested = DOF(dof.node, -dof.direction)
+    return tested.label() if tested.label() in set(negative.split()) else dof.label()
+
+
 def fit_table(identification: Mapping[str, Any], frfs: Mapping[str, FRFSet]) -> pd.DataFrame:
     """Fit quality per configuration and FRF: FRAC and normalised error (per cent)
     of the synthesis, rows labelled with the DOFs of ``frfs`` when present."""
@@ -127,8 +143,12 @@ def fit_table(identification: Mapping[str, Any], frfs: Mapping[str, FRFSet]) -> 
                 rows.append(
                     {
                         "configuration": name,
-                        "response": frf.response_dofs[o].label() if frf else str(o + 1),
-                        "reference": frf.reference_dofs[i].label() if frf else str(i + 1),
+                        "response": label_as_tested(frf.response_dofs[o],
+                                                 frf.acquisition.response_negative)
+                        if frf else str(o + 1),
+                        "reference": label_as_tested(frf.reference_dofs[i],
+                                                  frf.acquisition.reference_negative)
+                        if frf else str(i + 1),
                         "frac": float(r.frac[o, i]),
                         "error_pct": 100 * float(r.error[o, i]),
                     }
@@ -144,11 +164,9 @@ def setup_table(frfs: Mapping[str, FRFSet], geometry: BeamSetup | None) -> pd.Da
         return NOT_IN_FILE if v is None else f"{v:{spec}}{unit}"
 
     def positions(dofs: Sequence[Any], negative: str) -> str:
-        flipped = set(negative.split())
         labels = []
         for d in dofs:  # the direction as tested (the file's sign), not as read
-            tested = DOF(d.node, -d.direction)
-            label = tested.label() if tested.label() in flipped else d.label()
+            label = label_as_tested(d, negative)
             if geometry is not None and 1 <= d.node <= geometry.n_elements + 1:
                 label += f" (x = {geometry.node_x_m(d.node):.4g} m)"
             labels.append(label)

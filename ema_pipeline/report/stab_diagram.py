@@ -122,9 +122,9 @@ function draw(){
   l.setAttribute('d','M'+xof(+t).toFixed(1)+' '+d.y0+'v4');l.setAttribute('stroke','#999');
   tg.appendChild(l);});
  var ov=root.querySelector('[data-frf-overlay]'),pts=[];
- if(ov&&d.ff.length){var a=0,b=d.ff.length-1;
-  while(a<b&&d.ff[a+1]<view[0])a++;while(b>a&&d.ff[b-1]>view[1])b--;
-  for(var k=a;k<=b;k++){pts.push((k===a?'M':'L')+xof(d.ff[k]).toFixed(1)+' '+
+ if(ov&&d.fl.length){var n=d.fl.length,
+  a=Math.max(0,Math.floor((view[0]-d.f0)/d.df)),b=Math.min(n-1,Math.ceil((view[1]-d.f0)/d.df));
+  for(var k=a;k<=b;k++){pts.push((k===a?'M':'L')+xof(d.f0+k*d.df).toFixed(1)+' '+
    (d.y0-(d.fl[k]-d.lmin)/(d.lmax-d.lmin||1)*d.oh).toFixed(1));}
   ov.setAttribute('d',pts.join(''));}
 }
@@ -241,20 +241,23 @@ text();
 _CLASSES = {0: "unstable", 1: "stable frequency", 2: "stable frequency and damping",
             3: "stable frequency, damping and shape"}
 _COLORS = {0: "#b0b0b0", 1: "#d08b26", 2: "#1f77b4", 3: "#2e8b3a"}
-_OVERLAY_POINTS = 3000  # at most this many points of the sum FRF in the page
+_OVERLAY_POINTS = 2000  # at most this many points of the sum FRF in the page
 
 
-def _overlay(freq_hz: np.ndarray, total: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The sum FRF's lines (thinned to the peaks of :data:`_OVERLAY_POINTS`
-    bins when longer) and their log10, zeros dropped."""
-    keep = np.isfinite(total) & (total > 0)
-    f, v = freq_hz[keep], total[keep]
-    if f.size > _OVERLAY_POINTS:
-        edges = np.linspace(0, f.size, _OVERLAY_POINTS + 1).astype(int)
-        idx = np.array([a + int(np.argmax(v[a:b])) for a, b in zip(edges[:-1], edges[1:],
-                                                                   strict=True) if b > a])
-        f, v = f[idx], v[idx]
-    return f, np.log10(v)
+def _overlay(freq_hz: np.ndarray, total: np.ndarray) -> tuple[float, float, np.ndarray]:
+    """The sum FRF as ``(f0_hz, df_hz, log10 values)`` on a uniform grid: the
+    lines themselves, or, above :data:`_OVERLAY_POINTS` lines, the largest value
+    of each run of ``k`` lines at the run's centre (peaks are kept); zeros and
+    NaN become the curve's lowest value."""
+    v = np.where(np.isfinite(total) & (total > 0), total, np.nan)
+    if freq_hz.size < 2 or np.all(np.isnan(v)):
+        return 0.0, 1.0, np.zeros(0)
+    v = np.where(np.isnan(v), np.nanmin(v), v)
+    df = float(freq_hz[1] - freq_hz[0])
+    k = max(1, -(-v.size // _OVERLAY_POINTS))
+    n = v.size // k
+    peaks = v[: n * k].reshape(n, k).max(axis=1)
+    return float(freq_hz[0]) + df * (k - 1) / 2, df * k, np.log10(peaks)
 
 
 def _mode_shapes(result: IdentificationResult, n_modes: int) -> list[list[float]]:
@@ -378,15 +381,14 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
         "s": _join(level[inside], "{:d}"),
     }
     # the sum FRF of the band on a log scale, under the poles
-    f_sum, l_sum = _overlay(sub.freq_hz, sum_abs_frf(sub.H))
-    columns["ff"] = _join(f_sum, "{:.7g}")
-    columns["fl"] = _join(l_sum, "{:.3f}")
+    f0_sum, df_sum, l_sum = _overlay(sub.freq_hz, sum_abs_frf(sub.H))
+    columns["fl"] = _join(l_sum, "{:.2f}")
     shapes = _mode_shapes(result, start.size)
     frame = {"lo": float(lo), "hi": float(hi), "x0": _LEFT, "pw": pw, "y0": _TOP + ph,
              "row": row, "orders": [int(o) for o in orders],
              "lmin": float(l_sum.min()) if l_sum.size else 0.0,
              "lmax": float(l_sum.max()) if l_sum.size else 1.0,
-             "oh": ph - 1.5 * row, "shapes": shapes,
+             "oh": ph - 1.5 * row, "f0": f0_sum, "df": df_sum, "shapes": shapes,
              "dofs": _dof_labels(result, len(shapes[0]) if shapes else 0)}
     data = ("{" + ",".join(f'"{k}":{v}' for k, v in columns.items()) + ","
             + json.dumps(frame)[1:])
