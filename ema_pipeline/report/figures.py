@@ -262,6 +262,12 @@ def figure_shapes_by_dof(
     height = 40 + rows * (ph + 56) + 10
     c = Canvas(_W, height, "Mode shapes at the measured DOFs")
     x = np.arange(1, n_dof + 1, dtype=float)
+    labels = list(dof_labels)
+    if len(labels) != n_dof:  # e.g. a roving hammer: the shapes are at the hammer points
+        labels = [d.label() for d in result.modes.dofs] if len(result.modes.dofs) == n_dof \
+            else [str(k + 1) for k in range(n_dof)]
+    # one label per ~34 px (a label such as "11+Z" is about 28 px wide): never smeared
+    every = max(1, -(-n_dof * 34 // pw))
     for r in range(n_modes):
         left = 50 + (r % cols) * (pw + 50)
         top = 30 + (r // cols) * (ph + 56)
@@ -269,7 +275,7 @@ def figure_shapes_by_dof(
         ax.hline(0.0, "#bbb", width=0.8)
         ax.bars(x, phi[:, r], 0.5, COLORS[0])
         ax.frame(title=f"mode {r + 1}: {float(result.modes.fn_hz[r]):.2f} Hz",
-                 xticks=x.tolist(), xticklabels=list(dof_labels), grid=False)
+                 xticks=x[::every].tolist(), xticklabels=labels[::every], grid=False)
     return c.to_svg(standalone)
 
 
