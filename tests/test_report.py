@@ -325,3 +325,52 @@ def test_one_channel_report_has_no_shapes_and_no_automac(tmp_path, pyfrf_uff):
     html = page_path.read_text(encoding="utf-8")
     assert "AutoMAC -" not in html and "fig-shapes_one" not in html
     assert page.svgs == 3  # FRF, stabilization, fit
+
+
+def test_fit_verdict_against_the_noise_on_a_simulated_test(tmp_path):
+    """tests/test_picks.py's simulated plate (3 modes, 4 responses, complex white
+    noise of 0.1 % of the largest |H| per part): the noise estimate matches the
+    known noise within 10 %, the complete fit is at the noise level, and with the
+    97 Hz mode left out (picks of the other two) the page says a mode may be missing."""
+    from test_picks import simulated
+
+    from ema_pipeline.identification.picks import Picks, picks_from_result
+    from ema_pipeline.report.fit_noise import noise_error
+
+    frf = simulated()
+    result = identify(frf)
+    band = frf.band(*result.settings.band_hz)
+    sigma2 = 2 * (1e-3 * np.abs(frf.H).max()) ** 2  # per line, both parts
+    truth = np.sqrt(sigma2 * band.freq_hz.size / np.sum(np.abs(band.H) ** 2, axis=-1))
+    estimate = noise_error(band.H, result.H_fit)
+    np.testing.assert_allclose(estimate, truth, rtol=0.1)
+    assert float(np.mean(result.error)) / float(np.mean(estimate)) < 1.2
+    page = render_identify_html(frf, result, figures=False)
+    assert "fit at the noise level (error 1.3 %, noise alone 1.3 %)" in page
+    picks = picks_from_result(result)
+    two = Picks(band_hz=picks.band_hz, orders=picks.orders, weighting=picks.weighting,
+                picks=tuple(p for p in picks.picks if abs(p.freq_hz - 97.0) > 2.0))
+    missing = identify(frf, picks=two)
+    assert missing.modes.n_modes == 2
+    ratio = float(np.mean(missing.error)) / float(np.mean(noise_error(band.H, missing.H_fit)))
+    assert ratio > 10
+    page = render_identify_html(frf, missing, figures=False)
+    assert re.search(r"fit error \d+\.\d times the noise \(error \d+\.\d %, noise alone "
+                     r"\d+\.\d %\): a mode may be missing or wrong", page)
+
+
+def test_measured_beam_fit_is_at_the_noise_level(real_uff, tmp_path):
+    """The measured beam (30 FRFs, 3 averages, no coherence in the file): its
+    fit error (32.7 % over 5-1024 Hz; sdypy-EMA's synthesis with the 12
+    published modes has 33.5 % over its band, issue 41) is the data's
+    line-to-line scatter, not a missing mode: the page does not call it poor."""
+    assert main(["identify", str(real_uff), "--out", str(tmp_path), "--report",
+                 "--no-figures", "--quiet"]) == 0
+    text = " ".join(_parse(tmp_path / f"{real_uff.stem}_report.html").text)
+    found = re.search(r"fit at the noise level \(error (\d+\.\d) %, noise alone (\d+\.\d) %\)",
+                      text)
+    assert found, re.findall(r"fit[^.]*%[^.]*", text)[:2]
+    error, noise = (float(v) for v in found.groups())
+    assert error == pytest.approx(32.7, abs=0.3)
+    assert 0.67 * error <= noise <= 1.0 * error + 5
+    assert "poor fit" not in text

@@ -18,6 +18,7 @@ from ema_pipeline.data import FRFSet, Geometry
 from ema_pipeline.identification.common import ends_at_usable_top
 from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.report import figures as figs
+from ema_pipeline.report.fit_noise import noise_error
 from ema_pipeline.report.htmlparts import (
     Page,
     esc,
@@ -50,6 +51,8 @@ from ema_pipeline.report.trends import PAIRING, pair_modes
 from ema_pipeline.report.wording import (
     fit_grade,
     fit_limits_text,
+    fit_noise_text,
+    fit_noise_verdict,
     fit_verdict,
     model_text,
     plural,
@@ -378,12 +381,15 @@ def render_identify_html(
     page = Page(f"Modal identification: {frf.source.path or name}")
     m, st = result.modes, result.settings
     error = float(np.mean(result.error))
+    noise = noise_error(frf.band(*st.band_hz).H, np.asarray(result.H_fit))
+    noise_mean = float(np.mean(noise)) if np.all(np.isfinite(noise)) else float("nan")
     summary = pd.DataFrame(
         {
             "": ["file", "configuration", "modes", "natural frequencies / Hz", "fit quality",
                  "model", *(["modes selected by"] if picks is not None else [])],
             "value": [frf.source.path, frf.configuration, str(m.n_modes),
-                      ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)), fit_verdict(error),
+                      ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)),
+                      fit_noise_verdict(error, noise_mean),
                       model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual,
                                  to_usable_top=ends_at_usable_top(frf, st.band_hz)),
                       *([f"hand, picks file {picks[0]} (sha256 {picks[1]})"]
@@ -394,7 +400,8 @@ def render_identify_html(
           "</p>" if batch_page else "")
     page.section("summary", "Summary").append(
         up + html_table(summary, split=False)
-        + _limits_note()
+        + (f'<p class="muted">{esc(fit_noise_text())}.</p>' if np.isfinite(noise_mean)
+           else _limits_note())
     )
     page.section("setup", "Test setup").append(
         html_table(setup_table({name: frf}, None), split=False)
