@@ -196,3 +196,21 @@ def test_diagram_zoom_overlay_preview_ticks_legend(browser, automatic, real_uff)
               for e in root.find_elements(By.CSS_SELECTOR, "[data-legend]")
               if e.get_attribute("data-legend").isdigit()}
     assert listed == drawn
+
+
+def test_beam_page_speaks_words(browser, automatic, real_uff):
+    """The measured beam's identify page as the browser shows it: table headers in
+    words (no snake_case), no code names in the text, the doubtful rules in words."""
+    import re
+
+    from selenium.webdriver.common.by import By
+
+    browser.get((automatic / f"{real_uff.stem}_report.html").as_uri())
+    headers = [h.text for h in browser.find_elements(By.CSS_SELECTOR, "th") if h.text]
+    assert "f (Hz)" in headers and "ζ (%)" in headers and "fit error (%)" in headers
+    assert not [h for h in headers if re.fullmatch(r"[a-z0-9]+(_[a-z0-9]+)+", h)], headers
+    shown = browser.find_element(By.TAG_NAME, "body").text
+    assert not re.search(r"ema_pipeline\.|report\.wording|FIT_LIMITS|modal\.mac|"
+                         r"identification\.result", shown)
+    cells = [c.text for c in browser.find_elements(By.CSS_SELECTOR, "#modes td")]
+    assert not [c for c in cells if re.fullmatch(r"[a-z]+(_[a-z]+)+", c)], cells

@@ -94,8 +94,12 @@ def mode_table(result: IdentificationResult) -> pd.DataFrame:
 
 
 def mode_table_html(result: IdentificationResult) -> str:
-    """The modal table as HTML (``value ± std`` cells, consistent decimals)."""
-    return html_table(mode_table(result), titles=COLUMN_TITLES)
+    """The modal table as HTML (``value ± std`` cells, consistent decimals; the
+    doubtful rules in words: ``loose damping``, not ``loose_damping``)."""
+    table = mode_table(result)
+    if "doubtful_reason" in table:
+        table["doubtful_reason"] = [str(v).replace("_", " ") for v in table["doubtful_reason"]]
+    return html_table(table, titles=COLUMN_TITLES)
 
 
 #: Tooltips of the mode and fit table columns (HTML ``title`` of the header).
