@@ -34,6 +34,7 @@ from ema_pipeline.report.result_tables import (
     COLUMN_TITLES,
     cross_mac_html,
     fit_table,
+    label_as_tested,
     mac_section,
     mode_table,
     mode_table_html,
@@ -376,7 +377,8 @@ def render_identify_html(
         identification_figures("one", frf, result, fg, name)
     if figures and not few:
         fg["shapes_one"] = figs.figure_shapes_by_dof(
-            result, [d.label() for d in frf.response_dofs]
+            result, [label_as_tested(d, frf.acquisition.response_negative)
+                     for d in frf.response_dofs]
         )
     page = Page(f"Modal identification: {frf.source.path or name}")
     m, st = result.modes, result.settings

@@ -50,6 +50,7 @@ from ema_pipeline.identification.result import IdentificationResult
 from ema_pipeline.identification.stabilization import STABLE_ALL, STABLE_DAMP, STABLE_FREQ
 from ema_pipeline.report.figures import sum_abs_frf
 from ema_pipeline.report.htmlparts import esc
+from ema_pipeline.report.result_tables import label_as_tested
 
 __all__ = ["stab_diagram_html"]
 
@@ -271,11 +272,13 @@ def _mode_shapes(result: IdentificationResult, n_modes: int) -> list[list[float]
     return [[round(float(v), 3) for v in phi[:, k]] for k in range(n_modes)]
 
 
-def _dof_labels(result: IdentificationResult, n_dof: int) -> list[str]:
-    """The labels of the shapes' DOFs (their numbers when the result has none)."""
+def _dof_labels(result: IdentificationResult, n_dof: int, negative: str) -> list[str]:
+    """The labels of the shapes' DOFs with the sign as tested (``negative``: the
+    acquisition's ``response_negative``, as the setup table), their numbers
+    when the result has none."""
     dofs = tuple(result.modes.dofs)
     if len(dofs) == n_dof:
-        return [d.label() for d in dofs]
+        return [label_as_tested(d, negative) for d in dofs]
     return [str(k + 1) for k in range(n_dof)]
 
 
@@ -389,7 +392,8 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
              "lmin": float(l_sum.min()) if l_sum.size else 0.0,
              "lmax": float(l_sum.max()) if l_sum.size else 1.0,
              "oh": ph - 1.5 * row, "f0": f0_sum, "df": df_sum, "shapes": shapes,
-             "dofs": _dof_labels(result, len(shapes[0]) if shapes else 0)}
+             "dofs": _dof_labels(result, len(shapes[0]) if shapes else 0,
+                                 frf.acquisition.response_negative)}
     data = ("{" + ",".join(f'"{k}":{v}' for k, v in columns.items()) + ","
             + json.dumps(frame)[1:])
     parts.append(f'<g class="diagram-poles" clip-path="url(#{esc(picks_id)}-clip)"></g>')
