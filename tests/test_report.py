@@ -374,3 +374,6 @@ def test_measured_beam_fit_is_at_the_noise_level(real_uff, tmp_path):
     assert error == pytest.approx(32.7, abs=0.3)
     assert 0.67 * error <= noise <= 1.0 * error + 5
     assert "poor fit" not in text
+    # one sign convention: the fixed sensor is 3-Z in the setup and in the fit table
+    html = (tmp_path / f"{real_uff.stem}_report.html").read_text(encoding="utf-8")
+    assert html.count("3-Z") >= 31 and "3+Z" not in html
