@@ -189,6 +189,8 @@ def test_diagram_zoom_overlay_preview_ticks_legend(browser, automatic, real_uff)
     assert f"{modes['fn_hz'][k]:.3f} Hz" in preview.text and "MPC" in preview.text
     bars = preview.find_elements(By.CSS_SELECTOR, "svg[data-shape] rect")
     assert len(bars) == 30  # one bar per measured DOF of the beam
+    # --no-figures: no animated views on the page, so no button to show one
+    assert not preview.find_elements(By.CSS_SELECTOR, "[data-show-shape]")
     # the legend: only the stability classes that are drawn
     drawn = {int(c.get_attribute("class").split(" s")[1][0])
              for c in root.find_elements(By.CSS_SELECTOR, "circle.pole")}

@@ -27,7 +27,8 @@ lists only the stability classes drawn.
 Hovering a pole shows f, zeta, MPC and its order (in the line under the
 diagram and as the pole's tooltip); clicking it also fills ``[data-pole-preview]``
 with these values and, for a kept mode, its real-normalised shape by DOF
-(``svg[data-shape]``). Clicking a pole toggles
+(``svg[data-shape]``) and, where the page animates the shapes on a geometry,
+a button (``[data-show-shape]``) that brings that mode's view into sight. Clicking a pole toggles
 it; a mode has one pole, so clicking another pole of the same trajectory
 moves the pick there. The element ``#picks`` always holds the picks file
 (TOML, :class:`ema_pipeline.identification.picks.Picks`) of the current
@@ -207,6 +208,14 @@ function showPreview(p){
    (x+bw/2).toFixed(1));t.setAttribute('y',H-2);t.setAttribute('text-anchor','middle');
    t.setAttribute('font-size','9');t.textContent=d.dofs[k];s.appendChild(t);}});
  preview.appendChild(s);
+ var view=document.querySelector('[data-mode-shape="'+p.dataset.mode+'"]');
+ if(view){var b=document.createElement('button');b.type='button';
+  b.setAttribute('data-show-shape',p.dataset.mode);
+  b.textContent='Show its shape on the geometry';
+  b.addEventListener('click',function(){view.scrollIntoView({block:'center'});
+   view.style.outline='3px solid #c00000';
+   setTimeout(function(){view.style.outline='';},2500);});
+  preview.appendChild(b);}
 }
 poles().forEach(function(p){
  p.addEventListener('mouseover',function(){info.textContent=describe(p);
