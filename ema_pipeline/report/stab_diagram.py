@@ -208,7 +208,8 @@ function showPreview(p){
    (x+bw/2).toFixed(1));t.setAttribute('y',H-2);t.setAttribute('text-anchor','middle');
    t.setAttribute('font-size','9');t.textContent=d.dofs[k];s.appendChild(t);}});
  preview.appendChild(s);
- var view=document.querySelector('[data-mode-shape="'+p.dataset.mode+'"]');
+ var view=Array.prototype.find.call(document.querySelectorAll('figure.shape-view'),
+  function(v){return v.dataset.modeShape===p.dataset.mode;});
  if(view){var b=document.createElement('button');b.type='button';
   b.setAttribute('data-show-shape',p.dataset.mode);
   b.textContent='Show its shape on the geometry';
