@@ -126,7 +126,8 @@ function draw(){
  var ov=root.querySelector('[data-frf-overlay]'),pts=[];
  if(ov&&d.fl.length){var n=d.fl.length,
   a=Math.max(0,Math.floor((view[0]-d.f0)/d.df)),b=Math.min(n-1,Math.ceil((view[1]-d.f0)/d.df));
-  for(var k=a;k<=b;k++){pts.push((k===a?'M':'L')+xof(d.f0+k*d.df).toFixed(1)+' '+
+  for(var k=a;k<=b;k++){pts.push((k===a?'M':'L')+
+   Math.min(d.x0+d.pw,Math.max(d.x0,xof(d.f0+k*d.df))).toFixed(1)+' '+
    (d.y0-(d.fl[k]-d.lmin)/(d.lmax-d.lmin||1)*d.oh).toFixed(1));}
   ov.setAttribute('d',pts.join(''));}
 }
@@ -368,12 +369,9 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
                             & (stab.freq_hz >= lo) & (stab.freq_hz <= hi))
     parts = [f'<svg class="stab" viewBox="0 0 {_W:g} {_H:g}" role="img" '
              'aria-label="Interactive stabilization diagram">',
-             f'<defs><clipPath id="{esc(picks_id)}-clip"><rect x="{_LEFT}" y="{_TOP}" '
-             f'width="{pw}" height="{ph}"/></clipPath></defs>',
              f'<rect x="{_LEFT}" y="{_TOP}" width="{pw}" height="{ph}" fill="none" '
              'stroke="#999"/>',
-             f'<path class="frf-overlay" data-frf-overlay="" '
-             f'clip-path="url(#{esc(picks_id)}-clip)" d=""/>',
+             '<path class="frf-overlay" data-frf-overlay="" d=""/>',
              '<g class="ticks"></g>']
     parts.append(f'<text x="{_LEFT + pw / 2}" y="{_H - 4}" text-anchor="middle">'
                  "natural frequency (Hz)</text>")
@@ -406,7 +404,7 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
                                  frf.acquisition.response_negative)}
     data = ("{" + ",".join(f'"{k}":{v}' for k, v in columns.items()) + ","
             + json.dumps(frame)[1:])
-    parts.append(f'<g class="diagram-poles" clip-path="url(#{esc(picks_id)}-clip)"></g>')
+    parts.append('<g class="diagram-poles"></g>')
     groups = _mode_groups(result, f_mode)
     fn_fit = np.asarray(result.modes.fn_hz, dtype=float)
     zeta_fit = np.asarray(result.modes.zeta, dtype=float)
