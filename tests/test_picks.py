@@ -75,6 +75,17 @@ def test_untouched_page_picks_reproduce_the_automatic_result(case, tmp_path):
     # the report marks them as picked
     page = (tmp_path / "p" / "plate_report.html").read_text(encoding="utf-8")
     assert page.count(">picked<") == len(after)
+    # the selection leaves a trace: a selection column, the picks file and its
+    # sha256 in the report and in the HDF5 result (the automatic run says auto)
+    assert list(after["found_by"]) == ["picked"] * len(after)
+    assert set(before["found_by"]) <= {"diagram", "other_order", "window", "alternate",
+                                       "partner", "residual"}
+    digest = io.sha256_file(picks)
+    assert len(digest) == 64 and digest in page and html.escape(str(picks)) in page
+    stored = io.read_results_h5(tmp_path / "p" / "plate_result.h5")["input"]
+    assert stored["picks_sha256"] == digest and stored["picks_path"] == str(picks)
+    assert "picks_sha256" not in io.read_results_h5(auto / "plate_result.h5")["input"] or \
+        io.read_results_h5(auto / "plate_result.h5")["input"]["picks_sha256"] == ""
 
 
 def test_a_pick_that_matches_no_pole_is_an_error_naming_it(case, tmp_path, capsys):

@@ -64,7 +64,7 @@ def test_pick_by_hand_in_the_browser(browser, automatic, real_uff, tmp_path):
 
     ActionChains(browser).move_to_element(selected[0]).perform()
     info = browser.find_element(By.CSS_SELECTOR, ".stabd .info").text
-    assert "Hz" in info and "zeta" in info and "MPC" in info
+    assert "Hz" in info and "ζ" in info and "MPC" in info
     # deselect the kept mode nearest 155 Hz (isolated: far from 274.6 Hz)
     drop = selected[int(np.argmin(np.abs(f_sel - 155.0)))]
     f_drop = float(drop.get_attribute("data-freq-hz"))
@@ -99,3 +99,120 @@ def test_pick_by_hand_in_the_browser(browser, automatic, real_uff, tmp_path):
     # the report marks the picked modes
     picked_page = (out / f"{real_uff.stem}_report.html").read_text(encoding="utf-8")
     assert picked_page.count(">picked<") == got.size
+
+
+def _range(root) -> tuple[float, float]:
+    return float(root.get_attribute("data-x-min-hz")), float(root.get_attribute("data-x-max-hz"))
+
+
+def _tick_values(driver) -> list[str]:
+    from selenium.webdriver.common.by import By
+
+    return [t.get_attribute("data-axis-tick")
+            for t in driver.find_elements(By.CSS_SELECTOR, "[data-axis-tick]")]
+
+
+def _round_ticks(labels: list[str]) -> None:
+    """Every label a plain decimal, the steps equal and 1, 2 or 5 times a power of ten."""
+    import re
+
+    assert len(labels) >= 3
+    assert all(re.fullmatch(r"-?\d+(\.\d+)?", t) for t in labels), labels
+    v = np.array([float(t) for t in labels])
+    steps = np.diff(v)
+    assert np.allclose(steps, steps[0], rtol=1e-9)
+    lead = steps[0] / 10.0 ** np.floor(np.log10(steps[0]))
+    assert min(abs(lead - m) for m in (1.0, 2.0, 5.0)) < 1e-9, steps[0]
+    assert np.allclose(v / steps[0], np.round(v / steps[0]), atol=1e-9)
+
+
+def test_diagram_zoom_overlay_preview_ticks_legend(browser, automatic, real_uff):
+    """Zoom with the buttons, the wheel and a drag; the sum FRF under the poles;
+    a diamond's preview gives the table's frequency and a 30-DOF shape; the
+    ticks are round; the legend lists only the classes drawn; the diamonds sit
+    at the refined frequencies of the modes table."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    modes = pd.read_csv(automatic / f"{real_uff.stem}_modes.csv")
+    browser.get((automatic / f"{real_uff.stem}_report.html").as_uri())
+    root = browser.find_element(By.CSS_SELECTOR, "[data-diagram]")
+    lo, hi = _range(root)
+    assert (lo, hi) == (5.0, 1024.0)  # the identification band of the beam
+    _round_ticks(_tick_values(browser))
+    # the sum FRF of the band is drawn: one point per line (>= 1000 in the band)
+    overlay = root.find_element(By.CSS_SELECTOR, "svg [data-frf-overlay]")
+    n_full = overlay.get_attribute("d").count("L")
+    assert n_full > 1000
+    # zoom in on the centre: half the width, the centre kept, the ticks round again
+    root.find_element(By.CSS_SELECTOR, "[data-zoom-in]").click()
+    a, b = _range(root)
+    assert b - a == pytest.approx((hi - lo) / 2, rel=1e-9)
+    assert a < (lo + hi) / 2 < b
+    _round_ticks(_tick_values(browser))
+    # the overlay is redrawn for the range: fewer lines
+    assert 0.4 * n_full < overlay.get_attribute("d").count("L") < 0.6 * n_full
+    hidden = [p for p in root.find_elements(By.CSS_SELECTOR, "circle.pole")[:400]
+              if not a <= float(p.get_attribute("data-freq-hz")) <= b]
+    assert hidden and not any(p.is_displayed() for p in hidden[:20])
+    root.find_element(By.CSS_SELECTOR, "[data-zoom-out]").click()
+    assert _range(root) == pytest.approx((lo, hi))
+    # the wheel zooms around the pointer, a drag pans
+    svg = root.find_element(By.CSS_SELECTOR, "svg.stab")
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", svg)
+    ActionChains(browser).scroll_from_origin(
+        __import__("selenium.webdriver.common.actions.wheel_input",
+                   fromlist=["ScrollOrigin"]).ScrollOrigin.from_element(svg), 0, -100).perform()
+    a, b = _range(root)
+    assert b - a == pytest.approx(0.8 * (hi - lo), rel=1e-6)
+    ActionChains(browser).move_to_element(svg).click_and_hold().move_by_offset(
+        -200, 0).release().perform()
+    a2, b2 = _range(root)
+    assert b2 - a2 == pytest.approx(b - a, rel=1e-6) and a2 > a + 50
+    root.find_element(By.CSS_SELECTOR, "[data-zoom-reset]").click()
+    assert _range(root) == (lo, hi)
+    # the diamonds at the refined frequencies of the table (not the start poles)
+    diamonds = root.find_elements(By.CSS_SELECTOR, "polygon.pole.mode")
+    x_hz = np.sort([float(p.get_attribute("data-x-hz")) for p in diamonds])
+    assert np.allclose(x_hz, np.sort(modes["fn_hz"].to_numpy()), atol=5e-4)
+    # a click on the diamond of the mode nearest 155 Hz (isolated; 118.0 and
+    # 119.4 Hz overlap at full width): its values and its shape
+    k = int(np.argmin(np.abs(modes["fn_hz"].to_numpy() - 155.0)))
+    target = next(p for p in diamonds
+                  if abs(float(p.get_attribute("data-x-hz")) - modes["fn_hz"][k]) < 5e-4)
+    _click(browser, target)
+    preview = root.find_element(By.CSS_SELECTOR, "[data-pole-preview]")
+    assert preview.is_displayed()
+    shown = float(preview.find_element(By.CSS_SELECTOR, "[data-preview-freq-hz]")
+                  .get_attribute("data-preview-freq-hz"))
+    assert shown == pytest.approx(modes["fn_hz"][k], abs=5e-4)
+    assert f"{modes['fn_hz'][k]:.3f} Hz" in preview.text and "MPC" in preview.text
+    bars = preview.find_elements(By.CSS_SELECTOR, "svg[data-shape] rect")
+    assert len(bars) == 30  # one bar per measured DOF of the beam
+    # --no-figures: no animated views on the page, so no button to show one
+    assert not preview.find_elements(By.CSS_SELECTOR, "[data-show-shape]")
+    # the legend: only the stability classes that are drawn
+    drawn = {int(c.get_attribute("class").split(" s")[1][0])
+             for c in root.find_elements(By.CSS_SELECTOR, "circle.pole")}
+    listed = {int(e.get_attribute("data-legend"))
+              for e in root.find_elements(By.CSS_SELECTOR, "[data-legend]")
+              if e.get_attribute("data-legend").isdigit()}
+    assert listed == drawn
+
+
+def test_beam_page_speaks_words(browser, automatic, real_uff):
+    """The measured beam's identify page as the browser shows it: table headers in
+    words (no snake_case), no code names in the text, the doubtful rules in words."""
+    import re
+
+    from selenium.webdriver.common.by import By
+
+    browser.get((automatic / f"{real_uff.stem}_report.html").as_uri())
+    headers = [h.text for h in browser.find_elements(By.CSS_SELECTOR, "th") if h.text]
+    assert "f (Hz)" in headers and "ζ (%)" in headers and "fit error (%)" in headers
+    assert not [h for h in headers if re.fullmatch(r"[a-z0-9]+(_[a-z0-9]+)+", h)], headers
+    shown = browser.find_element(By.TAG_NAME, "body").text
+    assert not re.search(r"ema_pipeline\.|report\.wording|FIT_LIMITS|modal\.mac|"
+                         r"identification\.result", shown)
+    cells = [c.text for c in browser.find_elements(By.CSS_SELECTOR, "#modes td")]
+    assert not [c for c in cells if re.fullmatch(r"[a-z]+(_[a-z]+)+", c)], cells

@@ -105,8 +105,14 @@ def test_study_report_content_a_test_engineer_checks(study, example_dir):
     assert rows["coherence"] == ["not in the file", "in the file", "not in the file"]
     assert "no coherence in this file" in html and 'id="fig-frf_larger_tank"' in html
     # mode table: MPC and stable orders per mode; AutoMAC with a unit diagonal
-    joined = "".join(page.text)  # headers may break after "_" (<wbr>)
-    assert "mpc" in joined and "stable_orders" in joined and "sigma_1_s" in joined
+    joined = "".join(page.text)
+    assert "MPC" in joined and "stable orders" in joined and "decay rate σ (1/s)" in joined
+    # headers in words with units, never identifiers; no code names in the text
+    headers = [h for t in page.tables if t for h in t[0]]
+    assert "f (Hz)" in headers and "ζ (%)" in headers and "fit error (%)" in headers
+    snake = [h for h in headers if re.fullmatch(r"[a-z0-9]+(_[a-z0-9]+)+", h)]
+    assert not snake, snake
+    assert not re.search(r"ema_pipeline\.|report\.wording|FIT_LIMITS|modal\.mac", text)
     assert "AutoMAC - genuine" in text
     diag = re.findall(r"color:#fff\">(1\.000)</td>", html)
     assert len(diag) >= 12  # 3 configurations x 4 modes
@@ -123,7 +129,8 @@ def test_study_report_content_a_test_engineer_checks(study, example_dir):
 
 def test_mode_table_decimals_follow_the_uncertainty(study, example_dir):
     page = _parse(study / "report.html")
-    head = ["mode", "fn_hz", "fd_hz", "zeta_pct", "sigma_1_s", "mpc", "stable_orders"]
+    head = ["mode", "f (Hz)", "damped f (Hz)", "ζ (%)", "decay rate σ (1/s)", "MPC",
+            "stable orders"]
     tables = [t for t in page.tables if t and t[0][:7] == head]
     assert len(tables) == 3
     frf = io.read_frf(example_dir / "genuine.uff")
@@ -155,7 +162,8 @@ def test_no_figures(example_study_uff_no_figures):
     res = example_study_uff_no_figures  # run --no-figures (and --uff, for test_uff_export_cli)
     assert not (res / "figures").exists()
     page = _parse(res / "report.html")
-    assert page.svgs == 0 and page.sections == SECTIONS
+    # no empty "Mode shapes" section: without figures it would hold nothing
+    assert page.svgs == 0 and page.sections == [s for s in SECTIONS if s != "shapes"]
     assert "Figures not drawn (--no-figures)" in " ".join(page.text)
 
 
@@ -199,6 +207,7 @@ def test_identify_report_per_file(tmp_path, example_dir):
                                  "shapes", "fit", "provenance"]
         html = page_path.read_text(encoding="utf-8")
         assert hashlib.sha256(path.read_bytes()).hexdigest() in html
+        assert "measured channel only" not in html
         assert "2000 Hz" in html and "AutoMAC" in html and page.svgs == 4
         assert page_path.stat().st_size < 150_000
     assert "no coherence in this file" in (tmp_path / "genuine_report.html").read_text()
@@ -295,3 +304,76 @@ def test_simulate_format_follows_the_suffix(tmp_path, capsys, args, code, fmt):
     else:
         assert io.frf_format(out) == fmt
         assert io.read_frf(out).H.shape == (2, 1, 8193)
+
+
+def test_one_channel_report_has_no_shapes_and_no_automac(tmp_path, pyfrf_uff):
+    """pyFRF's real recording (one hammer, one accelerometer): ``frf`` then
+    ``identify --report``: the modes and the fit, no AutoMAC and no shape
+    figure, and a sentence saying why."""
+    h5 = tmp_path / "real.h5"
+    assert main(["frf", str(pyfrf_uff), "--out", str(h5), "--quiet"]) == 0
+    assert main(["identify", str(h5), "--out", str(tmp_path / "id"), "--report",
+                 "--quiet"]) == 0
+    n_modes = len(pd.read_csv(tmp_path / "id" / "real_modes.csv"))
+    assert n_modes >= 2
+    page_path = tmp_path / "id" / "real_report.html"
+    page = _parse(page_path)
+    assert page.sections == ["summary", "setup", "frf", "stabilization", "modes", "fit",
+                             "provenance"]
+    text = " ".join(page.text)
+    assert "1 measured channel only (one response, one reference)" in text
+    html = page_path.read_text(encoding="utf-8")
+    assert "AutoMAC -" not in html and "fig-shapes_one" not in html
+    assert page.svgs == 3  # FRF, stabilization, fit
+
+
+def test_fit_verdict_against_the_noise_on_a_simulated_test(tmp_path):
+    """tests/test_picks.py's simulated plate (3 modes, 4 responses, complex white
+    noise of 0.1 % of the largest |H| per part): the noise estimate matches the
+    known noise within 10 %, the complete fit is at the noise level, and with the
+    97 Hz mode left out (picks of the other two) the page says a mode may be missing."""
+    from test_picks import simulated
+
+    from ema_pipeline.identification.picks import Picks, picks_from_result
+    from ema_pipeline.report.fit_noise import noise_error
+
+    frf = simulated()
+    result = identify(frf)
+    band = frf.band(*result.settings.band_hz)
+    sigma2 = 2 * (1e-3 * np.abs(frf.H).max()) ** 2  # per line, both parts
+    truth = np.sqrt(sigma2 * band.freq_hz.size / np.sum(np.abs(band.H) ** 2, axis=-1))
+    estimate = noise_error(band.H, result.H_fit)
+    np.testing.assert_allclose(estimate, truth, rtol=0.1)
+    assert float(np.mean(result.error)) / float(np.mean(estimate)) < 1.2
+    page = render_identify_html(frf, result, figures=False)
+    assert "fit at the noise level (error 1.3 %, noise alone 1.3 %)" in page
+    picks = picks_from_result(result)
+    two = Picks(band_hz=picks.band_hz, orders=picks.orders, weighting=picks.weighting,
+                picks=tuple(p for p in picks.picks if abs(p.freq_hz - 97.0) > 2.0))
+    missing = identify(frf, picks=two)
+    assert missing.modes.n_modes == 2
+    ratio = float(np.mean(missing.error)) / float(np.mean(noise_error(band.H, missing.H_fit)))
+    assert ratio > 10
+    page = render_identify_html(frf, missing, figures=False)
+    assert re.search(r"fit error \d+\.\d times the noise \(error \d+\.\d %, noise alone "
+                     r"\d+\.\d %\): a mode may be missing or wrong", page)
+
+
+def test_measured_beam_fit_is_at_the_noise_level(real_uff, tmp_path):
+    """The measured beam (30 FRFs, 3 averages, no coherence in the file): its
+    fit error (32.7 % over 5-1024 Hz; sdypy-EMA's synthesis with the 12
+    published modes has 33.5 % over its band, issue 41) is the data's
+    line-to-line scatter, not a missing mode: the page does not call it poor."""
+    assert main(["identify", str(real_uff), "--out", str(tmp_path), "--report",
+                 "--no-figures", "--quiet"]) == 0
+    text = " ".join(_parse(tmp_path / f"{real_uff.stem}_report.html").text)
+    found = re.search(r"fit at the noise level \(error (\d+\.\d) %, noise alone (\d+\.\d) %\)",
+                      text)
+    assert found, re.findall(r"fit[^.]*%[^.]*", text)[:2]
+    error, noise = (float(v) for v in found.groups())
+    assert error == pytest.approx(32.7, abs=0.3)
+    assert 0.67 * error <= noise <= 1.0 * error + 5
+    assert "poor fit" not in text
+    # one sign convention: the fixed sensor is 3-Z in the setup and in the fit table
+    html = (tmp_path / f"{real_uff.stem}_report.html").read_text(encoding="utf-8")
+    assert html.count("3-Z") >= 31 and "3+Z" not in html

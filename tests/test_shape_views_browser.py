@@ -59,3 +59,25 @@ def test_shapes_move_in_the_run_report(browser, example_study):
     n_views, first, later, external = _frames(browser, example_study / "report.html")
     assert n_views > 0 and later != first, "the shape does not move"
     assert external == []  # nothing was requested from outside the file
+
+
+def test_pole_preview_brings_the_mode_view_into_sight(browser, tmp_path, example_dir):
+    """Clicking a kept mode's diamond in the stabilization diagram: its preview
+    holds a button that scrolls that mode's animated view on the geometry into
+    the window."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    geometry = io.write_geometry_uff(Beam().measurement_geometry(), tmp_path / "beam.uff")
+    assert main(["identify", str(example_dir / "genuine.uff"), "--out", str(tmp_path),
+                 "--report", "--quiet", "--geometry", str(geometry)]) == 0
+    browser.get((tmp_path / "genuine_report.html").as_uri())
+    diamond = browser.find_elements(By.CSS_SELECTOR, 'polygon.pole.mode[data-mode="2"]')[0]
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", diamond)
+    ActionChains(browser).move_to_element(diamond).click().perform()
+    view = browser.find_element(By.CSS_SELECTOR, '[data-mode-shape="2"]')
+    inside = ("var r=arguments[0].getBoundingClientRect();"
+              "return r.top >= 0 && r.bottom <= window.innerHeight;")
+    assert not browser.execute_script(inside, view)  # the diagram is far above the views
+    browser.find_element(By.CSS_SELECTOR, '[data-pole-preview] [data-show-shape="2"]').click()
+    assert browser.execute_script(inside, view)

@@ -408,6 +408,7 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
         spectra=spectra,
         others=tuple((f"{rec.channels[1 + i].name} [{rec.channels[1 + i].unit}]", responses[i])
                      for i in range(responses.shape[0]) if i != j),
+        response_unit=rec.channels[1 + j].unit,
     )
 
 

@@ -79,6 +79,7 @@ def geometry_warnings(outcome: FileOutcome, geometry: Geometry | None) -> list[s
 def _identify_page(
     frf: FRFSet, result: IdentificationResult, settings: dict[str, str], *,
     figures: bool, geometry: Geometry | None, batch_page: str = "",
+    picks: tuple[str, str] | None = None,
 ) -> str:
     """The identify report page (:func:`ema_pipeline.report.render_identify_html`)
     with the resolved settings of ``result`` added to ``settings``."""
@@ -91,7 +92,7 @@ def _identify_page(
     )
     return render_identify_html(
         frf, result, settings=settings, version=__version__, generated=report_date(),
-        figures=figures, geometry=geometry, batch_page=batch_page,
+        figures=figures, geometry=geometry, batch_page=batch_page, picks=picks,
     )
 
 
@@ -107,7 +108,9 @@ def write_identify_report(
     geometry = file_geometry(outcome.path, geometry)
     outcome.warnings.extend(geometry_warnings(outcome, geometry))
     page = _identify_page(outcome.frf, outcome.result, options_text(options),
-                          figures=figures, geometry=geometry)
+                          figures=figures, geometry=geometry,
+                          picks=(outcome.picks_path, outcome.picks_sha256)
+                          if outcome.picks_path else None)
     return io.write_text(page, identify_report_path(outcome.path, out_dir))
 
 

@@ -2,7 +2,9 @@
 
 Used by ``ema-pipeline identify`` and by the batch runner. Outputs per input
 file ``<stem>``: ``<stem>_modes.csv`` (one row per mode: ``mode, fn_hz, fd_hz,
-zeta_pct`` and their standard deviations) and ``<stem>_result.h5`` (the FRFs,
+zeta_pct`` and their standard deviations, ..., ``selection``: ``auto``,
+``picked`` (``--picks``) or ``expected`` (a mode answering an ``--expect``
+guess)) and ``<stem>_result.h5`` (the FRFs,
 the full identification result with stabilization data, and the modal table;
 its root attributes ``input_sha256`` and ``complete`` make it a resumable
 record). Both are written atomically; the HDF5 file last, so a complete HDF5
@@ -59,6 +61,8 @@ class FileOutcome:
     modes_csv: Path | None = None
     result_h5: Path | None = None
     frf: FRFSet | None = None  # with identify_file(..., keep=True): what the report draws
+    picks_path: str = ""  # with --picks: the picks file and its content hash
+    picks_sha256: str = ""
     result: IdentificationResult | None = None
 
 
@@ -159,7 +163,10 @@ def identify_file(
         result = identify(frf, options, picks=picks)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
-        table = modes_table(result)
+        table = modes_table(result)  # its found_by column: diagram, ..., expected, picked
+        if picks is not None and picks.source:
+            outcome.picks_path = picks.source
+            outcome.picks_sha256 = io.sha256_file(picks.source)
         message = not_kept_message(result.not_kept_hz, result.not_kept_frfs,
                                    frf.n_out * frf.n_in)
         if message:
@@ -176,6 +183,7 @@ def identify_file(
             outcome.warnings.append(f"{path}: {note}")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
             table = with_expected_rows(table, options.expect_hz)
+            table["found_by"] = table["found_by"].fillna("")  # a guess not found
             message = not_found_message(options.expect_hz, match_expected(
                 result.fn_hz, options.expect_hz))
             if message:
@@ -189,7 +197,9 @@ def identify_file(
                 "identification": result,
                 "modes": table,
                 "input": {"path": str(path), "sha256": outcome.sha256,
-                          "warnings": tuple(outcome.warnings) or None},
+                          "warnings": tuple(outcome.warnings) or None,
+                          "picks_path": outcome.picks_path or None,
+                          "picks_sha256": outcome.picks_sha256 or None},
             },
             result_h5,
             attrs={"input_sha256": outcome.sha256},

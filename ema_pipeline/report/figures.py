@@ -32,11 +32,18 @@ __all__ = [
     "figure_mode_shapes",
     "figure_shapes_by_dof",
     "figure_stabilization",
+    "sum_abs_frf",
 ]
 
 COLORS = ("#1f4e79", "#c0504d", "#4f8a3c", "#7f6084", "#d08b26", "#3a9ca6", "#8c564b")
 _W = 720  # figure width, CSS px
 _LEFT, _RIGHT = 70, 20
+
+
+def sum_abs_frf(H: np.ndarray) -> np.ndarray:
+    """The sum of |H| over every output and input at each line: the curve drawn
+    under the stabilization diagrams (static and interactive)."""
+    return np.abs(H).sum(axis=(0, 1))
 
 
 def _log_limits(values: np.ndarray, floor_decades: float = 6.0) -> tuple[float, float]:
@@ -145,7 +152,7 @@ def figure_stabilization(
     top = float(orders.max()) + 2 if orders.size else 10.0
     box = (_LEFT, 30, _W - _LEFT - 70, height - 110)
     ax = c.axes(box, (lo, hi), (0.0, top))
-    total = np.abs(band.H).sum(axis=(0, 1))
+    total = sum_abs_frf(band.H)
     tw = c.axes(box, (lo, hi), _log_limits(total, 5), ylog=True)
     tw.line(band.freq_hz, total, "#222", width=0.7, opacity=0.55)
     fl = stab.flags
@@ -255,6 +262,12 @@ def figure_shapes_by_dof(
     height = 40 + rows * (ph + 56) + 10
     c = Canvas(_W, height, "Mode shapes at the measured DOFs")
     x = np.arange(1, n_dof + 1, dtype=float)
+    labels = list(dof_labels)
+    if len(labels) != n_dof:  # e.g. a roving hammer: the shapes are at the hammer points
+        labels = [d.label() for d in result.modes.dofs] if len(result.modes.dofs) == n_dof \
+            else [str(k + 1) for k in range(n_dof)]
+    # one label per ~34 px (a label such as "11+Z" is about 28 px wide): never smeared
+    every = max(1, -(-n_dof * 34 // pw))
     for r in range(n_modes):
         left = 50 + (r % cols) * (pw + 50)
         top = 30 + (r // cols) * (ph + 56)
@@ -262,7 +275,7 @@ def figure_shapes_by_dof(
         ax.hline(0.0, "#bbb", width=0.8)
         ax.bars(x, phi[:, r], 0.5, COLORS[0])
         ax.frame(title=f"mode {r + 1}: {float(result.modes.fn_hz[r]):.2f} Hz",
-                 xticks=x.tolist(), xticklabels=list(dof_labels), grid=False)
+                 xticks=x[::every].tolist(), xticklabels=labels[::every], grid=False)
     return c.to_svg(standalone)
 
 

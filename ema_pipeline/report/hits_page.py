@@ -26,22 +26,26 @@ from ema_pipeline.report.htmlparts import Page, esc, kv_table, provenance
 from ema_pipeline.report.svg import Canvas
 from ema_pipeline.report.tables import html_table
 
-__all__ = ["REASON_TEXT", "HitView", "HitsPageInput", "render_hits_html"]
+__all__ = ["ACCEPTED_TEXT", "REASON_TEXT", "HitView", "HitsPageInput", "render_hits_html"]
 
 #: What each rejection reason means, as the page says it (rules:
 #: :mod:`ema_pipeline.acquisition.hits`).
 REASON_TEXT = {
-    "past_end": "past_end: the record would run past the end of the data (or the hit "
+    "past_end": "past end: the record would run past the end of the data (or the hit "
                 "is the data's first sample)",
-    "double_hit": "double_hit: a second force pulse in the record (or ripple in the "
+    "double_hit": "double hit: a second force pulse in the record (or ripple in the "
                   "force spectrum)",
     "overload": "overload: a channel reaches its full scale or has flat tops (clipped)",
-    "not_decayed": "not_decayed: the response has not decayed at the record end and no "
+    "not_decayed": "not decayed: the response has not decayed at the record end and no "
                    "exponential window is allowed",
-    "low_force": "low_force: the force peak is far below the other hits'",
+    "low_force": "low force: the force peak is far below the other hits'",
     "outlier": "outlier: force peak, pulse width or response level far from the other "
                "hits'",
 }
+
+#: The verdict of a hit that passes every check (the checks of REASON_TEXT).
+ACCEPTED_TEXT = ("accepted: passed every check (one force pulse, inside the data, no "
+                 "clipping, response decayed, force in line with the other hits)")
 
 _W = 720
 _PANEL_W, _PANEL_H = 170, 150
@@ -76,6 +80,7 @@ class HitView:
     spectra: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
     #: The other response channels over the same samples: (name with its unit, data).
     others: tuple[tuple[str, np.ndarray], ...] = ()
+    response_unit: str = ""
 
 
 @dataclass
@@ -106,10 +111,10 @@ def verdict_text(hit: Hit, keep_all: bool = False) -> str:
     Examples
     --------
     >>> verdict_text(Hit(2, 1.5, 80.0, False, ("double_hit",)))
-    'rejected: double_hit: a second force pulse in the record (or ripple in the force spectrum)'
+    'rejected: double hit: a second force pulse in the record (or ripple in the force spectrum)'
     """
     if hit.accepted and not hit.reasons:
-        return "accepted: no check objects"
+        return ACCEPTED_TEXT
     state = "kept (--keep-all) despite" if hit.accepted else "rejected"
 
     def text(reason: str) -> str:
@@ -144,12 +149,15 @@ def _pulse_panel(c: Canvas, left: float, view: HitView) -> None:
 def _spectrum_panel(c: Canvas, left: float, view: HitView, band: tuple[float, float]) -> None:
     """The force spectrum (dB re its largest line) with the usable band's limits."""
     f, db = view.freq_hz, view.force_db
+    # kHz above 2 kHz: five-digit labels in Hz run together in a 170 px panel
+    scale, unit = (1e3, "kHz") if f.size and f[-1] >= 2e3 else (1.0, "Hz")
     lo = max(-60.0, float(np.nanmin(db)) if db.size else -60.0)
-    ax = c.axes((left, 30, _PANEL_W, _PANEL_H), (float(f[0]), float(f[-1])), (lo - 2, 3.0))
-    ax.line(f, db, COLORS[0], width=1.0)
+    ax = c.axes((left, 30, _PANEL_W, _PANEL_H), (float(f[0]) / scale, float(f[-1]) / scale),
+                (lo - 2, 3.0))
+    ax.line(f / scale, db, COLORS[0], width=1.0)
     for x, color in zip(band, (COLORS[2], COLORS[1]), strict=True):
-        ax.vline(x, color, dash="6 4")
-    ax.frame(xlabel="frequency / Hz", ylabel="|F| / dB", title="force spectrum")
+        ax.vline(x / scale, color, dash="6 4")
+    ax.frame(xlabel=f"frequency / {unit}", ylabel="|F| / dB", title="force spectrum")
 
 
 def _response_panel(c: Canvas, left: float, view: HitView) -> None:
@@ -166,7 +174,8 @@ def _response_panel(c: Canvas, left: float, view: HitView) -> None:
                 dash="6 4")
     if np.any(view.force_window != 1.0):
         ax.line(t, peak * view.force_window, COLORS[2], width=1.0, dash="2 3")
-    ax.frame(xlabel="time in record / s", ylabel=f"{view.response_name}"[:24],
+    unit = f" / {view.response_unit}" if view.response_unit else ""
+    ax.frame(xlabel="time in record / s", ylabel=view.response_name[:24 - len(unit)] + unit,
              title="response and windows")
 
 
@@ -197,7 +206,7 @@ def _hit_table(hits: Sequence[HitView]) -> pd.DataFrame:
         "time / s": [f"{v.hit.time_s:.4f}" for v in hits],
         "force peak / N": [f"{v.hit.force_peak_n:.4g}" for v in hits],
         "accepted": ["yes" if v.hit.accepted else "no" for v in hits],
-        "reasons": [";".join(v.hit.reasons) for v in hits],
+        "reasons": ["; ".join(r.replace("_", " ") for r in v.hit.reasons) for v in hits],
         "end level / % of peak": [f"{100 * v.end_level:.2g}" if np.isfinite(v.end_level)
                                   else "" for v in hits],
     })

@@ -18,6 +18,7 @@ from ema_pipeline.data import FRFSet, Geometry
 from ema_pipeline.identification.common import ends_at_usable_top
 from ema_pipeline.identification.not_kept import not_kept_message
 from ema_pipeline.report import figures as figs
+from ema_pipeline.report.fit_noise import noise_error
 from ema_pipeline.report.htmlparts import (
     Page,
     esc,
@@ -33,6 +34,7 @@ from ema_pipeline.report.result_tables import (
     COLUMN_TITLES,
     cross_mac_html,
     fit_table,
+    label_as_tested,
     mac_section,
     mode_table,
     mode_table_html,
@@ -50,6 +52,8 @@ from ema_pipeline.report.trends import PAIRING, pair_modes
 from ema_pipeline.report.wording import (
     fit_grade,
     fit_limits_text,
+    fit_noise_text,
+    fit_noise_verdict,
     fit_verdict,
     model_text,
     plural,
@@ -59,10 +63,12 @@ if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.result import IdentificationResult
 
 __all__ = [
+    "MIN_SHAPE_CHANNELS",
     "render_batch_html",
     "render_html",
     "render_identify_html",
     "render_markdown",
+    "tables_heading",
 ]
 
 
@@ -130,10 +136,45 @@ def _summary_study(report: ReportInput) -> str:
     )
 
 
+def tables_heading(names: Sequence[str]) -> str:
+    """The heading of the numbered tables present: ``Table 1``, ``Tables 1-3``,
+    ``Tables 1, 2 and 5``.
+
+    Examples
+    --------
+    >>> tables_heading(["table1_fn"]), tables_heading(["table1_a", "table2_b", "table3_c"])
+    ('Table 1', 'Tables 1-3')
+    >>> tables_heading(["table1_a", "table2_b", "table5_c"])
+    'Tables 1, 2 and 5'
+    """
+    import re
+
+    nums = sorted({int(m.group(1)) for n in names if (m := re.match(r"table(\d+)", n))})
+    if not nums:
+        return "Tables"
+    if len(nums) == 1:
+        return f"Table {nums[0]}"
+    if nums == list(range(nums[0], nums[-1] + 1)):
+        return f"Tables {nums[0]}-{nums[-1]}"
+    return "Tables " + ", ".join(map(str, nums[:-1])) + f" and {nums[-1]}"
+
+
+#: Fewer measured channels (response-reference pairs) than this: no shapes,
+#: no AutoMAC (a shape of one value says nothing; every MAC is 1). Two
+#: channels keep them: the shipped two-sensor beam's shapes tell its modes apart.
+MIN_SHAPE_CHANNELS = 2
+
+
+def _few_channels_note(n_channels: int) -> str:
+    return (f'<p class="muted">{plural(n_channels, "measured channel")} only (one '
+            "response, one reference): a mode shape needs several measured points, so "
+            "this report has no shape views, no shape figure and no AutoMAC (every MAC "
+            "between one-value shapes is 1).</p>")
+
+
 def _limits_note() -> str:
     """The fit verdict's limits, printed beside every verdict."""
-    return (f'<p class="muted">{esc(fit_limits_text())} '
-            "(<code>report.wording.FIT_LIMITS</code>).</p>")
+    return f'<p class="muted">{esc(fit_limits_text())}</p>'
 
 
 def _doubtful_note(results: Iterable[Any]) -> str:
@@ -141,10 +182,9 @@ def _doubtful_note(results: Iterable[Any]) -> str:
     already name the rule that fired (``doubtful_reason``)."""
     if all("doubtful_reason" in mode_table(r) for r in results):
         return ""
-    return ('<p class="muted">doubtful: marked for a second look by one of the rules of '
-            "<code>identification.result.doubtful_modes</code> (few stable orders, loose "
-            "damping, complex shape, damping not resolved by the lines; README, "
-            "Identification).</p>")
+    return ('<p class="muted">doubtful: marked for a second look by one of the rules '
+            "of the identification (few stable orders, loose damping, complex shape, "
+            "damping not resolved by the lines; README, Identification).</p>")
 
 
 def _mode_set(report: ReportInput, result: Any) -> ModeSet:
@@ -163,7 +203,7 @@ def _across(report: ReportInput, *, shapes: bool = True) -> str:
     ref = report.identification[report.genuine]
     out = [
         f'<p>Each configuration\'s modes against those of the reference configuration '
-        f"<b>{esc(report.genuine)}</b>: MAC (<code>ema_pipeline.modal.mac</code>; "
+        f"<b>{esc(report.genuine)}</b>: MAC (modal assurance criterion; "
         "rows: reference modes) and, below, the shapes side by side, paired by frequency "
         "and MAC as in Table 2.</p>",
         cross_mac_html(report.identification, report.genuine),
@@ -243,15 +283,16 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
             page.section("across", "Modes across configurations").append(
                 _across(report, shapes=figures is not None)
             )
-        sec = page.section("shapes", "Mode shapes")
+        shapes: list[str] = []
         if (figures is not None and report.test_geometry is not None
                 and len(report.identification) <= 1):
             for r in report.identification.values():
-                sec.append(shape_views_html(report.test_geometry, _mode_set(report, r)))
-        sec.append(no_figures(figures))
+                shapes.append(shape_views_html(report.test_geometry, _mode_set(report, r)))
         if "mode_shapes" in fg:
-            sec.append(figure("mode_shapes", fg, "Measured mode shapes at the sensors vs "
-                               "the updated FE model"))
+            shapes.append(figure("mode_shapes", fg, "Measured mode shapes at the sensors vs "
+                                 "the updated FE model"))
+        if any(shapes):  # no empty section (no geometry, no figure)
+            page.section("shapes", "Mode shapes").extend(shapes)
         sec = page.section("fit", "Measured vs synthesised FRFs")
         sec.append(html_table(fit_table(report.identification, report.frfs),
                               titles=COLUMN_TITLES))
@@ -260,7 +301,8 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
             sec.append(figure(f"fit_{safe_name(name)}", fg, f"LSFD fit: {name}"))
     tables = report_tables(report)
     if tables:
-        title = "Tables 1-6 beside the paper" if report.compare_with_paper else "Tables 1-6"
+        title = tables_heading(list(tables)) + (
+            " beside the paper" if report.compare_with_paper else "")
         sec = page.section("tables", title)
         for name, table in tables.items():
             sec.append(f'<h3 id="{name}">{esc(TABLE_TITLES[name])}</h3>')
@@ -319,36 +361,49 @@ def render_identify_html(
     figures: bool = True,
     geometry: Geometry | None = None,
     batch_page: str = "",
+    picks: tuple[str, str] | None = None,
 ) -> str:
     """The report of one identified FRF file: the study report's sections that
     apply to a single file (no FE or paper tables); with ``geometry`` the modes
     are animated on it (:mod:`.shape_views`); ``batch_page``: the link (URL) of
-    the batch page this page belongs to (``batch --report``), shown on top."""
+    the batch page this page belongs to (``batch --report``), shown on top;
+    ``picks``: the picks file the modes were fitted from and its sha256, named
+    in the summary and the provenance."""
     name = frf.configuration or frf.source.path or "FRF set"
     fg: dict[str, str] = {}
+    n_channels = frf.n_out * frf.n_in
+    few = n_channels < MIN_SHAPE_CHANNELS
     if figures:
         identification_figures("one", frf, result, fg, name)
+    if figures and not few:
         fg["shapes_one"] = figs.figure_shapes_by_dof(
-            result, [d.label() for d in frf.response_dofs]
+            result, [label_as_tested(d, frf.acquisition.response_negative)
+                     for d in frf.response_dofs]
         )
     page = Page(f"Modal identification: {frf.source.path or name}")
     m, st = result.modes, result.settings
     error = float(np.mean(result.error))
+    noise = noise_error(frf.band(*st.band_hz).H, np.asarray(result.H_fit))
+    noise_mean = float(np.mean(noise)) if np.all(np.isfinite(noise)) else float("nan")
     summary = pd.DataFrame(
         {
             "": ["file", "configuration", "modes", "natural frequencies / Hz", "fit quality",
-                 "model"],
+                 "model", *(["modes selected by"] if picks is not None else [])],
             "value": [frf.source.path, frf.configuration, str(m.n_modes),
-                      ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)), fit_verdict(error),
+                      ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)),
+                      fit_noise_verdict(error, noise_mean),
                       model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual,
-                                 to_usable_top=ends_at_usable_top(frf, st.band_hz))],
+                                 to_usable_top=ends_at_usable_top(frf, st.band_hz)),
+                      *([f"hand, picks file {picks[0]} (sha256 {picks[1]})"]
+                        if picks is not None else [])],
         }
     )
     up = (f'<p><a class="batch-page" href="{esc(batch_page)}">Back to the batch report</a>'
           "</p>" if batch_page else "")
     page.section("summary", "Summary").append(
         up + html_table(summary, split=False)
-        + _limits_note()
+        + (f'<p class="muted">{esc(fit_noise_text())}.</p>' if np.isfinite(noise_mean)
+           else _limits_note())
     )
     page.section("setup", "Test setup").append(
         html_table(setup_table({name: frf}, None), split=False)
@@ -365,16 +420,25 @@ def render_identify_html(
     page.section("modes", "Modes (MPC, MPD, stable orders)").append(
         mode_table_html(result) + _doubtful_note([result])
         + item_list([not_kept] if not_kept else [], "notes")
+        + (_few_channels_note(n_channels) if few else "")
     )
-    page.section("mac", "AutoMAC").append(mac_section({name: result}, name))
-    sec = page.section("shapes", "Mode shapes")
-    if figures and geometry is not None and m.shapes is not None:
-        sec.append(shape_views_html(geometry, ModeSet(m.fn_hz, m.zeta, m.shapes, m.dofs)))
-    sec.append(no + figure("shapes_one", fg, "Real-normalised mode shapes at the measured DOFs"))
+    if not few:
+        page.section("mac", "AutoMAC").append(mac_section({name: result}, name))
+        shapes = []
+        if figures and geometry is not None and m.shapes is not None:
+            shapes.append(shape_views_html(geometry,
+                                           ModeSet(m.fn_hz, m.zeta, m.shapes, m.dofs)))
+        shapes.append(figure("shapes_one", fg,
+                             "Real-normalised mode shapes at the measured DOFs")
+                      if figures else "")
+        if any(shapes):
+            page.section("shapes", "Mode shapes").extend(shapes)
     sec = page.section("fit", "Measured vs synthesised FRFs")
     sec.append(html_table(fit_table({name: result}, {name: frf}), titles=COLUMN_TITLES))
     sec.append(no + figure("fit_one", fg, "LSFD fit"))
     inputs = [("FRF file", frf.source.path, frf.source.sha256)]
+    if picks is not None:
+        inputs.append(("picks file", picks[0], picks[1]))
     page.section("provenance", "Provenance").append(
         provenance(inputs, dict(settings or {}), version, generated)
     )

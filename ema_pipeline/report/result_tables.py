@@ -15,7 +15,6 @@ import numpy as np
 import pandas as pd
 
 from ema_pipeline.data import DOF, FRFSet
-from ema_pipeline.identification.picks import is_picked
 from ema_pipeline.modal import mac
 from ema_pipeline.report.htmlparts import esc
 from ema_pipeline.report.inputs import BeamSetup, ReportInput
@@ -42,6 +41,7 @@ __all__ = [
     "report_tables",
     "setup_table",
     "stable_order_range",
+    "label_as_tested",
 ]
 
 
@@ -83,18 +83,19 @@ def mode_table(result: IdentificationResult) -> pd.DataFrame:
     table["sigma_1_s"] = -np.real(np.asarray(result.pole))[order]
     table["stable_orders"] = stable_order_range(result)
     columns = ["mode", "fn_hz", "fn_std_hz", "fd_hz", "zeta_pct", "zeta_std_pct", "sigma_1_s",
-               "mpc", "stable_orders", "mpd_deg", "doubtful"]
+               "mpc", "stable_orders", "mpd_deg", "found_by", "doubtful"]
     if "doubtful_reason" in table:  # which rule fired
         columns.append("doubtful_reason")
-    if is_picked(result):  # fitted from a picks file (identify --picks)
-        table["selection"] = "picked"
-        columns.append("selection")
     return table[columns]
 
 
 def mode_table_html(result: IdentificationResult) -> str:
-    """The modal table as HTML (``value ± std`` cells, consistent decimals)."""
-    return html_table(mode_table(result), titles=COLUMN_TITLES)
+    """The modal table as HTML (``value ± std`` cells, consistent decimals; the
+    doubtful rules in words: ``loose damping``, not ``loose_damping``)."""
+    table = mode_table(result)
+    if "doubtful_reason" in table:
+        table["doubtful_reason"] = [str(v).replace("_", " ") for v in table["doubtful_reason"]]
+    return html_table(table, titles=COLUMN_TITLES)
 
 
 #: Tooltips of the mode and fit table columns (HTML ``title`` of the header).
@@ -108,12 +109,29 @@ COLUMN_TITLES = {
     "doubtful": "marked for a second look: few stable orders, loose damping, complex shape "
     "or damping not resolved by the lines",
     "doubtful_reason": "the rule that marked the mode doubtful",
-    "selection": "picked: the pole was picked by hand (identify --picks), not selected "
-    "automatically",
+    "found_by": "how the mode was found: in the band's stabilization diagram, in it at "
+    "another order, in a narrower search's window, as the alternate of a failed candidate, "
+    "as a close partner, in the fit's residual, as the answer to an expected frequency, or "
+    "picked by hand (identify --picks)",
     "stable_orders": "model orders at which the pole is stable (count of orders computed)",
     "frac": "FRF assurance criterion of the synthesis",
     "error_pct": "normalised fit error ||H - H_fit|| / ||H||, per cent",
 }
+
+
+def label_as_tested(dof: DOF, negative: str) -> str:
+    """The DOF's label with the direction as tested (the file's sign): ``3-Z``
+    when the file gave ``3-Z`` (listed in ``negative``, the acquisition's
+    ``response_negative`` or ``reference_negative``) and the reader flipped it
+    to ``3+Z``; one sign convention for every table of the report.
+
+    Examples
+    --------
+    >>> label_as_tested(DOF(3, 3), "3-Z"), label_as_tested(DOF(3, 3), "")
+    ('3-Z', '3+Z')
+    """
+    tested = DOF(dof.node, -dof.direction)
+    return tested.label() if tested.label() in set(negative.split()) else dof.label()
 
 
 def fit_table(identification: Mapping[str, Any], frfs: Mapping[str, FRFSet]) -> pd.DataFrame:
@@ -127,8 +145,12 @@ def fit_table(identification: Mapping[str, Any], frfs: Mapping[str, FRFSet]) -> 
                 rows.append(
                     {
                         "configuration": name,
-                        "response": frf.response_dofs[o].label() if frf else str(o + 1),
-                        "reference": frf.reference_dofs[i].label() if frf else str(i + 1),
+                        "response": label_as_tested(frf.response_dofs[o],
+                                                 frf.acquisition.response_negative)
+                        if frf else str(o + 1),
+                        "reference": label_as_tested(frf.reference_dofs[i],
+                                                  frf.acquisition.reference_negative)
+                        if frf else str(i + 1),
                         "frac": float(r.frac[o, i]),
                         "error_pct": 100 * float(r.error[o, i]),
                     }
@@ -144,11 +166,9 @@ def setup_table(frfs: Mapping[str, FRFSet], geometry: BeamSetup | None) -> pd.Da
         return NOT_IN_FILE if v is None else f"{v:{spec}}{unit}"
 
     def positions(dofs: Sequence[Any], negative: str) -> str:
-        flipped = set(negative.split())
         labels = []
         for d in dofs:  # the direction as tested (the file's sign), not as read
-            tested = DOF(d.node, -d.direction)
-            label = tested.label() if tested.label() in flipped else d.label()
+            label = label_as_tested(d, negative)
             if geometry is not None and 1 <= d.node <= geometry.n_elements + 1:
                 label += f" (x = {geometry.node_x_m(d.node):.4g} m)"
             labels.append(label)

@@ -263,9 +263,48 @@ def markdown_table(table: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
+#: Column headers in words with symbols and units (the data's identifiers stay
+#: in the CSV files); other identifiers are read by :func:`header_text`.
+HEADERS = {
+    "fn_hz": "f (Hz)", "fn_std_hz": "σ_f (Hz)", "fd_hz": "damped f (Hz)",
+    "zeta_pct": "ζ (%)", "zeta_std_pct": "σ_ζ (%)", "sigma_1_s": "decay rate σ (1/s)",
+    "mpc": "MPC", "mpd_deg": "MPD (°)", "frac": "FRAC", "error_pct": "fit error (%)",
+    "doubtful_reason": "why doubtful", "stable_orders": "stable orders",
+    "found_by": "found by",
+    "expect_hz": "expected f (Hz)", "x_m": "x (m)",
+}
+_UNITS = {"hz": "Hz", "pct": "%", "deg": "°", "m": "m", "s": "s", "kg": "kg", "n": "N",
+          "db": "dB", "ms": "ms", "khz": "kHz"}
+_WORDS = {"fn": "f", "zeta": "ζ", "std": "std", "dev": "deviation", "mac": "MAC",
+          "frac": "FRAC", "fe": "FE", "ma": "m_a", "mr": "m_r"}
+
+
+def header_text(name: str) -> str:
+    """A column header in words with its unit: ``fn_hz`` -> ``f (Hz)``,
+    ``mass_ratio_pct`` -> ``mass ratio (%)``; names that are not identifiers
+    (with a space or a slash) stay as they are.
+
+    Examples
+    --------
+    >>> header_text("fn_hz"), header_text("dev_fn_pct"), header_text("time / s")
+    ('f (Hz)', 'deviation f (%)', 'time / s')
+    """
+    if name in HEADERS:
+        return HEADERS[name]
+    if " " in name or "/" in name or "_" not in name:
+        return name
+    words = name.split("_")
+    unit = ""
+    if words[-1].lower() in _UNITS and len(words) > 1:
+        unit = f" ({_UNITS[words.pop().lower()]})"
+    elif len(words) > 2 and words[-2:] == ["1", "s"]:
+        words, unit = words[:-2], " (1/s)"
+    return " ".join(_WORDS.get(w, w) for w in words) + unit
+
+
 def _breakable(name: str) -> str:
-    """Escaped column name that may wrap after its underscores."""
-    return escape(name).replace("_", "_<wbr>")
+    """Escaped header text of a column, in words (:func:`header_text`)."""
+    return escape(header_text(name))
 
 
 #: Width budget of one HTML table, in characters of cell text (about 600 CSS px):

@@ -11,7 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FIT_LIMITS", "FitLimits", "fit_grade", "fit_limits_text", "fit_verdict", "model_text",
+__all__ = ["FIT_LIMITS", "NOISE_LIMITS", "FitLimits", "NoiseLimits", "fit_grade",
+           "fit_limits_text", "fit_noise_text", "fit_noise_verdict", "fit_verdict", "model_text",
            "plural"]
 
 
@@ -48,6 +49,63 @@ class FitLimits:
 
 #: The limits every report and the console use (:func:`fit_verdict`).
 FIT_LIMITS = FitLimits()
+
+
+@dataclass(frozen=True)
+class NoiseLimits:
+    """Limits of the fit verdict against the noise (:func:`fit_noise_verdict`):
+    the fit error over the error the noise alone gives
+    (:func:`ema_pipeline.report.fit_noise.noise_error`). At most ``at_noise``
+    the fit leaves nothing but noise (a complete simulated fit: 1.0); above
+    ``fair`` the residual holds a resonance of its own (a simulated test with
+    one of three modes left out: 18)."""
+
+    at_noise: float = 1.5
+    fair: float = 3.0
+
+
+#: The limits of the identify page's verdict.
+NOISE_LIMITS = NoiseLimits()
+
+
+def fit_noise_verdict(error: float, noise: float, limits: NoiseLimits = NOISE_LIMITS) -> str:
+    """The verdict on a mean fit error against the error the noise alone gives
+    (both ratios), with both numbers; the fixed limits (:func:`fit_verdict`)
+    where the noise is not known.
+
+    Examples
+    --------
+    >>> fit_noise_verdict(0.327, 0.301)
+    'fit at the noise level (error 32.7 %, noise alone 30.1 %)'
+    >>> fit_noise_verdict(0.05, 0.02)
+    'fit error 2.5 times the noise (error 5.0 %, noise alone 2.0 %): check the fit figure'
+    >>> fit_noise_verdict(0.56, 0.031).split(": ")[1]
+    'a mode may be missing or wrong'
+    >>> fit_noise_verdict(0.05, float("nan"))
+    'good fit (error 5.0 % <= 10 %)'
+    """
+    if not (math.isfinite(error) and math.isfinite(noise) and noise > 0):
+        return fit_verdict(error)
+    ratio = error / noise
+    both = f"(error {100 * error:.1f} %, noise alone {100 * noise:.1f} %)"
+    if ratio <= limits.at_noise:
+        return f"fit at the noise level {both}"
+    tail = "check the fit figure" if ratio <= limits.fair else "a mode may be missing or wrong"
+    return f"fit error {ratio:.1f} times the noise {both}: {tail}"
+
+
+def fit_noise_text(limits: NoiseLimits = NOISE_LIMITS) -> str:
+    """The noise verdict's rule in words, printed beside it.
+
+    Examples
+    --------
+    >>> fit_noise_text()[:40]
+    'fit: the mean error ||H - H_fit|| / ||H|'
+    """
+    return ("fit: the mean error ||H - H_fit|| / ||H|| against the error the noise alone "
+            "gives (the residual's line-to-line scatter, as white noise would have it): "
+            f"at the noise level up to {limits.at_noise:g} times it, a mode may be missing "
+            f"above {limits.fair:g} times")
 
 
 def fit_grade(error: float, limits: FitLimits = FIT_LIMITS) -> str:
