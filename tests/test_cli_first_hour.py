@@ -78,6 +78,7 @@ def test_identify_help_lists_every_modes_csv_column(tmp_path: Path, capsys) -> N
     written = table.columns
     # both modes answer a guess: selected as expected
     assert list(table["found_by"]) == ["expected", "expected"]
+    assert list(table["selection"]) == ["expected", "expected"]
     with pytest.raises(SystemExit):
         main(["identify", "--help"])
     text = capsys.readouterr().out

@@ -135,7 +135,8 @@ def test_modes_table_columns(noise_free):
     table = modes_table(res)
     assert list(table.columns) == ["mode", "fn_hz", "fd_hz", "zeta_pct", "fn_std_hz",
                                    "zeta_std_pct", "mpc", "mpd_deg", "stable_from_order",
-                                   "n_stable_orders", "found_by", "doubtful", "doubtful_reason"]
+                                   "n_stable_orders", "found_by", "selection", "doubtful",
+                                   "doubtful_reason"]
     assert list(table["mode"]) == [1, 2, 3, 4]
     assert list(table["found_by"]) == ["diagram"] * 4  # trajectories of the band's diagram
     assert np.all(np.diff(table["fn_hz"]) > 0)

@@ -78,6 +78,8 @@ def test_untouched_page_picks_reproduce_the_automatic_result(case, tmp_path):
     # the selection leaves a trace: a selection column, the picks file and its
     # sha256 in the report and in the HDF5 result (the automatic run says auto)
     assert list(after["found_by"]) == ["picked"] * len(after)
+    assert list(after["selection"]) == ["picked"] * len(after)
+    assert list(before["selection"]) == ["auto"] * len(before)
     assert set(before["found_by"]) <= {"diagram", "other_order", "window", "alternate",
                                        "partner", "residual"}
     digest = io.sha256_file(picks)

@@ -46,6 +46,8 @@ MODES_CSV_HELP = """
   found_by          how it was found: diagram, other_order (the band's diagram at
                     another order), window (a narrower search), alternate, partner,
                     residual, expected or picked
+  selection         who chose it: auto, picked (--picks) or expected (it answers
+                    an --expect guess)
   doubtful          True when a rule marks it for a second look (kept, never dropped)
   doubtful_reason   which rule fired (empty when not doubtful)
   expect_hz         with --expect: the guess the mode answers (a guess not found

@@ -319,6 +319,26 @@ def found_by_names(result: IdentificationResult) -> list[str]:
     return [FOUND_BY[int(c)] for c in codes[:n]]
 
 
+def selection_names(result: IdentificationResult) -> list[str]:
+    """Per mode (result order), who chose it: ``picked`` (a picks file),
+    ``expected`` (it answers an expected frequency) or ``auto`` (the automatic
+    selection, whichever search found it); read from :func:`found_by_names`.
+
+    Examples
+    --------
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import FRFSet
+    >>> from ema_pipeline.identification import identify
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> selection_names(identify(FRFSet(freq_hz=f, H=H), expect_hz=(30.0,)))
+    ['expected']
+    """
+    return [name if name in ("picked", "expected") else "auto"
+            for name in found_by_names(result)]
+
+
 #: The names of the rules of :func:`doubtful_reasons`, in the order they are listed.
 DOUBTFUL_RULES = ("few_stable_orders", "loose_damping", "complex_shape", "unresolved_damping",
                   "found_only_in_some_bands")
@@ -393,7 +413,8 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
     (modal phase collinearity, 1 = real), ``mpd_deg`` (mean phase deviation,
     degrees), ``stable_from_order``, ``n_stable_orders`` (see
     :func:`stable_orders`), ``found_by`` (how it was found,
-    :func:`found_by_names`), ``doubtful`` (see :func:`doubtful_modes`) and
+    :func:`found_by_names`), ``selection`` (``auto``, ``picked`` or
+    ``expected``, :func:`selection_names`), ``doubtful`` (see :func:`doubtful_modes`) and
     ``doubtful_reason`` (the rules that fire, :func:`doubtful_reasons`)."""
     m = result.modes
     order = np.argsort(m.fn_hz)
@@ -412,6 +433,7 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
             "stable_from_order": first[order],
             "n_stable_orders": count[order],
             "found_by": np.asarray(found_by_names(result), dtype=object)[order],
+            "selection": np.asarray(selection_names(result), dtype=object)[order],
             "doubtful": doubtful_modes(result)[order],
             "doubtful_reason": np.asarray(doubtful_reasons(result), dtype=object)[order],
         }

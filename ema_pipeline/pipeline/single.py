@@ -183,7 +183,8 @@ def identify_file(
             outcome.warnings.append(f"{path}: {note}")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
             table = with_expected_rows(table, options.expect_hz)
-            table["found_by"] = table["found_by"].fillna("")  # a guess not found
+            for column in ("found_by", "selection"):  # a guess not found: empty
+                table[column] = table[column].fillna("")
             message = not_found_message(options.expect_hz, match_expected(
                 result.fn_hz, options.expect_hz))
             if message:
