@@ -415,7 +415,7 @@ def test_sheet_hit_page(plate, tmp_path):
     titles = re.findall(r"<h2[^>]*>([^<]*) at \d", page)
     assert len(titles) == 8  # 4 hits in each file (p6.wav's hit 2 bounces 50 ms later)
     assert titles[0] == f"{rel}/p5.wav, hit 1" and titles[-1] == f"{rel}/p6.wav, hit 4"
-    assert "2 files" in page and "double_hit" in page
+    assert "2 files" in page and "double hit" in page
 
 
 CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus" / "impact2"

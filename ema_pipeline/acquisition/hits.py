@@ -146,7 +146,7 @@ def force_warnings(hits: tuple[Hit, ...] | list[Hit], force_name: str) -> list[s
     Examples
     --------
     >>> force_warnings([Hit(1, 0.5, 80e3, True), Hit(2, 1.5, 75e3, True)], "hammer")[0][:50]
-    "force channel 'hammer': hit peaks of 78 kN (median)"
+    "force channel 'hammer': hit peaks of 77.5 kN (medi"
     """
     out: list[str] = []
     if not hits:

@@ -93,8 +93,9 @@ def mode_table_html(result: IdentificationResult) -> str:
     """The modal table as HTML (``value ± std`` cells, consistent decimals; the
     doubtful rules in words: ``loose damping``, not ``loose_damping``)."""
     table = mode_table(result)
-    if "doubtful_reason" in table:
-        table["doubtful_reason"] = [str(v).replace("_", " ") for v in table["doubtful_reason"]]
+    for words in ("doubtful_reason", "found_by"):  # other_order: "other order"
+        if words in table:
+            table[words] = [str(v).replace("_", " ") for v in table[words]]
     return html_table(table, titles=COLUMN_TITLES)
 
 
