@@ -54,6 +54,7 @@ __all__ = [
     "frf_output_paths",
     "identify_recording",
     "impact_frf",
+    "write_frf_outputs",
 ]
 
 #: Default pretrigger (s) kept before each hit's trigger crossing.
@@ -356,6 +357,19 @@ def hits_csv_path(out: str | os.PathLike[str]) -> Path:
     return out.with_name(f"{out.stem}_hits.csv")
 
 
+def write_frf_outputs(frf: FRFSet, hits: pd.DataFrame, page: str | None,
+                      out: str | os.PathLike[str], fmt: str) -> None:
+    """The outputs of one ``frf`` command, replaced together or not at all
+    (:func:`ema_pipeline.io.replace_together`): the hit table
+    (:func:`hits_csv_path`), the FRF file ``out`` in format ``fmt`` and, when
+    given, the hit page ``page`` (:func:`hits_report_path`)."""
+    with io.replace_together():
+        io.write_csv(hits, hits_csv_path(out))
+        io.write_frf(frf, out, fmt)
+        if page is not None:
+            io.write_text(page, hits_report_path(out))
+
+
 def hits_report_path(out: str | os.PathLike[str]) -> Path:
     """``<stem>_hits.html`` beside the FRF file ``out`` (the hit page of ``--report``).
 
@@ -580,13 +594,8 @@ def frf_from_files(
     fmt = check_output(out, paths, report=report)
     result = impact_frf(paths, settings, force_channel=force_channel, scale=scale,
                         units=units, configuration=configuration, chosen=chosen)
-    frf = result.frf
     page = render_hits_html(hits_page_input(result)) if report else None
-    with io.replace_together():
-        io.write_csv(result.hits_table(), hits_csv_path(out))
-        io.write_frf(frf, out, fmt)
-        if page is not None:
-            io.write_text(page, hits_report_path(out))
+    write_frf_outputs(result.frf, result.hits_table(), page, out, fmt)
     return result
 
 

@@ -43,10 +43,9 @@ from ema_pipeline.pipeline.frf import (
     ImpactFRF,
     check_output,
     frf_from_recording,
-    hits_csv_path,
     hits_page_input,
-    hits_report_path,
     identify_recording,
+    write_frf_outputs,
 )
 from ema_pipeline.pipeline.single import FileOutcome
 
@@ -298,11 +297,7 @@ def frf_from_sheet(
     fmt = check_output(out, [Path(sheet), *parsed.files()], report=report)
     result = sheet_frf(parsed, settings, configuration=configuration, chosen=chosen)
     page = sheet_hits_page(result) if report else None
-    with io.replace_together():
-        io.write_csv(result.hits_table(), hits_csv_path(out))
-        io.write_frf(result.frf, out, fmt)
-        if page is not None:
-            io.write_text(page, hits_report_path(out))
+    write_frf_outputs(result.frf, result.hits_table(), page, out, fmt)
     return result
 
 
