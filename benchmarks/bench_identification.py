@@ -83,6 +83,7 @@ from ema_pipeline.identification.plscf import (
 )
 from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
+from ema_pipeline.threads import BLAS_THREADS_ENV, THREAD_VARIABLES, WORKERS_ENV
 
 EXPECT = [18.0, 112.0, 327.0, 629.0]
 ROOT = Path(__file__).resolve().parent.parent
@@ -178,15 +179,13 @@ def sdypy_worker(paths: list[str], order: int, guesses_hz: list[float],
 
 
 #: The variables a user's shell does not set: removed from the children's environment.
-THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS",
-                    "VECLIB_MAXIMUM_THREADS", "NUMEXPR_NUM_THREADS",
-                    "EMA_PIPELINE_BLAS_THREADS", "EMA_PIPELINE_WORKERS")
+UNSET_VARIABLES = (*THREAD_VARIABLES, BLAS_THREADS_ENV, WORKERS_ENV)
 PYFRF_UFF = ROOT.parent / "shared" / "data" / "pyfrf-impact.uff"
 
 
 def user_env(**extra: str) -> dict[str, str]:
     """The environment a user runs in: this one less the thread variables."""
-    env = {k: v for k, v in os.environ.items() if k not in THREAD_VARIABLES}
+    env = {k: v for k, v in os.environ.items() if k not in UNSET_VARIABLES}
     return {**env, **extra}
 
 

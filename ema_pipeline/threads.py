@@ -32,8 +32,7 @@ import os
 import signal
 import threading
 from collections.abc import Callable, Iterable, Iterator
-from functools import wraps
-from typing import ParamSpec, Protocol, TypeVar
+from typing import Protocol, TypeVar
 
 from ema_pipeline.data import ConfigError
 
@@ -50,7 +49,6 @@ __all__ = [
     "SerialMap",
     "process_map",
     "split",
-    "single_blas_thread",
     "worker_count",
 ]
 
@@ -72,7 +70,6 @@ THREAD_VARIABLES = (
     "NUMEXPR_NUM_THREADS",
 )
 
-P = ParamSpec("P")
 R = TypeVar("R")
 T = TypeVar("T")
 
@@ -166,18 +163,6 @@ def owned_blas_threads() -> Iterator[None]:
 
     with threadpool_limits(limits=n):
         yield
-
-
-def single_blas_thread(func: Callable[P, R]) -> Callable[P, R]:
-    """Decorator: ``func`` runs inside :func:`owned_blas_threads` (a stage's
-    public entry point)."""
-
-    @wraps(func)
-    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
-        with owned_blas_threads():
-            return func(*args, **kwargs)
-
-    return wrapper
 
 
 def thread_environment() -> dict[str, str]:
