@@ -266,3 +266,29 @@ def split(items: list[T], n: int) -> list[list[T]]:
     [[1, 3, 5], [2, 4]]
     """
     return [items[k::n] for k in range(min(n, len(items)))]
+
+
+def map_each(map_: Mapper | None, func_all: Callable[[list[T]], list[R]], items: list[T],
+             min_items: int) -> list[R]:
+    """``func_all(items)`` (one result per item, in order), shared out among
+    the worker processes of ``map_`` in round-robin shares (:func:`split`)
+    when it has two or more and there are at least ``min_items`` items; the
+    results are put back in the order of ``items``, so they are the serial
+    run's. ``func_all`` must be picklable (a bound method of a frozen
+    dataclass holding the data, a module-level function).
+
+    Examples
+    --------
+    >>> map_each(None, lambda xs: [x * x for x in xs], [1, 2, 3], 2)
+    [1, 4, 9]
+    >>> map_each(SerialMap(), lambda xs: [-x for x in xs], [1, 2, 3], 2)
+    [-1, -2, -3]
+    """
+    if map_ is None or map_.workers < 2 or len(items) < min_items:
+        return func_all(items)
+    shares = split(items, map_.workers)
+    done = map_(func_all, shares)
+    out: list[R] = [None] * len(items)  # type: ignore[list-item]
+    for k, results in enumerate(done):  # share k holds items k, k + n, k + 2n, ...
+        out[k :: len(shares)] = results
+    return out

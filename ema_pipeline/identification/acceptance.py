@@ -54,10 +54,11 @@ from ema_pipeline.identification.local_fits import (
     split_fit,
 )
 from ema_pipeline.identification.lsfd import lsfd, mpc
-from ema_pipeline.identification.refine import RefinedPoles
+from ema_pipeline.identification.refine import PARALLEL_MIN_MODES, RefinedPoles
 from ema_pipeline.identification.result import SelectedPoles, found_by_code
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, pole_fd_hz
+from ema_pipeline.threads import Mapper, map_each
 
 
 @dataclass(frozen=True)
@@ -261,13 +262,18 @@ def close_partners(
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
     thresholds: SelectionThresholds | None = None,
+    map_: Mapper | None = None,
 ) -> np.ndarray:
     """Poles of close modes hidden in the resonances of the kept ``pole``: for
     each, the extra pole of :func:`~ema_pipeline.identification.local_fits.split_fit`
     when it passes the tests of ``thresholds.partner_max_residual_ratio`` (rad/s,
     ascending frequency; empty when there is none). ``H`` (n_ch, n_freq) on
     the lines ``freq_hz``; with fewer than ``thresholds.min_shape_channels``
-    channels no shape tells two modes from one, and none is added.
+    channels no shape tells two modes from one, and none is added. With
+    ``map_`` (worker processes, :func:`ema_pipeline.threads.map_each`) the
+    modes' split fits are shared out from
+    :data:`~ema_pipeline.identification.refine.PARALLEL_MIN_MODES` modes on;
+    the same numbers.
 
     Examples
     --------
@@ -287,21 +293,48 @@ def close_partners(
         residues = lsfd(freq_hz, H, pole, quantity).a
     except (np.linalg.LinAlgError, ValueError):
         return np.zeros(0, complex)
-    new = []
-    for r in range(pole.size):
-        fit = split_fit(freq_hz, H, pole, r, quantity=quantity, window_tau_s=window_tau_s,
-                        force_window_s=force_window_s, residues=residues, thresholds=th)
+    search = PartnerSearch(freq_hz, H, pole, quantity, window_tau_s, force_window_s,
+                           residues, th)
+    found = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES)
+    out = np.array([b for b in found if b is not None], dtype=complex)
+    return out[np.argsort(out.imag)]
+
+
+@dataclass(frozen=True)
+class PartnerSearch:
+    """What :func:`close_partners` needs to look for one kept mode's partner
+    (a picklable unit of work for worker processes)."""
+
+    freq_hz: np.ndarray
+    H: np.ndarray
+    pole: np.ndarray
+    quantity: str
+    window_tau_s: float | None
+    force_window_s: float | None
+    residues: np.ndarray
+    thresholds: SelectionThresholds
+
+    def partner(self, r: int) -> complex | None:
+        """The extra pole of mode ``r``'s split fit when it passes the tests
+        of :func:`close_partners`, else None."""
+        th, pole = self.thresholds, self.pole
+        fit = split_fit(self.freq_hz, self.H, pole, r, quantity=self.quantity,
+                        window_tau_s=self.window_tau_s, force_window_s=self.force_window_s,
+                        residues=self.residues, thresholds=th)
         if fit is None or fit.residual_ratio > th.partner_max_residual_ratio:
-            continue
+            return None
         a, b = fit.pole
         if abs(a.imag - b.imag) < 0.5 * (abs(a.real) + abs(b.real)) or not np.all(
                 decay_determined(fit.pole, fit.cov, th)):
-            continue
-        if pair_is_real(freq_hz, H, np.concatenate([np.delete(pole, r), fit.pole]),
-                        quantity, th):
-            new.append(b)
-    out = np.array(new, dtype=complex)
-    return out[np.argsort(out.imag)]
+            return None
+        if pair_is_real(self.freq_hz, self.H, np.concatenate([np.delete(pole, r), fit.pole]),
+                        self.quantity, th):
+            return complex(b)
+        return None
+
+    def partners_of(self, modes: list[int]) -> list[complex | None]:
+        """:meth:`partner` of each of ``modes`` (one worker's share)."""
+        return [self.partner(r) for r in modes]
 
 
 def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str,

@@ -191,7 +191,8 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
             # close modes hidden in a kept resonance, then modes that no
             # diagram resolved (peaks of the residual)
             partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
-                                      window_tau_s=tau, force_window_s=force_s, thresholds=th)
+                                      window_tau_s=tau, force_window_s=force_s, thresholds=th,
+                                      map_=map_)
             found = add_found(found, partners, True, np.zeros(partners.size, bool), retest,
                               "partner")
             # starts from a slope into the band's edge (a mode outside the band

@@ -47,7 +47,7 @@ from ema_pipeline.identification.uncertainty import (
     residual_correlation,
 )
 from ema_pipeline.numerics import MarquardtDamping, marquardt_step
-from ema_pipeline.threads import Mapper, split
+from ema_pipeline.threads import Mapper, map_each
 
 
 @dataclass(frozen=True)
@@ -445,14 +445,7 @@ def _refine(
     iters = np.zeros(m, dtype=int)
     fits = LocalFits(freq_hz, H, poles, global_residues(freq_hz, H, poles, quantity),
                      half_width, max_iter, window_tau_s, force_window_s, th, covariance)
-    if map_ is None or map_.workers < 2 or m < PARALLEL_MIN_MODES:
-        results = fits.fit_all(list(range(m)))
-    else:  # round-robin shares of the modes, put back in their order
-        shares = split(list(range(m)), map_.workers)
-        done = map_(fits.fit_all, shares)
-        by_mode = {r: res for share, rs in zip(shares, done, strict=True)
-                   for r, res in zip(share, rs, strict=True)}
-        results = [by_mode[r] for r in range(m)]
+    results = map_each(map_, fits.fit_all, list(range(m)), PARALLEL_MIN_MODES)
     for r, res in enumerate(results):
         if res is not None:
             out[r], cov[r], noise[r], bands[r], iters[r] = res
