@@ -178,13 +178,17 @@ def sdypy_worker(paths: list[str], order: int, guesses_hz: list[float],
             m.get_constants(method="lsfd", whose_poles="own")
 
 
-#: The variables a user's shell does not set: removed from the children's environment.
-UNSET_VARIABLES = (*THREAD_VARIABLES, BLAS_THREADS_ENV, WORKERS_ENV)
+#: The variables a user's shell does not set: removed from the children's
+#: environment. PYTHONDONTWRITEBYTECODE (set on the development machine) makes
+#: every start compile the package's sources again; a user's Python caches
+#: them (pip compiles an installed package, an editable one on first import).
+UNSET_VARIABLES = (*THREAD_VARIABLES, BLAS_THREADS_ENV, WORKERS_ENV,
+                   "PYTHONDONTWRITEBYTECODE")
 PYFRF_UFF = ROOT.parent / "shared" / "data" / "pyfrf-impact.uff"
 
 
 def user_env(**extra: str) -> dict[str, str]:
-    """The environment a user runs in: this one less the thread variables."""
+    """The environment a user runs in: this one less :data:`UNSET_VARIABLES`."""
     env = {k: v for k, v in os.environ.items() if k not in UNSET_VARIABLES}
     return {**env, **extra}
 
