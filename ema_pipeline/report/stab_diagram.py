@@ -31,8 +31,10 @@ whenever a pole is picked or unpicked (:mod:`.synthesis_view`).
 Hovering a pole shows f, zeta, MPC and its order (in the line under the
 diagram and as the pole's tooltip); clicking it also fills ``[data-pole-preview]``
 with these values and, for a kept mode, its real-normalised shape by DOF
-(``svg[data-shape]``) and, where the page animates the shapes on a geometry,
-a button (``[data-show-shape]``) that brings that mode's view into sight. Clicking a
+(``svg[data-shape]``; not for shapes of fewer than
+:data:`~.shape_views.MIN_SHAPE_DOFS` points, where a sentence says so) and,
+where the page animates the shapes on a geometry, a button
+(``[data-show-shape]``) that brings that mode's view into sight. Clicking a
 pole toggles it; a mode has one pole, so clicking another pole of the same trajectory
 moves the pick there. The element ``#picks`` always holds the picks file
 (TOML, :class:`ema_pipeline.identification.picks.Picks`) of the current
@@ -60,6 +62,7 @@ from ema_pipeline.identification.result import (
 from ema_pipeline.report.figures import sum_abs_frf
 from ema_pipeline.report.htmlparts import esc
 from ema_pipeline.report.result_tables import label_as_tested
+from ema_pipeline.report.shape_views import MIN_SHAPE_DOFS, shape_dof_count
 from ema_pipeline.report.synthesis_view import CODE_0, SYNTHESIS_JS, synthesis_data
 
 __all__ = ["stab_diagram_html"]
@@ -221,8 +224,8 @@ function showPreview(p){
  h.textContent=describe(p);preview.appendChild(h);
  var sh=p.dataset.kind==='mode'?d.shapes[+p.dataset.mode-1]:null;
  if(!sh){var q=document.createElement('p');q.className='muted';
-  q.textContent='The shape is known for the kept modes (diamonds): pick this pole and '+
-   'fit the picks to see its shape.';preview.appendChild(q);return;}
+  q.textContent=d.noshape||('The shape is known for the kept modes (diamonds): pick '+
+   'this pole and fit the picks to see its shape.');preview.appendChild(q);return;}
  var n=sh.length,W=520,H=120,bw=(W-40)/n,s=document.createElementNS(NS,'svg');
  s.setAttribute('viewBox','0 0 '+W+' '+H);s.setAttribute('data-shape','');
  s.setAttribute('role','img');s.setAttribute('aria-label','real-normalised shape by DOF');
@@ -441,7 +444,8 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
     # the sum FRF of the band on a log scale, under the poles
     f0_sum, df_sum, l_sum = _overlay(sub.freq_hz, sum_abs_frf(sub.H))
     columns["fl"] = json.dumps(_curve_text(l_sum), ensure_ascii=False)
-    shapes = _mode_shapes(result, start.size)
+    n_dof = shape_dof_count(frf)
+    shapes = _mode_shapes(result, start.size) if n_dof >= MIN_SHAPE_DOFS else []
     frame = {"lo": float(lo), "hi": float(hi), "x0": _LEFT, "pw": pw, "y0": _TOP + ph,
              "row": row, "orders": [int(o) for o in orders],
              "lmin": float(l_sum.min()) if l_sum.size else 0.0,
@@ -449,7 +453,10 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
              "oh": ph - 1.5 * row, "f0": f0_sum, "df": df_sum, "shapes": shapes,
              "dofs": _dof_labels(result, len(shapes[0]) if shapes else 0,
                                  frf.acquisition.response_negative),
-             "sy": synthesis_data(sub, s)}
+             "sy": synthesis_data(sub, s),
+             "noshape": "" if n_dof >= MIN_SHAPE_DOFS else
+             f"A mode shape of this test has {n_dof} measured point"
+             f"{'' if n_dof == 1 else 's'} only: no shape is drawn."}
     data = ("{" + ",".join(f'"{k}":{v}' for k, v in columns.items()) + ","
             + json.dumps(frame, ensure_ascii=False)[1:])
     parts.append('<g class="diagram-poles"></g>')
