@@ -85,6 +85,23 @@ def example_study(tmp_path_factory: pytest.TempPathFactory, example_dir: Path) -
     return results
 
 
+#: The sensor nodes of :func:`three_sensor_h5` (the shipped example has two).
+THREE_SENSORS = (3, 6, 9)
+
+
+@pytest.fixture(scope="session")
+def three_sensor_h5(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """The shipped example's larger_tank test simulated with a third accelerometer
+    (nodes 3, 6 and 9 of the beam, hammer at 8, seed 4141): the smallest test
+    whose identify report has shapes and an AutoMAC (renderers need 3 points)."""
+    from ema_pipeline import acquisition, io
+    from ema_pipeline.pipeline.simulate import simulate_paper_test
+
+    frf = simulate_paper_test("larger_tank", acquisition.TestSetup(response_nodes=THREE_SENSORS),
+                              seed=4141)
+    return io.write_frf(frf, tmp_path_factory.mktemp("three") / "three_sensors.h5", "h5")
+
+
 @pytest.fixture(scope="session")
 def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
                                  example_dir: Path) -> Path:

@@ -79,7 +79,7 @@ def test_frf_finds_the_five_hits(tmp_path, pyfrf_uff):
 
 
 @pytest.mark.parametrize("settings", [
-    FRFSettings(),  # default: force window 0.06 s, auto tau (none: decayed)
+    FRFSettings(),  # default: force window 0.06 s, auto tau (64.3 s: the tail is at 1.01 %)
     FRFSettings(force_window_s=0.02, exp_window_tau=0.08),
     FRFSettings(force_window_s=0.0, exp_window_tau=0.2, pretrigger_s=0.0),
 ], ids=["default", "windows", "exp_only"])
@@ -118,6 +118,41 @@ def test_our_h1_agrees_with_pyfrf(tmp_path, pyfrf_uff, raw):
     assert good.sum() > 0.5 * n / 2  # most of the band
     np.testing.assert_allclose(ours[good], theirs[good], rtol=1e-6)
     np.testing.assert_allclose(out.frf.freq_hz, frf.get_f_axis(), rtol=1e-12)
+
+
+def test_one_file_or_five_give_the_same_exponential_window(tmp_path, pyfrf_uff, raw):
+    """Issue 40: pyFRF's five hits as one file (5 s, records cut 10 ms before each
+    hit, the first padded), as five files of one hit each and as the UFF's five
+    records (both pre-cut: kept from their start, the hit under 1 ms in) get the
+    same automatic exponential window, bit for bit: each hit's tail is measured
+    at the same time after its own crossing (was: 64.3 s for the one file, none
+    for the five, the level at the records' ends 9 ms apart straddling 1 %). With
+    a record length given, as before, too."""
+    import pandas as pd
+
+    force, acc = raw
+
+    def csv(path, f, a):
+        pd.DataFrame({"time_s": np.arange(f.size) / FS, "force [N]": f,
+                      "acc [m/s^2]": a}).to_csv(path, index=False)
+        return path
+
+    one = [csv(tmp_path / "one.csv", force.ravel(), acc.ravel())]
+    five = [csv(tmp_path / f"hit{k + 1}.csv", force[k], acc[k]) for k in range(5)]
+    # the windows: the one file's as before this rule (0.64 s and 0.1 s records)
+    for settings, tau in ((FRFSettings(), 64.31), (FRFSettings(record_length_s=0.1), 0.02721)):
+        outs = [frf_from_files(paths, tmp_path / f"{name}.h5", settings)
+                for name, paths in (("one", one), ("five", five), ("uff", [pyfrf_uff]))]
+        assert [o.n_accepted for o in outs] == [5, 5, 5]
+        assert len({o.n_samples for o in outs}) == 1
+        taus = [o.exp_window_tau_s for o in outs]
+        assert taus[0] == taus[1] == taus[2], taus
+        assert taus[0] == pytest.approx(tau, rel=1e-3)
+        # the default's records: the one file's start 10 ms before each hit
+        # (the first padded), the pre-cut ones at their start
+        assert outs[0].records.trigger_s == pytest.approx(0.01, abs=1 / FS)
+        if settings.record_length_s is None:
+            assert outs[1].records.trigger_s < 1e-3
 
 
 def test_example_is_small(pyfrf_uff):

@@ -196,19 +196,32 @@ def test_names_from_the_data_are_escaped(example_dir):
         assert "&lt;img src=x onerror=&quot;alert(1)&quot;&gt;" in page
 
 
-def test_identify_report_per_file(tmp_path, example_dir):
-    files = [example_dir / "genuine.uff", example_dir / "larger_tank.h5"]
+def test_identify_report_per_file(tmp_path, example_dir, three_sensor_h5):
+    """The shipped example's files have two sensors: shapes of two points, so
+    no AutoMAC and no shapes, and a sentence why (issue 41); the same test
+    with a third sensor has both."""
+    files = [example_dir / "genuine.uff", example_dir / "larger_tank.h5", three_sensor_h5]
     assert main(["identify", *map(str, files), "--out", str(tmp_path), "--report",
                  "--quiet"]) == 0
     for path in files:
         page_path = tmp_path / f"{path.stem}_report.html"
         page = _parse(page_path)
-        assert page.sections == ["summary", "setup", "frf", "stabilization", "modes", "mac",
-                                 "shapes", "fit", "provenance"]
         html = page_path.read_text(encoding="utf-8")
+        text = " ".join(page.text)
+        if path == three_sensor_h5:
+            assert page.sections == ["summary", "setup", "frf", "stabilization", "modes",
+                                     "mac", "shapes", "fit", "provenance"]
+            assert "AutoMAC" in html and page.svgs == 4  # FRF, stabilization, shapes, fit
+            assert "measured point" not in text
+        else:
+            assert page.sections == ["summary", "setup", "frf", "stabilization", "modes",
+                                     "fit", "provenance"]
+            assert "AutoMAC -" not in html and "fig-shapes_one" not in html
+            assert page.svgs == 3  # FRF, stabilization, fit
+            assert ("Each mode shape has 2 measured points only (2 responses, 1 reference)"
+                    in text and "cannot tell more modes apart" in text)
         assert hashlib.sha256(path.read_bytes()).hexdigest() in html
-        assert "measured channel only" not in html
-        assert "2000 Hz" in html and "AutoMAC" in html and page.svgs == 4
+        assert "2000 Hz" in html
         assert page_path.stat().st_size < 150_000
     assert "no coherence in this file" in (tmp_path / "genuine_report.html").read_text()
     assert "no coherence" not in (tmp_path / "larger_tank_report.html").read_text()
@@ -321,7 +334,8 @@ def test_one_channel_report_has_no_shapes_and_no_automac(tmp_path, pyfrf_uff):
     assert page.sections == ["summary", "setup", "frf", "stabilization", "modes", "fit",
                              "provenance"]
     text = " ".join(page.text)
-    assert "1 measured channel only (one response, one reference)" in text
+    assert "Each mode shape has 1 measured point only (1 response, 1 reference)" in text
+    assert "every MAC between one-value shapes is 1" in text
     html = page_path.read_text(encoding="utf-8")
     assert "AutoMAC -" not in html and "fig-shapes_one" not in html
     assert page.svgs == 3  # FRF, stabilization, fit

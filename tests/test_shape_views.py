@@ -154,20 +154,31 @@ def beam_geometry_file(tmp_path_factory) -> Path:
 
 
 def test_identify_report_animates_the_modes_on_a_given_geometry(tmp_path, example_dir,
-                                                                 beam_geometry_file):
+                                                                 beam_geometry_file,
+                                                                 three_sensor_h5):
+    """Three sensors (conftest.three_sensor_h5): the modes animated on the
+    geometry. The shipped example's two sensors: no shape views even with a
+    geometry (a shape of two points, issue 41)."""
     out = tmp_path / "id"
-    assert main(["identify", str(example_dir / "larger_tank.h5"), "--out", str(out),
+    stem = three_sensor_h5.stem
+    assert main(["identify", str(three_sensor_h5), "--out", str(out),
                  "--report", "--quiet", "--geometry", str(beam_geometry_file)]) == 0
-    html = (out / "larger_tank_report.html").read_text()
-    n_modes = len(io.read_csv(out / "larger_tank_modes.csv", required=("mode",)))
+    html = (out / f"{stem}_report.html").read_text()
+    n_modes = len(io.read_csv(out / f"{stem}_modes.csv", required=("mode",)))
     data = _page_checks(html, n_modes)
     assert [m["n"] for m in data[0]["modes"]] == list(range(1, n_modes + 1))
+    # the measured nodes 3, 6 and 9 carry the shape (0-based 2, 5, 8)
+    assert sorted(data[0]["modes"][0]["m"]) == [2, 5, 8]
     # without --geometry (an HDF5 file holds none) the page has no shape views, nor
     # with --no-figures
     for options in ([], ["--no-figures", "--geometry", str(beam_geometry_file)]):
-        assert main(["identify", str(example_dir / "larger_tank.h5"), "--out",
+        assert main(["identify", str(three_sensor_h5), "--out",
                      str(tmp_path / "b"), "--report", "--quiet", *options]) == 0
-        assert "data-mode-shape" not in (tmp_path / "b" / "larger_tank_report.html").read_text()
+        assert "data-mode-shape" not in (tmp_path / "b" / f"{stem}_report.html").read_text()
+    assert main(["identify", str(example_dir / "larger_tank.h5"), "--out", str(tmp_path / "c"),
+                 "--report", "--quiet", "--geometry", str(beam_geometry_file)]) == 0
+    two = (tmp_path / "c" / "larger_tank_report.html").read_text()
+    assert "data-mode-shape" not in two and "has 2 measured points only" in two
 
 
 @pytest.mark.skipif(not MEASURED_BEAM.is_file(), reason="../shared/data not present")

@@ -46,11 +46,13 @@ def _frames(driver, page: Path) -> tuple[int, bytes, bytes, list[str]]:
     return len(views), first, later, [u for u in urls if not u.startswith("file:")]
 
 
-def test_shapes_move_in_the_identify_report(browser, tmp_path, example_dir):
+def test_shapes_move_in_the_identify_report(browser, tmp_path, three_sensor_h5):
+    # three sensors: the shipped example's two make shapes of two points, not drawn
     geometry = io.write_geometry_uff(Beam().measurement_geometry(), tmp_path / "beam.uff")
-    assert main(["identify", str(example_dir / "genuine.uff"), "--out", str(tmp_path),
+    assert main(["identify", str(three_sensor_h5), "--out", str(tmp_path),
                  "--report", "--quiet", "--geometry", str(geometry)]) == 0
-    n_views, first, later, external = _frames(browser, tmp_path / "genuine_report.html")
+    n_views, first, later, external = _frames(
+        browser, tmp_path / f"{three_sensor_h5.stem}_report.html")
     assert n_views > 0 and later != first, "the shape does not move"
     assert external == []  # nothing was requested from outside the file
 
@@ -61,7 +63,7 @@ def test_shapes_move_in_the_run_report(browser, example_study):
     assert external == []  # nothing was requested from outside the file
 
 
-def test_pole_preview_brings_the_mode_view_into_sight(browser, tmp_path, example_dir):
+def test_pole_preview_brings_the_mode_view_into_sight(browser, tmp_path, three_sensor_h5):
     """Clicking a kept mode's diamond in the stabilization diagram: its preview
     holds a button that scrolls that mode's animated view on the geometry into
     the window."""
@@ -69,9 +71,9 @@ def test_pole_preview_brings_the_mode_view_into_sight(browser, tmp_path, example
     from selenium.webdriver.common.by import By
 
     geometry = io.write_geometry_uff(Beam().measurement_geometry(), tmp_path / "beam.uff")
-    assert main(["identify", str(example_dir / "genuine.uff"), "--out", str(tmp_path),
+    assert main(["identify", str(three_sensor_h5), "--out", str(tmp_path),
                  "--report", "--quiet", "--geometry", str(geometry)]) == 0
-    browser.get((tmp_path / "genuine_report.html").as_uri())
+    browser.get((tmp_path / f"{three_sensor_h5.stem}_report.html").as_uri())
     diamond = browser.find_elements(By.CSS_SELECTOR, 'polygon.pole.mode[data-mode="2"]')[0]
     browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", diamond)
     ActionChains(browser).move_to_element(diamond).click().perform()
@@ -81,3 +83,21 @@ def test_pole_preview_brings_the_mode_view_into_sight(browser, tmp_path, example
     assert not browser.execute_script(inside, view)  # the diagram is far above the views
     browser.find_element(By.CSS_SELECTOR, '[data-pole-preview] [data-show-shape="2"]').click()
     assert browser.execute_script(inside, view)
+
+
+def test_two_sensor_preview_draws_no_shape(browser, tmp_path, example_dir):
+    """The shipped example (two sensors): a diamond's preview gives its values
+    and says why no shape is drawn, with no shape bars (issue 41)."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    assert main(["identify", str(example_dir / "genuine.uff"), "--out", str(tmp_path),
+                 "--report", "--quiet", "--no-figures"]) == 0
+    browser.get((tmp_path / "genuine_report.html").as_uri())
+    diamond = browser.find_elements(By.CSS_SELECTOR, 'polygon.pole.mode[data-mode="2"]')[0]
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", diamond)
+    ActionChains(browser).move_to_element(diamond).click().perform()
+    preview = browser.find_element(By.CSS_SELECTOR, "[data-pole-preview]")
+    assert "MPC" in preview.text
+    assert "2 measured points only: no shape is drawn" in preview.text
+    assert not preview.find_elements(By.CSS_SELECTOR, "svg[data-shape]")

@@ -168,7 +168,25 @@ def test_html_report_is_self_contained_with_every_figure_and_table(study):
     assert parser.external == []
     md = (study / "report.md").read_text()
     assert all(f"figures/{p}.svg" in md for p in svgs)
-    assert "paper_fd_hz" in md and "dev_fd_hz" in md  # printed beside the paper's values
+    # printed beside the paper's values
+    assert "| paper fd (Hz) |" in md and "| deviation fd (Hz) |" in md
+
+
+def test_markdown_tables_have_the_html_headers(study):
+    """Issue 41: the Markdown report's table headers are the HTML's words with
+    units (report.tables.header_text), not the CSV files' identifiers."""
+    import re
+
+    lines = (study / "report.md").read_text(encoding="utf-8").splitlines()
+    headers = [[c.strip() for c in line.strip("|").split("|")]
+               for line, below in zip(lines, lines[1:], strict=False)
+               if below.startswith("|---")]
+    assert len(headers) >= 8  # setup, 3 x modes, fit, the paper's tables, provenance
+    cells = [c for row in headers for c in row]
+    assert not [c for c in cells if re.fullmatch(r"[a-z0-9]+(_[a-z0-9]+)+", c)], cells
+    for words in ("f (Hz)", "σ_f (Hz)", "ζ (%)", "damped f (Hz)", "fit error (%)", "MPD (°)"):
+        assert words in cells, words
+    assert "fn_hz" not in cells and "zeta_pct" not in cells and "error_pct" not in cells
 
 
 def test_results_store_and_summary(study):

@@ -235,6 +235,13 @@ class HitSearch:
         """Samples padded at the front of each hit's record (zeros when none)."""
         return np.zeros(self.n_hits, dtype=int) if self.pad is None else self.pad
 
+    def trigger_offsets(self, which: np.ndarray | list[int]) -> np.ndarray:
+        """The sample of each record of hits ``which`` where its crossing lies:
+        the pretrigger for records cut around their hit, the crossing's place
+        in its segment for pre-cut records (kept as cut)."""
+        which = np.asarray(which, dtype=int)
+        return self.cross[which] - self.start[which] + self.padding()[which]
+
     def record_index(self, which: np.ndarray | list[int]) -> np.ndarray:
         """(len(which), n_samples) sample indices of the records of hits ``which``
         (the padded front repeats the first sample of the data)."""
@@ -531,14 +538,15 @@ def pulse_end_s(
     return latest
 
 
-def tail_level(response: np.ndarray, n_pretrigger: int) -> tuple[np.ndarray, np.ndarray]:
+def tail_level(response: np.ndarray, n_pretrigger: int,
+               n_tail: int | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Level at the record end relative to the peak, and pretrigger level relative
     to the peak, per record and response.
 
     ``response`` (n_records, n_out, n_samples). The end level is sqrt(2) times the
-    RMS over the last 1/16 of the record (at least 8 samples), the peak the largest
-    absolute value after the trigger, the pretrigger level sqrt(2) times the RMS
-    before the trigger (0 without pretrigger).
+    RMS over the last ``n_tail`` samples (default 1/16 of the record, at least 8),
+    the peak the largest absolute value after the trigger, the pretrigger level
+    sqrt(2) times the RMS before the trigger (0 without pretrigger).
 
     Examples
     --------
@@ -548,7 +556,7 @@ def tail_level(response: np.ndarray, n_pretrigger: int) -> tuple[np.ndarray, np.
     0.021
     """
     n = response.shape[-1]
-    n_tail = max(8, n // 16)
+    n_tail = max(8, n // 16) if n_tail is None else n_tail
     peak = np.abs(response[..., n_pretrigger:]).max(axis=-1)
     peak = np.where(peak > 0, peak, np.inf)
     end = np.sqrt(2 * np.mean(response[..., -n_tail:] ** 2, axis=-1)) / peak
@@ -703,15 +711,25 @@ def cut_records(
     )
 
 
-def auto_exp_window_tau(records: TimeRecords) -> float | None:
+def auto_exp_window_tau(records: TimeRecords, trigger_offsets: np.ndarray | None = None,
+                        pretrigger_n: int = 0) -> float | None:
     """Time constant (s) of the exponential window that brings the response level
     at the record end to ``AUTO_TAU_LEVEL`` (1 %) of its peak; ``None`` when it is
     there already.
 
     The level r (:func:`tail_level`: median over the records of the largest over
-    the responses) is measured at the middle of the last 1/16 of the record,
-    t_end after the trigger; the window exp(-t/tau) must bring it down by r / 1 %:
-    tau = t_end / ln(r / 0.01).
+    the responses) is measured over 1/16 of the record length ending t_end after
+    each record's own trigger crossing (``trigger_offsets``, samples into each
+    record; default: the records' common trigger), with t_end the record length
+    less the longest of the pretrigger asked for (``pretrigger_n``, samples) and
+    the crossings' offsets: for records cut around their hits, the last 1/16 of
+    the record; for pre-cut ones (kept from their start, their crossings a few
+    samples in) the same time after the crossing. So a hit's window depends on
+    its own data, not on how the recording is laid out: pyFRF's five hits as
+    one file (records cut 10 ms before each hit) or as five (pre-cut records,
+    the hit under 1 ms in) get the same window. The window exp(-t/tau) must
+    bring r down to 1 %: tau = t_mid / ln(r / 0.01), t_mid the middle of the
+    last 1/16 (the time after the trigger where r is measured).
 
     Examples
     --------
@@ -720,16 +738,36 @@ def auto_exp_window_tau(records: TimeRecords) -> float | None:
     >>> rec = TimeRecords(force=np.eye(1, 1024), response=x[None, :], sample_rate_hz=1024.0)
     >>> round(auto_exp_window_tau(rec), 3)  # 1/tau + 1/0.5 = ln(100) / 0.97
     0.362
+
+    The same decay 16 samples into a pre-cut record, with 32 samples of
+    pretrigger asked for: measured up to 992 samples after the crossing, as in a
+    record cut 32 samples before it.
+
+    >>> late = np.concatenate([np.zeros(16), x[:-16]])
+    >>> pre = TimeRecords(force=np.eye(1, 1024), response=late[None, :],
+    ...                   sample_rate_hz=1024.0, trigger_s=16 / 1024)
+    >>> cut = TimeRecords(force=np.eye(1, 1024), response=np.concatenate(
+    ...     [np.zeros(32), x[:-32]])[None, :], sample_rate_hz=1024.0, trigger_s=32 / 1024)
+    >>> auto_exp_window_tau(pre, np.array([16]), 32) == auto_exp_window_tau(cut, None, 32)
+    True
     """
-    n = records.n_samples
-    n_pre = int(round(records.trigger_s * records.sample_rate_hz))
-    end, _ = tail_level(records.response, n_pre)
+    n, fs = records.n_samples, records.sample_rate_hz
+    at = np.full(records.n_averages, int(round(records.trigger_s * fs)))
+    if trigger_offsets is not None:
+        at = np.asarray(trigger_offsets, dtype=int)
+    n_tail = max(8, n // 16)
+    span = n - max(int(pretrigger_n), int(at.max()))  # samples after every trigger
+    if span < n_tail + 1:  # a pretrigger asked for that the records cannot follow
+        span = n - int(at.max())
+    # each record from its crossing for ``span`` samples: the peak after the
+    # trigger and the level over the stretch's last n_tail samples
+    after = np.stack([records.response[k, :, a:a + span] for k, a in enumerate(at)])
+    end, _ = tail_level(after, 0, n_tail)
     r = float(np.median(end.max(axis=1)))
     if not r > AUTO_TAU_LEVEL:
         return None
-    n_tail = max(8, n // 16)
-    t_end = (n - n_tail / 2 - n_pre) / records.sample_rate_hz
-    return t_end / float(np.log(r / AUTO_TAU_LEVEL))
+    t_mid = (span - n_tail / 2) / fs
+    return t_mid / float(np.log(r / AUTO_TAU_LEVEL))
 
 
 def force_band(freq_hz: np.ndarray, force_auto: np.ndarray) -> tuple[float, float]:

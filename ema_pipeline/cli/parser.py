@@ -331,7 +331,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--report",
         action="store_true",
         help="also write DIR/<stem>_report.html per file (setup, FRFs and coherence, "
-        "stabilization, modes with MPC, AutoMAC, shapes, fit, provenance)",
+        "stabilization, modes with MPC, AutoMAC and shapes when a shape has 3 or more "
+        "points, fit, provenance)",
     )
     _add_no_figures(p)
     _add_geometry(p, "the report (with --report)")

@@ -233,7 +233,8 @@ def frf_from_recording(
     fs, n = rec.sample_rate_hz, found.n_samples
     tau: float | None
     if settings.exp_window_tau == "auto":
-        tau = hitlib.auto_exp_window_tau(records)
+        tau = hitlib.auto_exp_window_tau(records, found.trigger_offsets(accepted),
+                                         int(round(settings.pretrigger_s * fs)))
         shortest = acquisition.shortest_exp_window_tau(n, fs, records.trigger_s)
         if tau is not None and not tau >= shortest:
             raise DataError(f"{where}: the automatic exponential window (tau {tau:.4g} s) "

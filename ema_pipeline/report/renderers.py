@@ -42,8 +42,10 @@ from ema_pipeline.report.result_tables import (
     setup_table,
 )
 from ema_pipeline.report.shape_views import (
+    MIN_SHAPE_DOFS,
     ModeSet,
     paired_shape_views_html,
+    shape_dof_count,
     shape_views_html,
 )
 from ema_pipeline.report.stab_diagram import stab_diagram_html
@@ -63,7 +65,6 @@ if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.result import IdentificationResult
 
 __all__ = [
-    "MIN_SHAPE_CHANNELS",
     "render_batch_html",
     "render_html",
     "render_identify_html",
@@ -159,17 +160,16 @@ def tables_heading(names: Sequence[str]) -> str:
     return "Tables " + ", ".join(map(str, nums[:-1])) + f" and {nums[-1]}"
 
 
-#: Fewer measured channels (response-reference pairs) than this: no shapes,
-#: no AutoMAC (a shape of one value says nothing; every MAC is 1). Two
-#: channels keep them: the shipped two-sensor beam's shapes tell its modes apart.
-MIN_SHAPE_CHANNELS = 2
-
-
-def _few_channels_note(n_channels: int) -> str:
-    return (f'<p class="muted">{plural(n_channels, "measured channel")} only (one '
-            "response, one reference): a mode shape needs several measured points, so "
-            "this report has no shape views, no shape figure and no AutoMAC (every MAC "
-            "between one-value shapes is 1).</p>")
+def _few_dofs_note(frf: FRFSet, n_dof: int) -> str:
+    """Why a page with shapes of fewer than :data:`MIN_SHAPE_DOFS` points has
+    no shapes and no AutoMAC."""
+    why = ("every MAC between one-value shapes is 1" if n_dof == 1 else
+           "two values hold at most two independent shapes, so the AutoMAC cannot "
+           "tell more modes apart")
+    return (f'<p class="muted">Each mode shape has {plural(n_dof, "measured point")} only '
+            f'({plural(frf.n_out, "response")}, {plural(frf.n_in, "reference")}): a shape '
+            f"needs at least {MIN_SHAPE_DOFS} points to be drawn or compared, so this report "
+            f"has no shape views, no shape figure and no AutoMAC ({why}).</p>")
 
 
 def _limits_note() -> str:
@@ -371,8 +371,8 @@ def render_identify_html(
     in the summary and the provenance."""
     name = frf.configuration or frf.source.path or "FRF set"
     fg: dict[str, str] = {}
-    n_channels = frf.n_out * frf.n_in
-    few = n_channels < MIN_SHAPE_CHANNELS
+    n_dof = shape_dof_count(frf)
+    few = n_dof < MIN_SHAPE_DOFS
     if figures:
         identification_figures("one", frf, result, fg, name)
     if figures and not few:
@@ -420,7 +420,7 @@ def render_identify_html(
     page.section("modes", "Modes (MPC, MPD, stable orders)").append(
         mode_table_html(result) + _doubtful_note([result])
         + item_list([not_kept] if not_kept else [], "notes")
-        + (_few_channels_note(n_channels) if few else "")
+        + (_few_dofs_note(frf, n_dof) if few else "")
     )
     if not few:
         page.section("mac", "AutoMAC").append(mac_section({name: result}, name))

@@ -33,23 +33,49 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.data import DOF, Geometry
+from ema_pipeline.data import DOF, FRFSet, Geometry
+from ema_pipeline.identification import single_reference
 from ema_pipeline.report.htmlparts import esc
 
 __all__ = [
+    "MIN_SHAPE_DOFS",
     "ModeSet",
     "interpolated_displacements",
     "missing_dofs",
     "paired_shape_views_html",
     "shape_data",
+    "shape_dof_count",
     "shape_views_html",
 ]
+
+#: Fewer measured points in a mode shape than this: a page shows no shape
+#: (views, bars by DOF, the diagram's preview) and no AutoMAC. One value says
+#: nothing and every MAC between one-value shapes is 1; two values hold at
+#: most two independent shapes, so the AutoMAC cannot tell more modes apart.
+MIN_SHAPE_DOFS = 3
 
 #: Size of each view's SVG (px, its viewBox) and the share of the model's size
 #: that the largest displacement takes at amplitude scale 1.
 VIEW_W, VIEW_H, AMPLITUDE_SHARE = 300, 170, 0.15
 #: Decimals of the shapes in the JSON (normalised to a largest component of 1).
 DECIMALS = 4
+
+
+def shape_dof_count(frf: FRFSet) -> int:
+    """The number of measured points (DOFs) of a mode shape identified from
+    ``frf``: its responses, or its references for a roving-hammer test (one
+    response, several references: the shapes are over the hammer points by
+    reciprocity, :func:`ema_pipeline.identification.single_reference`).
+
+    Examples
+    --------
+    >>> f = np.linspace(0.0, 10.0, 11)
+    >>> shape_dof_count(FRFSet(freq_hz=f, H=np.ones((1, 12, 11), complex)))  # roving hammer
+    12
+    >>> shape_dof_count(FRFSet(freq_hz=f, H=np.ones((2, 1, 11), complex)))   # two sensors
+    2
+    """
+    return single_reference(frf).n_out
 
 
 @dataclass(frozen=True)

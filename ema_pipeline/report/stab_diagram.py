@@ -17,19 +17,25 @@ exact ``data-pole-re``, ``data-pole-im``, rad/s, which the picks file gives);
 these carry ``selected`` when the page opens.
 
 The sum of |H| over all channels in the band (:func:`.figures.sum_abs_frf`) is
-drawn under the poles on a log scale (``path[data-frf-overlay]``). The wheel,
+drawn under the poles on a log scale (``path[data-frf-overlay]``; its log10
+at every line, or the largest of each run of lines above 2000, one character
+a value in 32768 levels from the smallest to the largest). The wheel,
 a drag and the buttons ``[data-zoom-in]``, ``[data-zoom-out]`` and
 ``[data-zoom-reset]`` zoom and pan the frequency axis; the range shown is kept
 in ``data-x-min-hz`` / ``data-x-max-hz`` of the ``[data-diagram]`` element and
 the tick labels (``[data-axis-tick]``) are redrawn in 1-2-5 steps. The legend
-lists only the stability classes drawn.
+lists only the stability classes drawn. Over the sum FRF, ``path[data-synthesis]``
+is the same sum synthesised from the picked poles, refitted in the page
+whenever a pole is picked or unpicked (:mod:`.synthesis_view`).
 
 Hovering a pole shows f, zeta, MPC and its order (in the line under the
 diagram and as the pole's tooltip); clicking it also fills ``[data-pole-preview]``
 with these values and, for a kept mode, its real-normalised shape by DOF
-(``svg[data-shape]``) and, where the page animates the shapes on a geometry,
-a button (``[data-show-shape]``) that brings that mode's view into sight. Clicking a pole toggles
-it; a mode has one pole, so clicking another pole of the same trajectory
+(``svg[data-shape]``; not for shapes of fewer than
+:data:`~.shape_views.MIN_SHAPE_DOFS` points, where a sentence says so) and,
+where the page animates the shapes on a geometry, a button
+(``[data-show-shape]``) that brings that mode's view into sight. Clicking a
+pole toggles it; a mode has one pole, so clicking another pole of the same trajectory
 moves the pick there. The element ``#picks`` always holds the picks file
 (TOML, :class:`ema_pipeline.identification.picks.Picks`) of the current
 selection, with a copy and a download button: ``ema-pipeline identify FILE
@@ -56,6 +62,8 @@ from ema_pipeline.identification.result import (
 from ema_pipeline.report.figures import sum_abs_frf
 from ema_pipeline.report.htmlparts import esc
 from ema_pipeline.report.result_tables import label_as_tested
+from ema_pipeline.report.shape_views import MIN_SHAPE_DOFS, shape_dof_count
+from ema_pipeline.report.synthesis_view import CODE_0, SYNTHESIS_JS, synthesis_data
 
 __all__ = ["stab_diagram_html"]
 
@@ -74,6 +82,8 @@ _CSS = """<style>
 .stabd .info{min-height:1.3em;font-size:.9em}
 .stabd svg.stab{cursor:grab;touch-action:none}.stabd svg.stab.dragging{cursor:grabbing}
 .stabd .frf-overlay{fill:none;stroke:#555;stroke-width:.8;opacity:.55;pointer-events:none}
+.stabd .synthesis{fill:none;stroke:#d62728;stroke-width:.9;stroke-dasharray:4 2;opacity:.8;
+pointer-events:none}
 .stabd .legend span{margin-right:1.2em;white-space:nowrap}
 .stabd .legend i{display:inline-block;width:.7em;height:.7em;border-radius:50%;margin-right:.3em}
 .stabd .preview{border:1px solid #ccc;padding:.3em .6em;margin:.3em 0;font-size:.9em}
@@ -81,14 +91,20 @@ _CSS = """<style>
 @media print{.stabd button,.stabd pre.picks,.stabd .zoom{display:none}}
 </style>"""
 
-_SCRIPT = r"""(function(){
+#: The levels of the overlay's characters (15 bits, from synthesis_view.CODE_0).
+CURVE_LEVELS = 32767
+
+_SCRIPT = (r"""(function(){""" + SYNTHESIS_JS
+           + f"var CURVE_LEVELS={CURVE_LEVELS};" + r"""
 var root=document.currentScript.parentNode;
 var out=root.querySelector('pre.picks'), info=root.querySelector('.info');
 var count=root.querySelector('.npicks'), cfg=JSON.parse(root.getAttribute('data-diagram'));
 var svg=root.querySelector('svg.stab'), NS='http://www.w3.org/2000/svg';
 var preview=root.querySelector('[data-pole-preview]');
 var d=JSON.parse(root.querySelector('script.stab-poles').textContent);
-var lo=d.lo, hi=d.hi, view=[lo,hi], dragged=false;
+d.fl=Array.prototype.map.call(d.fl,function(c){
+ return d.lmin+(c.charCodeAt(0)-CODE0)/CURVE_LEVELS*(d.lmax-d.lmin);});
+var lo=d.lo, hi=d.hi, view=[lo,hi], dragged=false, SL=null;
 function num(x){x=+x;if(!isFinite(x))return 'nan';var s=String(x);
  return /[.eEn]/.test(s)?s:s+'.0';}
 (function(){
@@ -127,14 +143,26 @@ function draw(){
   var l=document.createElementNS(NS,'path');
   l.setAttribute('d','M'+xof(+t).toFixed(1)+' '+d.y0+'v4');l.setAttribute('stroke','#999');
   tg.appendChild(l);});
- var ov=root.querySelector('[data-frf-overlay]'),pts=[];
- if(ov&&d.fl.length){var n=d.fl.length,
+ curve(root.querySelector('[data-frf-overlay]'),d.fl.length?d.fl:null);
+ curve(root.querySelector('[data-synthesis]'),SL);
+}
+function curve(el,vals){var pts=[];
+ if(el&&vals){var n=vals.length,
   a=Math.max(0,Math.floor((view[0]-d.f0)/d.df)),b=Math.min(n-1,Math.ceil((view[1]-d.f0)/d.df));
   for(var k=a;k<=b;k++){pts.push((k===a?'M':'L')+
    Math.min(d.x0+d.pw,Math.max(d.x0,xof(d.f0+k*d.df))).toFixed(1)+' '+
-   (d.y0-(d.fl[k]-d.lmin)/(d.lmax-d.lmin||1)*d.oh).toFixed(1));}
-  ov.setAttribute('d',pts.join(''));}
-}
+   Math.min(d.y0,Math.max(d.y0-d.oh,d.y0-(vals[k]-d.lmin)/(d.lmax-d.lmin||1)*d.oh)).toFixed(1));}}
+ if(el){el.setAttribute('d',pts.join(''));}}
+function lambdas(sel){
+ var l=sel.map(function(p){var m=p.dataset.kind==='mode',
+  w=2*Math.PI*(m?p.dataset.xHz:p.dataset.freqHz),z=+(m?p.dataset.zetaFit:p.dataset.zeta);
+  return [-z*w-d.sy.wdr,w*Math.sqrt(Math.max(0,1-z*z))];});
+ if(cfg.companions.length&&sel.every(function(p){return p.dataset.kind==='mode';})){
+  l=l.concat(cfg.companions);}
+ return l.filter(function(x){return isFinite(x[0])&&isFinite(x[1])&&x[1]>0;});}
+function resynth(){
+ SL=d.sy&&d.sy.n?synthesis(lambdas(poles().filter(function(p){
+  return p.classList.contains('selected');}))):null;}
 function setView(a,b){var w=Math.max(b-a,(hi-lo)*1e-3);
  w=Math.min(w,hi-lo);if(a<lo){a=lo;}if(a+w>hi){a=hi-w;}view=[a,a+w];draw();}
 function zoom(factor,center){var c=center===undefined?(view[0]+view[1])/2:center;
@@ -155,7 +183,7 @@ window.addEventListener('mousemove',function(ev){if(!drag)return;var dx=svgx(ev)
  if(dragged){var df=dx/d.pw*(drag.view[1]-drag.view[0]);
   setView(drag.view[0]-df,drag.view[1]-df);}});
 window.addEventListener('mouseup',function(){drag=null;svg.classList.remove('dragging');});
-draw();
+resynth();draw();
 function poles(){return Array.prototype.slice.call(root.querySelectorAll('.pole'));}
 function text(){
  var sel=poles().filter(function(p){return p.classList.contains('selected');});
@@ -196,8 +224,8 @@ function showPreview(p){
  h.textContent=describe(p);preview.appendChild(h);
  var sh=p.dataset.kind==='mode'?d.shapes[+p.dataset.mode-1]:null;
  if(!sh){var q=document.createElement('p');q.className='muted';
-  q.textContent='The shape is known for the kept modes (diamonds): pick this pole and '+
-   'fit the picks to see its shape.';preview.appendChild(q);return;}
+  q.textContent=d.noshape||('The shape is known for the kept modes (diamonds): pick '+
+   'this pole and fit the picks to see its shape.');preview.appendChild(q);return;}
  var n=sh.length,W=520,H=120,bw=(W-40)/n,s=document.createElementNS(NS,'svg');
  s.setAttribute('viewBox','0 0 '+W+' '+H);s.setAttribute('data-shape','');
  s.setAttribute('role','img');s.setAttribute('aria-label','real-normalised shape by DOF');
@@ -234,7 +262,7 @@ poles().forEach(function(p){
   else{poles().forEach(function(q){if(q.dataset.group===p.dataset.group)
     q.classList.remove('selected');});p.classList.add('selected');}
   info.textContent=(p.classList.contains('selected')?'picked ':'unpicked ')+describe(p);
-  text();
+  text();resynth();draw();
  });
 });
 root.querySelector('.copy-picks').addEventListener('click',function(){
@@ -251,7 +279,7 @@ root.querySelector('.download-picks').addEventListener('click',function(){
  a.download=cfg.file;document.body.appendChild(a);a.click();document.body.removeChild(a);
 });
 text();
-})();"""
+})();""")
 
 
 _CLASSES = {0: "unstable", 1: "stable frequency", 2: "stable frequency and damping",
@@ -274,6 +302,23 @@ def _overlay(freq_hz: np.ndarray, total: np.ndarray) -> tuple[float, float, np.n
     n = v.size // k
     peaks = v[: n * k].reshape(n, k).max(axis=1)
     return float(freq_hz[0]) + df * (k - 1) / 2, df * k, np.log10(peaks)
+
+
+def _curve_text(values: np.ndarray) -> str:
+    """``values`` as one character each, ``CODE_0`` plus the level from the
+    smallest (0) to the largest (:data:`CURVE_LEVELS`): 3 bytes a value and
+    1e-4 decade for the log10 curve, where "-2.35," takes 6 bytes to 0.005.
+
+    Examples
+    --------
+    >>> [ord(c) - CODE_0 for c in _curve_text(np.array([-3.0, -1.0, -2.0]))]
+    [0, 32767, 16384]
+    """
+    if values.size == 0:
+        return ""
+    lo, hi = float(values.min()), float(values.max())
+    q = np.rint((values - lo) / ((hi - lo) or 1.0) * CURVE_LEVELS).astype(np.int64)
+    return "".join(map(chr, (CODE_0 + q).tolist()))
 
 
 def _mode_shapes(result: IdentificationResult, n_modes: int) -> list[list[float]]:
@@ -376,6 +421,7 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
              f'<rect x="{_LEFT}" y="{_TOP}" width="{pw}" height="{ph}" fill="none" '
              'stroke="#999"/>',
              '<path class="frf-overlay" data-frf-overlay="" d=""/>',
+             '<path class="synthesis" data-synthesis="" d=""/>',
              '<g class="ticks"></g>']
     parts.append(f'<text x="{_LEFT + pw / 2}" y="{_H - 4}" text-anchor="middle">'
                  "natural frequency (Hz)</text>")
@@ -397,17 +443,22 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
     }
     # the sum FRF of the band on a log scale, under the poles
     f0_sum, df_sum, l_sum = _overlay(sub.freq_hz, sum_abs_frf(sub.H))
-    columns["fl"] = _join(l_sum, "{:.2f}")
-    shapes = _mode_shapes(result, start.size)
+    columns["fl"] = json.dumps(_curve_text(l_sum), ensure_ascii=False)
+    n_dof = shape_dof_count(frf)
+    shapes = _mode_shapes(result, start.size) if n_dof >= MIN_SHAPE_DOFS else []
     frame = {"lo": float(lo), "hi": float(hi), "x0": _LEFT, "pw": pw, "y0": _TOP + ph,
              "row": row, "orders": [int(o) for o in orders],
              "lmin": float(l_sum.min()) if l_sum.size else 0.0,
              "lmax": float(l_sum.max()) if l_sum.size else 1.0,
              "oh": ph - 1.5 * row, "f0": f0_sum, "df": df_sum, "shapes": shapes,
              "dofs": _dof_labels(result, len(shapes[0]) if shapes else 0,
-                                 frf.acquisition.response_negative)}
+                                 frf.acquisition.response_negative),
+             "sy": synthesis_data(sub, s),
+             "noshape": "" if n_dof >= MIN_SHAPE_DOFS else
+             f"A mode shape of this test has {n_dof} measured point"
+             f"{'' if n_dof == 1 else 's'} only: no shape is drawn."}
     data = ("{" + ",".join(f'"{k}":{v}' for k, v in columns.items()) + ","
-            + json.dumps(frame)[1:])
+            + json.dumps(frame, ensure_ascii=False)[1:])
     parts.append('<g class="diagram-poles"></g>')
     groups = _mode_groups(result, f_mode)
     fn_fit = np.asarray(result.modes.fn_hz, dtype=float)
@@ -440,7 +491,10 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
     legend += ('<span data-legend="mode"><i style="background:#ff4040;border-radius:0">'
                "</i>kept mode, at its refined frequency</span>" if start.size else "")
     legend += ('<span data-legend="frf"><i style="background:#888;height:2px"></i>'
-               "sum of |H| over all channels (log scale)</span>")
+               "sum of |H| over all channels (log scale)</span>"
+               '<span data-legend="synthesis"><i style="background:#d62728;height:2px">'
+               "</i>the same sum synthesised from the picked poles (residues fitted in "
+               "the page)</span>")
     return (
         f'{_CSS}<div class="stabd" data-diagram="{esc(cfg)}">'
         '<p class="muted">Click a pole to pick or unpick it and to see its values (one '

@@ -244,19 +244,21 @@ def column_formatters(table: pd.DataFrame) -> dict[str, Callable[[Any], str]]:
 
 
 def markdown_table(table: pd.DataFrame) -> str:
-    """A GitHub-flavoured Markdown table with consistent decimals per column.
+    """A GitHub-flavoured Markdown table with consistent decimals per column,
+    its headers in words with their units as the HTML tables' (:func:`header_text`).
 
     Examples
     --------
     >>> print(markdown_table(pd.DataFrame({"mode": [1, 2], "fn_hz": [18.1, 112.23]})))
-    | mode | fn_hz |
+    | mode | f (Hz) |
     |---|---|
     | 1 | 18.10 |
     | 2 | 112.23 |
     """
     cols = [str(c) for c in table.columns]
     fmts = column_formatters(table)
-    lines = ["| " + " | ".join(cols) + " |", "|" + "|".join("---" for _ in cols) + "|"]
+    head = (header_text(c).replace("|", "\\|") for c in cols)
+    lines = ["| " + " | ".join(head) + " |", "|" + "|".join("---" for _ in cols) + "|"]
     for row in table.itertuples(index=False):
         cells = (fmts[c](v).replace("|", "\\|") for c, v in zip(cols, row, strict=True))
         lines.append("| " + " | ".join(cells) + " |")

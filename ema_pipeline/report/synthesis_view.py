@@ -1,0 +1,195 @@
+"""The synthesis of the picked poles in the interactive stabilization diagram.
+
+The page refits the FRFs whenever a pole is picked or unpicked and draws the
+sum of |H_synth| over all channels (``path[data-synthesis]``) over the sum of
+|H| of the measurement (``path[data-frf-overlay]``), on the same log scale.
+The model is LSFD's (:func:`ema_pipeline.identification.lsfd.design_matrix`):
+for every picked pole lambda (from its frequency and damping, less the
+window's decay rate; a kept mode's refined ones, as the tables give them and
+as ``--picks`` refines the pick), a complex residue per channel with its
+complex-conjugate term, plus the lower
+and upper residual terms of the FRF's quantity when the identification used
+them; the real coefficients of all channels are one linear least-squares
+problem, solved in the page by its normal equations (columns scaled to a
+unit diagonal, Cholesky). Untouched, the picks include the companions, as
+the picks file does.
+
+The page carries the measured FRFs for this (:func:`synthesis_data`): the
+band's lines (every ``k``-th above :data:`FIT_LINES`), each complex value as
+one character (3 bytes in UTF-8): its log10 magnitude in 256 levels over
+the channel's top :data:`DECADES` decades (2.3 % at most) and its phase in
+128 (1.4 degrees at most). The fit averages these errors over the lines; the
+curve drawn is the model's, at every line of the overlay. Not base64: its
+letters spell any short word or label somewhere in a long string, and a
+search of the page for "3+Z" or "nan" would find them.
+
+Above :data:`SYNTH_VALUES` values, the channels are replaced by the leading components of the real
+SVD of their real and imaginary parts, ``H_c = sum_k U_ck Y_k`` with real
+``U``; the real-coefficient fit is real-linear, so each channel's synthesis
+is ``sum_k U_ck`` times the synthesis of ``Y_k``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ema_pipeline.data import FRFSet, quantity_power
+from ema_pipeline.identification.result import ResolvedSettings
+
+__all__ = ["CODE_0", "DECADES", "FIT_LINES", "MAG_LEVELS", "PHASE_LEVELS", "SYNTHESIS_JS",
+           "SYNTH_VALUES", "decode_levels", "synthesis_data"]
+
+#: At most this many lines of the band are fitted in the page.
+FIT_LINES = 800
+#: At most this many complex values (lines x channels or components) in the page.
+SYNTH_VALUES = 40_000
+#: One character a value, ``CODE_0 + PHASE_LEVELS * m + p``: the magnitude's
+#: level m (0 to MAG_LEVELS, log10 from the row's ``lmin`` to its ``lmax``,
+#: at most DECADES below it) and the phase's p (0 to PHASE_LEVELS - 1 over
+#: 2 pi). 15 bits: the characters run from U+3400 to U+B3FF (CJK and Hangul,
+#: 3 bytes in UTF-8), far from the letters, digits and signs a page's text uses.
+CODE_0, MAG_LEVELS, PHASE_LEVELS, DECADES = 0x3400, 255, 128, 5.0
+
+
+def _quantize(Y: np.ndarray) -> tuple[str, list[float], list[float]]:
+    """``Y`` (rows, n) complex as one character a value (see the constants);
+    zeros, NaN and magnitudes more than DECADES below the row's largest at
+    its lowest level."""
+    mag = np.abs(np.nan_to_num(Y))
+    with np.errstate(divide="ignore"):
+        lg = np.where(mag > 0, np.log10(np.where(mag > 0, mag, 1.0)), np.nan)
+    lmin, lmax = [], []
+    codes = np.empty(Y.shape, dtype=np.int64)
+    for k, row in enumerate(lg):
+        ok = np.isfinite(row)
+        b = float(row[ok].max()) if ok.any() else 0.0
+        a = max(float(row[ok].min()), b - DECADES) if ok.any() else b - 1.0
+        b = b if b > a else a + 1.0
+        m = np.rint(np.clip((np.where(ok, row, a) - a) / (b - a), 0.0, 1.0) * MAG_LEVELS)
+        p = np.rint((np.angle(np.nan_to_num(Y[k])) + np.pi) / (2 * np.pi) * PHASE_LEVELS)
+        codes[k] = CODE_0 + PHASE_LEVELS * m.astype(np.int64) + p.astype(np.int64) % PHASE_LEVELS
+        lmin.append(round(a, 6))
+        lmax.append(round(b, 6))
+    return "".join(map(chr, codes.ravel().tolist())), lmin, lmax
+
+
+def decode_levels(data: dict[str, object]) -> np.ndarray:
+    """The complex values (rows, n) of :func:`synthesis_data`'s ``levels``, as
+    the page decodes them (for tests and checks).
+
+    Examples
+    --------
+    >>> f = np.linspace(10.0, 20.0, 101)
+    >>> Y = (1.0 / (f - 15.0 - 0.1j))[None]
+    >>> levels, lmin, lmax = _quantize(Y)
+    >>> back = decode_levels({"levels": levels, "rows": 1, "n": 101, "lmin": lmin,
+    ...                       "lmax": lmax})
+    >>> len(levels.encode()), bool(np.abs(back / Y - 1).max() < 0.035)
+    (303, True)
+    """
+    q = np.array([ord(c) - CODE_0 for c in str(data["levels"])], dtype=float)
+    q = q.reshape(int(data["rows"]), int(data["n"]))  # type: ignore[call-overload]
+    lmin = np.asarray(data["lmin"], dtype=float)[:, None]
+    lmax = np.asarray(data["lmax"], dtype=float)[:, None]
+    m, p = np.divmod(q, PHASE_LEVELS)
+    return 10 ** (lmin + m / MAG_LEVELS * (lmax - lmin)) * np.exp(
+        1j * (p / PHASE_LEVELS * 2 * np.pi - np.pi))
+
+
+def synthesis_data(sub: FRFSet, settings: ResolvedSettings) -> dict[str, object]:
+    """What the page needs to synthesise the picks: the FRFs of ``sub`` (the
+    band) as described in the module docstring, with the model's settings
+    (``q``, the quantity's power; ``low``/``up``, the residual terms; ``wdr``,
+    the window's decay rate in 1/s). Empty for an empty band.
+
+    Examples
+    --------
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import ModalParameters
+    >>> from ema_pipeline.identification import identify
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> frf = FRFSet(freq_hz=f, H=H)
+    >>> d = synthesis_data(frf.band(5.0, 95.0), identify(frf).settings)
+    >>> d["n"], d["rows"], d["mix"], len(d["levels"])
+    (361, 2, None, 722)
+    """
+    n = sub.freq_hz.size
+    if n < 2:
+        return {}
+    step = max(1, -(-n // FIT_LINES))
+    f = sub.freq_hz[::step]
+    Y = sub.H.reshape(-1, n)[:, ::step]
+    mix = None
+    if Y.size > SYNTH_VALUES:
+        r = max(1, SYNTH_VALUES // f.size)
+        U, s, Vt = np.linalg.svd(np.concatenate([Y.real, Y.imag], axis=1),
+                                 full_matrices=False)
+        Y = s[:r, None] * (Vt[:r, : f.size] + 1j * Vt[:r, f.size:])
+        mix = [[round(float(v), 6) for v in u] for u in U[:, :r]]
+    levels, lmin, lmax = _quantize(Y)
+    return {"f0": float(f[0]), "df": float(f[1] - f[0]), "n": int(f.size),
+            "rows": int(Y.shape[0]), "lmin": lmin, "lmax": lmax, "levels": levels, "mix": mix,
+            "q": quantity_power(sub.quantity), "low": bool(settings.lower_residual),
+            "up": bool(settings.upper_residual), "wdr": float(settings.window_decay_rate)}
+
+
+#: The page's synthesis (functions of the diagram's script, which calls
+#: ``synthesis(poles)`` with the picked poles as ``[re, im]`` in rad/s before
+#: the window correction and gets the log10 of the summed |H_synth| on the
+#: overlay's lines ``d.f0 + k d.df``, or null).
+SYNTHESIS_JS = r"""
+var SY=null,CODE0=""" + f"{CODE_0},ML={MAG_LEVELS},PL={PHASE_LEVELS}" + r""";
+function syDecode(){var s=d.sy,L=s.levels,n=s.n,rows=[];
+ for(var k=0;k<s.rows;k++){var re=new Float64Array(n),im=new Float64Array(n);
+  for(var j=0;j<n;j++){var c=L.charCodeAt(k*n+j)-CODE0,lv=Math.floor(c/PL),
+   m=Math.pow(10,s.lmin[k]+lv/ML*(s.lmax[k]-s.lmin[k])),ph=(c-lv*PL)/PL*2*Math.PI-Math.PI;
+   re[j]=m*Math.cos(ph);im[j]=m*Math.sin(ph);}
+  rows.push([re,im]);}
+ return rows;}
+function syBasis(freqs,lams){
+ var s=d.sy,n=freqs.length,res=[],cols=[];if(s.low)res.push(s.q-2);if(s.up)res.push(s.q);
+ lams.forEach(function(l){var a=l[0],b=l[1],c1=[new Float64Array(n),new Float64Array(n)],
+  c2=[new Float64Array(n),new Float64Array(n)];
+  for(var j=0;j<n;j++){var w=2*Math.PI*freqs[j],d1=a*a+(w-b)*(w-b),d2=a*a+(w+b)*(w+b),
+   gr=-a/d1,gi=-(w-b)/d1,cr=-a/d2,ci=-(w+b)/d2;
+   c1[0][j]=gr+cr;c1[1][j]=gi+ci;c2[0][j]=-(gi-ci);c2[1][j]=gr-cr;}
+  cols.push(c1,c2);});
+ res.forEach(function(p){var c1=[new Float64Array(n),new Float64Array(n)],
+  c2=[new Float64Array(n),new Float64Array(n)],k=((p%4)+4)%4;
+  for(var j=0;j<n;j++){var w=2*Math.PI*freqs[j],m=(w===0&&p<0)?0:Math.pow(w,p),
+   r=[m,0,-m,0][k],i=[0,m,0,-m][k];c1[0][j]=r;c1[1][j]=i;c2[0][j]=-i;c2[1][j]=r;}
+  cols.push(c1,c2);});
+ return cols;}
+function synthesis(lams){
+ var s=d.sy;if(!s||!s.n||!lams.length||!d.fl.length)return null;
+ if(!SY)SY=syDecode();
+ var fit=[];for(var j=0;j<s.n;j++)fit.push(s.f0+j*s.df);
+ var G=syBasis(fit,lams),p=G.length,M=[],sc=[],i,j,k,t;
+ for(i=0;i<p;i++){M.push(new Float64Array(p));}
+ for(i=0;i<p;i++){for(j=0;j<=i;j++){t=0;var ar=G[i][0],ai=G[i][1],br=G[j][0],bi=G[j][1];
+  for(k=0;k<s.n;k++){t+=ar[k]*br[k]+ai[k]*bi[k];}M[i][j]=M[j][i]=t;}}
+ for(i=0;i<p;i++){sc.push(M[i][i]>0?Math.sqrt(M[i][i]):1);}
+ for(i=0;i<p;i++){for(j=0;j<p;j++){M[i][j]/=sc[i]*sc[j];}M[i][i]+=1e-10;}
+ for(j=0;j<p;j++){t=M[j][j];for(k=0;k<j;k++){t-=M[j][k]*M[j][k];}
+  M[j][j]=Math.sqrt(Math.max(t,1e-300));
+  for(i=j+1;i<p;i++){t=M[i][j];for(k=0;k<j;k++){t-=M[i][k]*M[j][k];}M[i][j]=t/M[j][j];}}
+ var X=SY.map(function(y){var x=new Float64Array(p);
+  for(i=0;i<p;i++){t=0;for(k=0;k<s.n;k++){t+=G[i][0][k]*y[0][k]+G[i][1][k]*y[1][k];}
+   x[i]=t/sc[i];}
+  for(i=0;i<p;i++){t=x[i];for(k=0;k<i;k++){t-=M[i][k]*x[k];}x[i]=t/M[i][i];}
+  for(i=p-1;i>=0;i--){t=x[i];for(k=i+1;k<p;k++){t-=M[k][i]*x[k];}x[i]=t/M[i][i];}
+  for(i=0;i<p;i++){x[i]/=sc[i];}return x;});
+ var nd=d.fl.length,fd=[];for(j=0;j<nd;j++)fd.push(d.f0+j*d.df);
+ var B=syBasis(fd,lams),S=X.map(function(x){var re=new Float64Array(nd),
+  im=new Float64Array(nd);for(i=0;i<p;i++){var c=B[i];
+  for(k=0;k<nd;k++){re[k]+=x[i]*c[0][k];im[k]+=x[i]*c[1][k];}}return [re,im];});
+ var out=new Float64Array(nd);
+ if(s.mix){s.mix.forEach(function(u){for(k=0;k<nd;k++){var r=0,m=0;
+   for(i=0;i<u.length;i++){r+=u[i]*S[i][0][k];m+=u[i]*S[i][1][k];}
+   out[k]+=Math.sqrt(r*r+m*m);}});}
+ else{S.forEach(function(z){for(k=0;k<nd;k++){out[k]+=Math.hypot(z[0][k],z[1][k]);}});}
+ for(k=0;k<nd;k++){out[k]=Math.log10(Math.max(out[k],1e-300));}
+ return out;}
+"""

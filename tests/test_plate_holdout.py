@@ -1,0 +1,181 @@
+"""Issue 40's "Must show": a held-out roving-hammer plate through the two commands
+
+    ema-pipeline frf --channels channels.csv --out test.h5
+    ema-pipeline identify test.h5 --out id --band 25 185 --geometry plate.uff --report --uff
+
+A simply supported Kirchhoff plate (0.6 x 0.372 m; not the plate of
+tests/test_channel_sheet.py, whose numbers tuned nothing here) has the modes
+``phi_mn(x, y) = sin(m pi x / Lx) sin(n pi y / Ly)``, ``f_mn`` proportional to
+``(m / Lx)^2 + (n / Ly)^2``: in 25-185 Hz the modes (1,1), (2,1), (1,2), (3,1)
+and (2,2), with (1,2) and (3,1) 1.7 % apart, and seven modes above the band in
+the recordings. It is hit at 12 points (a 4 x 3 grid) with one fixed
+accelerometer; each point is one recording, the formats mixed (CSV, float WAV
+with the force in kN and the acceleration in g, TDMS), four half-sine hits
+each, the responses computed exactly in the frequency domain with numpy only.
+Point 5 has a double hit (a bounce 50 ms after its second hit), point 7's file
+starts 3 ms before its first hit. Truth: the analytic frequencies, damping and
+shapes at the hammer points. Seeds 7301-7312 (no other test uses them).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from ema_pipeline import io
+from ema_pipeline.cli import main
+from ema_pipeline.data import Geometry
+from ema_pipeline.modal import mac_pairs
+
+pyuff = pytest.importorskip("pyuff", reason="pyuff reads the UFF 55 export back")
+
+LX, LY = 0.6, 0.372
+C_HZ = 40.0 / ((1 / LX) ** 2 + (1 / LY) ** 2)  # (1,1) at 40 Hz
+ALL_MODES = [(m, n) for m in range(1, 5) for n in range(1, 4)]
+FN_ALL = np.array([C_HZ * ((m / LX) ** 2 + (n / LY) ** 2) for m, n in ALL_MODES])
+BAND_HZ = (25.0, 185.0)
+IN_BAND = np.flatnonzero((FN_ALL > BAND_HZ[0]) & (FN_ALL < BAND_HZ[1]))[np.argsort(
+    FN_ALL[(FN_ALL > BAND_HZ[0]) & (FN_ALL < BAND_HZ[1])])]
+ZETA_ALL = np.full(FN_ALL.size, 0.012)
+ZETA_ALL[IN_BAND] = [0.010, 0.009, 0.011, 0.008, 0.012]
+POINTS = [(fx * LX, fy * LY) for fy in (0.2, 0.45, 0.75) for fx in (0.15, 0.38, 0.6, 0.83)]
+SENSOR = (0.22 * LX, 0.13 * LY)  # node 100, on no nodal line of the band's modes
+FS = 2048.0
+HIT_TIMES_S = (0.5, 2.6, 4.7, 6.8)
+DURATION_S = 9.0
+DOUBLE_HIT_POINT, LATE_START_POINT = 5, 7
+
+
+def _shape(x: float, y: float) -> np.ndarray:
+    """Every simulated mode's displacement at (x, y) (unit modal masses)."""
+    return np.array([np.sin(m * np.pi * x / LX) * np.sin(n * np.pi * y / LY)
+                     for m, n in ALL_MODES])
+
+
+def _signals(point: tuple[float, float], seed: int,
+             double_at: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Force (N) and acceleration (m/s^2) at the sensor for four hits at ``point``."""
+    rng = np.random.default_rng(seed)
+    n = int(DURATION_S * FS)
+    t = np.arange(n) / FS
+    force = np.zeros(n)
+    width = 2e-3
+    pulses = [(t0 + rng.uniform(0.0, 1.0) / FS, 150.0 * rng.uniform(0.8, 1.2))
+              for t0 in HIT_TIMES_S]
+    if double_at is not None:
+        pulses.append((double_at, 80.0))
+    for t0, peak in pulses:
+        on = (t >= t0) & (t <= t0 + width)
+        force[on] += peak * np.sin(np.pi * (t[on] - t0) / width)
+    n_pad = 2 * n
+    w = 2 * np.pi * np.fft.rfftfreq(n_pad, 1 / FS)[:, None]
+    wr = 2 * np.pi * FN_ALL
+    residue = _shape(*SENSOR) * _shape(*point)
+    H = (-(w**2) * residue / (wr**2 - w**2 + 2j * ZETA_ALL * wr * w)).sum(axis=1)
+    acc = np.fft.irfft(H * np.fft.rfft(force, n_pad), n_pad)[:n]
+    acc += 1e-4 * np.abs(acc).max() * rng.standard_normal(n)
+    force += 1e-4 * 150.0 * rng.standard_normal(n)
+    return force, acc
+
+
+def _write_test(folder) -> None:
+    """One recording per hammer point: points 1, 4, 7, 10 CSV (in rec/), 2, 5, 8,
+    11 float WAV (force in kN, scaled by 1000 in the sheet; acceleration in g),
+    3, 6, 9, 12 TDMS; ``channels.csv``; ``plate.uff`` (nodes 1-12 and the
+    sensor's node 100, the grid's lines). The hammer hits in -Z, the sensor is +Z."""
+    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+    from scipy.io import wavfile
+
+    rows = ["file,channel,role,node,direction,scale,unit"]
+    for k, point in enumerate(POINTS, start=1):
+        force, acc = _signals(point, seed=7300 + k, double_at=(
+            HIT_TIMES_S[1] + 0.05 if k == DOUBLE_HIT_POINT else None))
+        if k == LATE_START_POINT:  # the file starts 3 ms before the first hit
+            start = int(round((HIT_TIMES_S[0] - 0.003) * FS))
+            force, acc = force[start:], acc[start:]
+        if k % 3 == 1:
+            name = f"rec/p{k}.csv"
+            (folder / "rec").mkdir(exist_ok=True)
+            pd.DataFrame({"time_s": np.arange(force.size) / FS, "Hammer [N]": force,
+                          "acc [m/s^2]": acc}).to_csv(folder / name, index=False)
+            rows += [f"{name},Hammer,force,{k},-Z,,", f"{name},acc,response,100,+Z,,"]
+        elif k % 3 == 2:
+            name = f"p{k}.wav"
+            data = np.column_stack([force / 1000.0, acc / 9.80665]).astype(np.float32)
+            wavfile.write(folder / name, int(FS), data)
+            rows += [f"{name},0,force,{k},-Z,1000,N", f"{name},1,response,100,+Z,,g"]
+        else:
+            name = f"p{k}.tdms"
+            objects = [RootObject(), GroupObject("test")]
+            for ch, data, unit in (("hammer", force, "N"), ("acc", acc, "m/s^2")):
+                objects.append(ChannelObject("test", ch, data, properties={
+                    "unit_string": unit, "wf_increment": 1 / FS}))
+            with TdmsWriter(str(folder / name)) as writer:
+                writer.write_segment(objects)
+            rows += [f"{name},hammer,force,{k},-Z,,", f"{name},acc,response,100,+Z,,"]
+    (folder / "channels.csv").write_text("\n".join(rows) + "\n")
+    xyz = np.array([[x, y, 0.0] for x, y in POINTS] + [[*SENSOR, 0.0]])
+    grid = np.arange(1, 13).reshape(3, 4)
+    lines = tuple(tuple(int(v) for v in row) for row in grid) + tuple(
+        tuple(int(v) for v in col) for col in grid.T)
+    io.write_geometry_uff(Geometry(node_ids=np.array([*range(1, 13), 100]), xyz_m=xyz,
+                                   lines=lines), folder / "plate.uff")
+
+
+def test_held_out_plate_from_recordings_to_shapes_on_the_geometry(tmp_path, monkeypatch):
+    fn, zeta = FN_ALL[IN_BAND], ZETA_ALL[IN_BAND]
+    assert fn.size == 5 and 0.01 < fn[3] / fn[2] - 1 < 0.02  # the close pair
+    _write_test(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    assert main(["frf", "--channels", "channels.csv", "--out", "test.h5", "--quiet"]) == 0
+    assert main(["identify", "test.h5", "--out", "id", "--band", *map(str, BAND_HZ),
+                 "--geometry", "plate.uff", "--report", "--uff", "--quiet"]) == 0
+
+    # the hits: the bounce rejected as a double hit, the hit 3 ms into p7.csv kept
+    hits = pd.read_csv(tmp_path / "test_hits.csv", keep_default_na=False)
+    bounce = hits[hits["file"] == f"p{DOUBLE_HIT_POINT}.wav"]
+    assert bounce["accepted"].tolist() == [True, False, True, True]
+    assert "double_hit" in bounce["reasons"].iloc[1]
+    late = hits[hits["file"] == f"rec/p{LATE_START_POINT}.csv"]
+    assert late["accepted"].tolist() == [True] * 4
+    assert late["note"].iloc[0].startswith("near the data start: its record padded")
+    assert int(hits["accepted"].sum()) == 12 * 4 - 1
+
+    # every mode of the band within 1 % (the pair included), none spurious,
+    # damping within 15 %
+    modes = pd.read_csv(tmp_path / "id" / "test_modes.csv")
+    assert len(modes) == fn.size
+    order = np.argsort(modes["fn_hz"].to_numpy())
+    f_found = modes["fn_hz"].to_numpy()[order]
+    np.testing.assert_allclose(f_found, fn, rtol=0.01)
+    np.testing.assert_allclose(modes["zeta_pct"].to_numpy()[order] / 100, zeta, rtol=0.15)
+
+    # the shapes over the 12 hammer nodes, read back from the UFF 55 export
+    sets = pyuff.UFF(str(tmp_path / "id" / "test_modes.uff")).read_sets()
+    exported = sorted((s for s in sets if int(s["type"]) == 55), key=lambda s: s["freq"])
+    assert len(exported) == fn.size
+    np.testing.assert_allclose([s["freq"] for s in exported], f_found, rtol=1e-5)
+    truth = np.array([_shape(x, y)[IN_BAND] for x, y in POINTS])  # (12, 5)
+    measured = np.empty((12, fn.size))
+    for k, s in enumerate(exported):
+        nodes = [int(v) for v in s["node_nums"]]
+        assert sorted(nodes) == list(range(1, 13))
+        measured[:, k] = np.real(np.asarray(s["r3"]))[np.argsort(nodes)]
+    mac = mac_pairs(measured, truth)
+    assert mac.min() >= 0.95, mac
+
+    # the report draws the shapes on the geometry: one view per mode, the plate's nodes
+    page = (tmp_path / "id" / "test_report.html").read_text(encoding="utf-8")
+    assert sorted(int(v) for v in re.findall(r'data-mode-shape="(\d+)"', page)) == list(
+        range(1, fn.size + 1))
+    blob = re.search(r'<script type="application/json" class="shape-data">(.*?)</script>',
+                     page)
+    data = json.loads(blob.group(1))
+    np.testing.assert_allclose(data["nodes"], [[x, y, 0.0] for x, y in POINTS]
+                               + [[*SENSOR, 0.0]], atol=1e-6)
+    assert len(data["modes"]) == fn.size
+    assert "identified by reciprocity" in page
