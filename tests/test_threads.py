@@ -147,8 +147,9 @@ def test_identify_several_files_in_workers_equals_serial(monkeypatch, tmp_path, 
 def test_window_searches_in_workers_give_the_serial_numbers(monkeypatch):
     """A noisy twelve-mode FRF, whose dense band is searched again in windows:
     the windows' searches, the modes' local fits and their close-partner
-    fits in two worker processes give exactly the numbers of the serial loop (each window's search is the same arithmetic on one BLAS
-    thread), and they did run in a pool."""
+    fits in two worker processes give exactly the numbers of the serial
+    loop (the same arithmetic on one BLAS thread), and they did run in a
+    pool."""
     from ema_pipeline import threads
     from ema_pipeline.acquisition import modal_frf
 

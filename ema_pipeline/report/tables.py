@@ -274,6 +274,10 @@ HEADERS = {
     "doubtful_reason": "why doubtful", "stable_orders": "stable orders",
     "found_by": "found by",
     "expect_hz": "expected f (Hz)", "x_m": "x (m)",
+    # the added mass of Table 6 (kg): "delta_m" is not a delta in metres
+    "delta_m": "Δm (kg)", "paper_delta_m": "paper Δm (kg)", "dev_delta_m_pct": "deviation Δm (%)",
+    "delta_m_std": "σ_Δm (kg)", "delta_m_std_source": "source of σ_Δm",
+    "delta_m_std_misfit": "σ_Δm of the misfit (kg)", "delta_m_first_order": "Δm first order (kg)",
 }
 _UNITS = {"hz": "Hz", "pct": "%", "deg": "°", "m": "m", "s": "s", "kg": "kg", "n": "N",
           "db": "dB", "ms": "ms", "khz": "kHz"}
@@ -290,6 +294,8 @@ def header_text(name: str) -> str:
     --------
     >>> header_text("fn_hz"), header_text("dev_fn_pct"), header_text("time / s")
     ('f (Hz)', 'deviation f (%)', 'time / s')
+    >>> header_text("delta_m")
+    'Δm (kg)'
     """
     if name in HEADERS:
         return HEADERS[name]
