@@ -21,6 +21,9 @@ Outputs
     Inside :func:`replace_together` the temporaries of several
     :func:`atomic_path` blocks (the files of one command) are renamed onto
     their targets only at the end of the block, all of them or none.
+    A process killed between those renames leaves a journal; the next
+    :func:`replace_together` into the same folder puts that set back as it
+    was (:func:`recover_interrupted`).
     :func:`same_file` and :func:`check_not_inputs` refuse an output that is an
     input before any work.
 """
@@ -241,52 +244,138 @@ def replace_together() -> Iterator[None]:
     _swap_all(staged)
 
 
-def _keep_old(target: Path) -> Path | None:
-    """A hidden second name for the existing ``target`` (None: there is none):
-    a hard link where the file system has them, else the target renamed."""
+def _keep_old(target: Path, backup: Path) -> bool:
+    """Give the existing ``target`` the hidden second name ``backup``: a hard
+    link where the file system has them, else the target renamed. False when
+    there is no target."""
     if not os.path.lexists(target):
-        return None
-    fd, name = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".old", dir=target.parent)
-    os.close(fd)
-    backup = Path(name)
+        return False
     try:
-        backup.unlink()
         os.link(target, backup, follow_symlinks=False)
     except OSError:
         os.replace(target, backup)
-    return backup
+    return True
+
+
+#: Name pattern of the journal of one :func:`replace_together` swap, in the
+#: folder of its first target. Written before the first rename and removed
+#: after the last, it lists each target, whether it existed, the hidden name
+#: its old version gets during the swap and its temporary.
+JOURNAL_GLOB = ".ema-replace-*.journal"
+
+
+def _write_journal(folder: Path, staged: list[tuple[Path, Path]]) -> tuple[Path, list[dict]]:
+    """The journal of one swap of ``staged`` (temporary, target) pairs
+    (:data:`JOURNAL_GLOB`), on disk before it returns, and its entries."""
+    import json
+
+    fd, name = tempfile.mkstemp(prefix=".ema-replace-", suffix=".journal", dir=folder)
+    tag = Path(name).name[len(".ema-replace-"):-len(".journal")]
+    entries = [{"target": str(target.absolute()), "existed": os.path.lexists(target),
+                "backup": str(target.absolute().with_name(f".{target.name}.{tag}.old")),
+                "tmp": str(tmp.absolute())} for tmp, target in staged]
+    with os.fdopen(fd, "w") as fh:
+        json.dump(entries, fh)
+        fh.flush()
+        os.fsync(fh.fileno())
+    return Path(name), entries
+
+
+def _put_back(entry: dict) -> bool:
+    """Undo one journal entry of an interrupted swap; True when its target changed."""
+    target, backup, tmp = Path(entry["target"]), Path(entry["backup"]), Path(entry["tmp"])
+    changed = False
+    if entry["existed"]:
+        if os.path.lexists(backup):
+            if os.path.lexists(target) and os.path.samestat(os.lstat(backup), os.lstat(target)):
+                backup.unlink()  # kept, not yet replaced: the second name only goes
+            else:
+                os.replace(backup, target)
+                changed = True
+    elif os.path.lexists(target) and not os.path.lexists(tmp):
+        target.unlink()  # its temporary was renamed onto it: the new file goes
+        changed = True
+    tmp.unlink(missing_ok=True)
+    return changed
+
+
+def recover_interrupted(folder: str | os.PathLike[str]) -> list[Path]:
+    """Put back the files of every swap of :func:`replace_together` in
+    ``folder`` that was interrupted (the process killed between its renames):
+    each target returns to what it was before that swap (its hidden old
+    version renamed back, or removed where it did not exist), the temporaries
+    and the journal go. Returns the targets that changed (empty when nothing
+    was interrupted). :func:`replace_together` calls it on its targets'
+    folders before it swaps, so the next command that writes there repairs
+    them.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> d = pathlib.Path(tempfile.mkdtemp())
+    >>> a, b = d / "a.txt", d / "b.txt"
+    >>> _ = a.write_text("old a")
+    >>> journal, entries = _write_journal(d, [(d / ".a.tmp", a), (d / ".b.tmp", b)])
+    >>> _ = _keep_old(a, pathlib.Path(entries[0]["backup"]))  # the swap kept the old a,
+    >>> _ = (d / ".a.tmp").write_text("new a"); os.replace(d / ".a.tmp", a)  # replaced it,
+    >>> _ = (d / ".b.tmp").write_text("new b"); os.replace(d / ".b.tmp", b)  # wrote b: killed
+    >>> [p.name for p in recover_interrupted(d)], a.read_text()
+    (['a.txt', 'b.txt'], 'old a')
+    >>> sorted(p.name for p in d.iterdir())
+    ['a.txt']
+    """
+    import json
+
+    restored: list[Path] = []
+    for journal in sorted(Path(folder).glob(JOURNAL_GLOB)):
+        try:
+            entries = json.loads(journal.read_text())
+            for entry in reversed(entries):
+                if _put_back(entry):
+                    restored.append(Path(entry["target"]))
+        except (OSError, ValueError, KeyError, TypeError):
+            continue  # not ours, or unreadable: left for the user
+        journal.unlink(missing_ok=True)
+    return sorted(restored)
 
 
 def _swap_all(staged: list[tuple[Path, Path]]) -> None:
     """Rename every (temporary, target) of ``staged``; on a failure put back the
-    targets already replaced and remove the temporaries (:func:`replace_together`)."""
-    done: list[tuple[Path, Path | None]] = []
+    targets already replaced and remove the temporaries (:func:`replace_together`).
+
+    A journal (:data:`JOURNAL_GLOB`) lists the swap before its first rename
+    and goes after the last. A process killed in between leaves it, and the
+    next swap into the same folder first puts the interrupted set back
+    (:func:`recover_interrupted`), with a warning naming the files."""
+    import warnings
+
+    if not staged:
+        return
+    for folder in dict.fromkeys(target.parent for _, target in staged):
+        put_back = recover_interrupted(folder)
+        if put_back:
+            warnings.warn(
+                f"{folder}: an earlier write was interrupted between its renames; put back "
+                f"{', '.join(p.name for p in put_back)} as they were before it", stacklevel=3)
+    for _, target in staged:
+        _refuse_folder(target)
+    journal, entries = _write_journal(staged[0][1].parent, staged)
     try:
-        for tmp, target in staged:
-            _refuse_folder(target)
-            backup = _keep_old(target)
-            done.append((target, backup))
+        for (tmp, target), entry in zip(staged, entries, strict=True):
+            _keep_old(target, Path(entry["backup"]))
             try:
                 os.replace(tmp, target)
             except OSError as exc:
                 raise _named_error(exc, tmp, target) from exc
     except BaseException:
-        for target, backup in reversed(done):
+        for entry in reversed(entries):
             with contextlib.suppress(OSError):
-                if backup is None:
-                    if os.path.lexists(target):
-                        target.unlink()
-                elif os.path.lexists(target) and os.path.samestat(os.lstat(backup),
-                                                                  os.lstat(target)):
-                    backup.unlink()  # not replaced: the link only goes (rename would keep it)
-                else:
-                    os.replace(backup, target)
-        for tmp, _ in staged:
-            tmp.unlink(missing_ok=True)
+                _put_back(entry)
+        journal.unlink(missing_ok=True)
         raise
-    for _, backup in done:
-        if backup is not None:
-            backup.unlink(missing_ok=True)
+    for entry in entries:
+        Path(entry["backup"]).unlink(missing_ok=True)
+    journal.unlink(missing_ok=True)
 
 
 def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
