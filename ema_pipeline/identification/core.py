@@ -59,7 +59,7 @@ def identify(
         row per hammer point.
     options : IdentificationOptions (default: all defaults); see its
         attributes for band, order, method, expected frequencies, window,
-        weighting, tolerances, refinement and residual terms.
+        weighting, tolerances, refinement, final tests and residual terms.
     picks : :class:`~ema_pipeline.identification.picks.Picks` (a picks file,
         :func:`ema_pipeline.io.read_picks`): fit exactly these poles, with the
         file's band, orders and weighting, and run no automatic selection

@@ -138,6 +138,7 @@ _RULES: dict[str, Callable[[str, Any], Any]] = {
     "tol_mac": _optional(_fraction(1.0)),
     "min_fraction": _fraction(1.0),
     "refine": _flag,
+    "accept": _flag,
     "lower_residual": _flag,
     "upper_residual": _flag,
     "window_searches": _flag,
@@ -214,15 +215,27 @@ class IdentificationOptions:
         of the computed orders (and at least 6) to count as a physical mode;
         where in the diagram it starts does not matter (a mode that
         stabilises late is kept once it holds them).
-    refine : refine the selected poles by variable-projection nonlinear least
-        squares (:func:`ema_pipeline.identification.refine.refine_poles`), which
-        also gives their covariance, and judge them on the refined values: the
-        final tests, the close partners, the residual search and the list of
-        resonances not kept all work on refined poles, so ``False`` skips them
-        too and keeps every candidate the diagrams select (the measured beam in
-        250-700 Hz: 20 candidates instead of 6 modes), with the trajectories'
-        scatter as their uncertainty. For a look at the raw selection, not
+    refine : report refined poles: each kept pole refined by
+        variable-projection nonlinear least squares
+        (:func:`ema_pipeline.identification.refine.refine_poles`), which also
+        gives its covariance (the standard deviations). ``False`` reports the
+        start poles instead (the trajectories' medians; the poles found outside
+        the diagrams as found), with the trajectories' scatter as their
+        uncertainty (NaN for a pole found outside the diagrams). It changes the
+        reported poles only: which modes are kept is ``accept``'s, and the
+        final tests judge refined poles either way (with ``accept``, the
+        candidates are refined to be judged).
+    accept : run the final tests over all FRFs: the acceptance tests of every
+        candidate (decay rate determined, a resonance of the data, not the
+        same mode twice: :mod:`~ema_pipeline.identification.acceptance`), the
+        close partners, the residual search, the narrower searches'
+        alternates and the list of resonances not kept. ``False`` keeps every
+        candidate the diagrams select, untested (many more than the modes),
+        with an empty not-kept list; for a look at the raw selection, not
         for results.
+        Expected modes (``expect_hz``) and picked ones are never tested; with
+        ``expect_hz`` the switch reaches the automatic selection they are
+        answered from.
     lower_residual, upper_residual : residual terms in LSFD.
     window_searches : search a dense band again in windows of consecutive
         candidates (:func:`~ema_pipeline.identification.order_search.add_window_modes`:
@@ -257,6 +270,7 @@ class IdentificationOptions:
     tol_mac: float | None = None
     min_fraction: float = 0.3
     refine: bool = True
+    accept: bool = True
     lower_residual: bool = True
     upper_residual: bool = True
     window_searches: bool = True

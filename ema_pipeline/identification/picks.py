@@ -412,6 +412,7 @@ def identify_picks(frf: FRFSet, options: IdentificationOptions,
             uncertainty=("least-squares covariance of the refined poles" if options.refine
                          else "none (picked poles, not refined)"),
             window_searches=False,  # the picked poles are fitted, nothing is searched
+            accept=False,  # nor tested
             thresholds=th,
         ),
     )

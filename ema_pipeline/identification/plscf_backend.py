@@ -21,6 +21,11 @@ are refined and tested together with the kept ones; when none passes, the
 previous fit stands (a failed candidate bends its neighbours' local fits:
 on the measured beam two model-error peaks beside 414.6 Hz cost that mode),
 else the fit is repeated with those that pass.
+
+``options.accept`` switches these final tests and searches (off: every
+selected candidate is kept, untested); ``options.refine`` decides whether the
+kept modes are reported at their refined poles or at their start poles (the
+final tests judge refined poles either way).
 """
 
 from __future__ import annotations
@@ -158,7 +163,11 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     start = sel.pole  # the kept modes' start poles, stored with the diagram (--picks)
     # the start poles of the candidates refined with them and then dropped
     companions = np.zeros(0, dtype=complex)
-    if options.refine and sel.pole.size:
+    # the final tests judge refined poles: with ``accept``, the candidates are
+    # refined even when ``refine`` is off (then the start poles are reported)
+    judged = options.accept and expect_hz is None
+    judged_poles = sel.pole  # the kept modes' poles as the final tests saw them
+    if (options.refine or judged) and sel.pole.size:
         ref = refine_poles(freq, Hc, np.concatenate([sel.pole, neighbours]),
                            quantity=sub.quantity, window_tau_s=tau, force_window_s=force_s,
                            thresholds=th, map_=map_)
@@ -167,7 +176,7 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
         ref = RefinedPoles(*(np.asarray(a)[:m] for a in (
             ref.pole, ref.cov, ref.noise_std, ref.band_hz, ref.n_iter)))
         keep = np.ones(sel.pole.size, bool)
-        if expect_hz is None:
+        if judged:
 
             def retest(c: SelectedPoles, partner: np.ndarray,
                        strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
@@ -200,16 +209,26 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
                                               thresholds=th)
             found = add_found(found, peaks, False, from_edge, retest, "residual")
             sel, ref, keep = found.sel, found.ref, found.keep
-        order_s = np.argsort(ref.pole[keep].imag)
-        start = sel.pole[keep][order_s]
         companions = np.concatenate([sel.pole[~keep], neighbours])
-        sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
-        cov = ref.cov[keep][order_s]
-        # the local model's own error (band choice), added in quadrature
-        cov = cov + band_sensitivity(freq, Hc, np.concatenate([sel.pole, near]),
-                                     quantity=sub.quantity, window_tau_s=tau,
-                                     force_window_s=force_s, thresholds=th,
-                                     map_=map_)[: sel.pole.size]
+        order_s = np.argsort(ref.pole[keep].imag)
+        judged_poles = ref.pole[keep][order_s]
+        if options.refine:
+            start = sel.pole[keep][order_s]
+            sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
+            cov = ref.cov[keep][order_s]
+            # the local model's own error (band choice), added in quadrature
+            cov = cov + band_sensitivity(freq, Hc, np.concatenate([sel.pole, near]),
+                                         quantity=sub.quantity, window_tau_s=tau,
+                                         force_window_s=force_s, thresholds=th,
+                                         map_=map_)[: sel.pole.size]
+        else:  # the start poles of the candidates that passed, their scatter (none
+            # for a candidate found outside the diagrams)
+            sel = sel.subset(keep)
+            sel = sel.subset(np.argsort(sel.pole.imag))
+            start = sel.pole
+            none = sel.n_members == 0
+            sel = replace(sel, scatter_fn_hz=np.where(none, np.nan, sel.scatter_fn_hz),
+                          scatter_zeta=np.where(none, np.nan, sel.scatter_zeta))
     result = finish_identification(
         sub,
         sel.pole,
@@ -239,6 +258,7 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
             if options.refine
             else "scatter of the trajectory's poles over model orders",
             window_searches=options.window_searches,
+            accept=options.accept,
             thresholds=th,
         ),
     )
@@ -255,5 +275,5 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     if not rejected:
         return result
     not_kept_hz, not_kept_frfs = resonances_not_kept(freq, Hc, np.concatenate(rejected),
-                                                     sel.pole, th)
+                                                     judged_poles, th)
     return replace(result, not_kept_hz=not_kept_hz, not_kept_frfs=not_kept_frfs)

@@ -151,7 +151,8 @@ class ResolvedSettings:
     ``thresholds`` the tuned thresholds used, which also define the
     ``doubtful`` rule (:func:`doubtful_reasons`); ``window_searches`` whether
     a dense band was searched again in windows (the option of that name;
-    results stored before it had them).
+    results stored before it had them); ``accept`` whether the final tests
+    ran (the option of that name; ``False`` for picked modes, never tested).
     """
 
     method: str
@@ -171,6 +172,7 @@ class ResolvedSettings:
     expect_hz: np.ndarray | None
     uncertainty: str
     window_searches: bool = True
+    accept: bool = True
     thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
 
 

@@ -86,7 +86,8 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     p = 100 if options.max_order is None else int(options.max_order)
     if not options.expect_hz:
         auto = identify_plscf(frf, IdentificationOptions(
-            band_hz=(lo, hi), refine=False, window_searches=options.window_searches,
+            band_hz=(lo, hi), refine=False, accept=False,
+            window_searches=options.window_searches,
             thresholds=options.thresholds))
         guesses = auto.modes.fd_hz
         if guesses.size == 0:
@@ -150,7 +151,8 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         tol_mac=float("nan"), min_fraction=float("nan"), refine=False,
         lower_residual=lower_residual, upper_residual=upper_residual,
         expect_hz=guesses if options.expect_hz else None, uncertainty="none (NaN)",
-        window_searches=options.window_searches, thresholds=options.thresholds,
+        window_searches=options.window_searches, accept=False,
+        thresholds=options.thresholds,
     )
     result = finish_identification(
         sub, poles, decay=decay, lower_residual=lower_residual,
