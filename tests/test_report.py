@@ -334,7 +334,8 @@ def test_fit_verdict_against_the_noise_on_a_simulated_test(tmp_path):
     97 Hz mode left out (picks of the other two) the page says a mode may be missing."""
     from test_picks import simulated
 
-    from ema_pipeline.identification.picks import Picks, picks_from_result
+    from ema_pipeline.identification.picked import Picks
+    from ema_pipeline.identification.picks import picks_from_result
     from ema_pipeline.report.fit_noise import noise_error
 
     frf = simulated()

@@ -255,8 +255,9 @@ def test_io_loads_no_numerics():
                          env={**os.environ, "PYTHONPATH": str(REPO)}).stdout
     assert out.split(" ", 1)[0] == "False", out
     loaded = set(ast.literal_eval(out.strip().split(" ", 1)[1]))
-    light = {f"ema_pipeline.identification.{m}" for m in ("options", "result", "thresholds")}
-    assert loaded <= light, loaded - light  # the options, the result types: no numerics
+    light = {f"ema_pipeline.identification.{m}"
+             for m in ("options", "picked", "result", "thresholds")}
+    assert loaded <= light, loaded - light  # options, picks, result types: no numerics
 
 
 def test_identification_exports_are_lazy_and_complete():

@@ -27,7 +27,8 @@ from ema_pipeline.identification.common import (
 from ema_pipeline.identification.expect import match_expected, not_found_message
 from ema_pipeline.identification.narrower_searches import searches_turned_off
 from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.picks import Picks, identify_picks
+from ema_pipeline.identification.picked import Picks
+from ema_pipeline.identification.picks import identify_picks
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult
 from ema_pipeline.identification.sdypy_backend import identify_sdypy
@@ -60,7 +61,7 @@ def identify(
     options : IdentificationOptions (default: all defaults); see its
         attributes for band, order, method, expected frequencies, window,
         weighting, tolerances, refinement, final tests and residual terms.
-    picks : :class:`~ema_pipeline.identification.picks.Picks` (a picks file,
+    picks : :class:`~ema_pipeline.identification.picked.Picks` (a picks file,
         :func:`ema_pipeline.io.read_picks`): fit exactly these poles, with the
         file's band, orders and weighting, and run no automatic selection
         (:func:`~ema_pipeline.identification.picks.identify_picks`).

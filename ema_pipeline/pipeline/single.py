@@ -35,7 +35,7 @@ from ema_pipeline.identification.expect import (
 )
 from ema_pipeline.identification.narrower_searches import searches_turned_off
 from ema_pipeline.identification.not_kept import not_kept_message
-from ema_pipeline.identification.picks import Picks
+from ema_pipeline.identification.picked import Picks
 from ema_pipeline.identification.resources import check_identification
 from ema_pipeline.report.wording import model_text
 

@@ -31,9 +31,12 @@ with these values and, for a kept mode, its real-normalised shape by DOF
 a button (``[data-show-shape]``) that brings that mode's view into sight. Clicking a pole toggles
 it; a mode has one pole, so clicking another pole of the same trajectory
 moves the pick there. The element ``#picks`` always holds the picks file
-(TOML, :class:`ema_pipeline.identification.picks.Picks`) of the current
-selection, with a copy and a download button: ``ema-pipeline identify FILE
---picks picks.toml`` fits exactly those poles. Untouched, the page's picks
+of the current selection, with a copy and a download button:
+``ema-pipeline identify FILE --picks picks.toml`` fits exactly those poles.
+The script writes it (when the page opens and at every click) in the layout
+of :mod:`ema_pipeline.io.picks`, the one home of the format (its version,
+keys and comments; ``tests/test_picks_format.py`` runs the script in a
+browser and reads its text with the io reader). Untouched, the page's picks
 are the automatic result's (:func:`~ema_pipeline.identification.picks.picks_from_result`),
 with its companions (candidates refined beside the kept modes, then dropped);
 the script writes these only while no pole of the diagram itself is picked.
@@ -164,7 +167,7 @@ function text(){
   '# these poles (refinement, LSFD and uncertainty as for automatic modes).',
   '# A pick with `order` is the pole of that model order nearest to freq_hz',
   '# (within 0.1 %); a pick with `pole` (rad/s) is the start pole of a mode the',
-  '# automatic selection kept, taken as given.','',
+  '# automatic selection kept, taken as given.','version = 1','',
   '[diagram]  # the settings that reproduce the stabilization diagram',
   'band_hz = ['+num(cfg.band_hz[0])+', '+num(cfg.band_hz[1])+']',
   'orders = ['+cfg.orders.join(', ')+']','weighting = "'+cfg.weighting+'"'];
@@ -458,7 +461,7 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
         '<p><span class="npicks">0</span> poles picked '
         '<button type="button" class="copy-picks">Copy picks</button> '
         '<button type="button" class="download-picks">Download picks</button></p>'
-        f'<pre class="picks" id="{esc(picks_id)}">{esc(picks.toml())}</pre>'
+        f'<pre class="picks" id="{esc(picks_id)}"></pre>'
         f'<script type="application/json" class="stab-poles">{data}</script>'
         f"<script>{_SCRIPT}</script></div>"
     )
