@@ -41,7 +41,10 @@ from ema_pipeline.identification import (  # noqa: E402
 )
 from ema_pipeline.identification.plscf import lag_sums  # noqa: E402
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test  # noqa: E402
-from ema_pipeline.plots import plot_fit_quality, plot_stabilization  # noqa: E402
+from ema_pipeline.report.matplotlib_plots import (  # noqa: E402
+    plot_fit_quality,
+    plot_stabilization,
+)
 
 FREQ = np.fft.rfftfreq(16384, 1 / 2000)  # 8193 lines, 0-1000 Hz
 TAU = 8.192 / 5

@@ -32,7 +32,7 @@ of ``plscf_backend``: diagrams of growing order and their candidates),
 mode was kept for), ``uncertainty`` (noise and covariance model),
 ``lsfd`` (residues and fit indicators), ``result`` (the result types:
 light, no scipy). The MAC and the MPD live in :mod:`ema_pipeline.modal`, the
-diagrams in :mod:`ema_pipeline.plots`.
+matplotlib diagrams in :mod:`ema_pipeline.report.matplotlib_plots`.
 
 The package loads its modules on first use (a module ``__getattr__`` over
 :data:`EXPORTS`): ``import ema_pipeline.identification`` (and so

@@ -2,7 +2,7 @@
 
 The record, :class:`~ema_pipeline.identification.result.StabilizationData`,
 is one of the light result types of :mod:`~ema_pipeline.identification.result`.
-The diagram is drawn by :func:`ema_pipeline.plots.plot_stabilization`.
+The diagram is drawn by :func:`ema_pipeline.report.matplotlib_plots.plot_stabilization`.
 """
 
 from __future__ import annotations
