@@ -80,6 +80,7 @@ class Candidates:
 def add_found(
     found: Candidates,
     new: np.ndarray,
+    *,
     partner: bool,
     strict: np.ndarray,
     retest: Callable[[SelectedPoles, np.ndarray, np.ndarray], tuple[RefinedPoles, np.ndarray]],
@@ -98,7 +99,8 @@ def add_found(
     --------
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
     >>> empty = Candidates(none, None, np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, bool))
-    >>> add_found(empty, np.zeros(0, complex), False, np.zeros(0, bool), None) is empty
+    >>> add_found(empty, np.zeros(0, complex), partner=False, strict=np.zeros(0, bool),
+    ...           retest=None) is empty
     True
     """
     is_partner = np.full(new.size, partner)

@@ -160,10 +160,13 @@ class OrderSearch:
         band: tuple[float, float],
         p: int,
         cap: int,
+        *,
         fixed: bool,
     ) -> tuple[SelectedPoles, np.ndarray, PoleSet]:
         """Selected candidates, trajectory labels and poles of the chosen diagram.
-        ``Hn`` (n_out, n_in, n_freq) normalised FRFs on the lines ``freq``."""
+        ``Hn`` (n_out, n_in, n_freq) normalised FRFs on the lines ``freq``; the
+        search starts at order ``p`` and grows up to ``cap``, or computes
+        order ``p`` alone when ``fixed``."""
         lo, hi = band
         n_in = Hn.shape[1]
         Hn_c = Hn.reshape(-1, Hn.shape[-1])
@@ -263,7 +266,7 @@ def search_window(
 
     Examples
     --------
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
     >>> search_window(search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)) is None
     True
     """
@@ -277,7 +280,7 @@ def search_window(
     cap = order_cap(fz.size, n_in, window=True)
     try:
         zsel, _, _ = search.run(fz, Hz, window_hz, min(default_max_order(n_in, fz.size), cap),
-                                cap, False)
+                                cap, fixed=False)
     except DataError:
         return None
     return zsel
@@ -347,31 +350,31 @@ def add_zoom_modes(
     freq: np.ndarray,
     Hn: np.ndarray,
     band: tuple[float, float],
-    searched: list[SearchedBand] | None = None,
-) -> SelectedPoles:
+) -> tuple[SelectedPoles, list[SearchedBand]]:
     """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of a
     second search of the band's lowest 1/``zoom_ratio`` (of
-    ``search.thresholds``). Unchanged for a narrower band or one with too few
-    lines in that part. The search is appended to ``searched`` (when given):
-    its band, its candidates and those of them that ``sel`` covers
-    (:func:`covered_candidates`).
+    ``search.thresholds``), and that search: its band, its candidates and
+    those of them that ``sel`` covers (:func:`covered_candidates`). ``sel``
+    unchanged and no search for a narrower band or one with too few lines in
+    that part.
 
     Examples
     --------
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
-    >>> add_zoom_modes(none, search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)).pole.size
-    0
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
+    >>> sel, searched = add_zoom_modes(none, search, np.arange(10.0, 60.0),
+    ...                                np.ones((1, 1, 50)), (10, 60))
+    >>> sel.pole.size, searched
+    (0, [])
     """
     lo, hi = band
     zoom = search.thresholds.zoom_ratio
     if hi < zoom * lo:
-        return sel
+        return sel, []
     zsel = search_window(search, freq, Hn, (lo, lo + (hi - lo) / zoom))
     sel = without_merged(sel, zsel)
-    if searched is not None:
-        searched.append(((lo, lo + (hi - lo) / zoom), zsel, covered_candidates(sel, zsel)))
-    return add_uncovered(sel, zsel, "window")
+    searched = [((lo, lo + (hi - lo) / zoom), zsel, covered_candidates(sel, zsel))]
+    return add_uncovered(sel, zsel, "window"), searched
 
 
 def without_merged(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPoles:
@@ -434,20 +437,20 @@ def add_window_modes(
     freq: np.ndarray,
     Hn: np.ndarray,
     band: tuple[float, float],
-    searched: list[SearchedBand] | None = None,
-) -> SelectedPoles:
+) -> tuple[SelectedPoles, list[SearchedBand]]:
     """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of searches
     in the windows of :func:`mode_windows` (a dense band; unchanged with fewer
-    than ``window_min_modes`` candidates). Each window's search is appended
-    to ``searched`` (when given), as by :func:`add_zoom_modes`.
+    than ``window_min_modes`` candidates), and each window's search, as by
+    :func:`add_zoom_modes`.
 
     Examples
     --------
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
     >>> f = np.arange(10.0, 60.0)
-    >>> add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60)).pole.size
-    0
+    >>> sel, searched = add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60))
+    >>> sel.pole.size, searched
+    (0, [])
     """
     windows = mode_windows(pole_fd_hz(sel.pole), band, search.thresholds)
     # the windows' searches are independent: side by side in the worker
@@ -456,8 +459,8 @@ def add_window_modes(
     local = replace(search, map_=None)  # a worker's search runs in the worker
     map_ = search.map_ if search.map_ is not None else SerialMap()
     found = map_(partial(search_window, local, freq, Hn), windows)
+    searched: list[SearchedBand] = []
     for window, wsel in zip(windows, found, strict=True):
-        if searched is not None:
-            searched.append((window, wsel, covered_candidates(sel, wsel)))
+        searched.append((window, wsel, covered_candidates(sel, wsel)))
         sel = add_uncovered(sel, wsel, "window")
-    return sel
+    return sel, searched
