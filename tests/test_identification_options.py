@@ -336,7 +336,7 @@ def test_the_alternates_gate_has_thresholds_of_its_own():
     the other's rule alone."""
     from dataclasses import replace
 
-    from ema_pipeline.identification.narrower_searches import shown_by_the_frfs
+    from ema_pipeline.identification.diagram.narrower_searches import shown_by_the_frfs
     from ema_pipeline.identification.thresholds import SelectionThresholds
 
     f = np.linspace(0.0, 100.0, 401)

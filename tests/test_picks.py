@@ -18,7 +18,7 @@ from ema_pipeline.cli import main
 from ema_pipeline.data import DOF, DataError, FRFSet
 from ema_pipeline.identification import IdentificationOptions, found_by_names, identify
 from ema_pipeline.identification.picked import Pick
-from ema_pipeline.identification.picks import is_picked, picks_from_result
+from ema_pipeline.identification.selection.picks import is_picked, picks_from_result
 
 FN_HZ = np.array([42.0, 97.0, 161.0])
 ZETA = np.array([0.012, 0.008, 0.01])

@@ -21,7 +21,7 @@ from ema_pipeline import io
 from ema_pipeline.data import DataError
 from ema_pipeline.identification import identify
 from ema_pipeline.identification.picked import Pick, Picks
-from ema_pipeline.identification.picks import picks_from_result
+from ema_pipeline.identification.selection.picks import picks_from_result
 from ema_pipeline.io.picks import (
     COMPANIONS_COMMENT,
     DIAGRAM_KEYS,

@@ -300,7 +300,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 def _memory_limit(args: argparse.Namespace) -> None:
     """``--memory-limit-gb``: checked, and passed on (also to batch workers) as
     ``$EMA_MEMORY_LIMIT_GB``."""
-    from ema_pipeline.identification.resources import MEMORY_LIMIT_ENV, memory_limit_bytes
+    from ema_pipeline.identification.diagram.resources import MEMORY_LIMIT_ENV, memory_limit_bytes
 
     limit = getattr(args, "memory_limit_gb", None)
     memory_limit_bytes(limit)  # refuse a bad value (or a bad environment variable) now

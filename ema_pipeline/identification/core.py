@@ -24,14 +24,14 @@ from ema_pipeline.identification.common import (
     single_reference,
     source_prefix,
 )
-from ema_pipeline.identification.expect import match_expected, not_found_message
-from ema_pipeline.identification.narrower_searches import searches_turned_off
+from ema_pipeline.identification.diagram.narrower_searches import searches_turned_off
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.picked import Picks
-from ema_pipeline.identification.picks import identify_picks
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult
 from ema_pipeline.identification.sdypy_backend import identify_sdypy
+from ema_pipeline.identification.selection.expect import match_expected, not_found_message
+from ema_pipeline.identification.selection.picks import identify_picks
 from ema_pipeline.threads import owned_blas_threads
 
 Backend = Callable[[FRFSet, IdentificationOptions], IdentificationResult]
@@ -64,7 +64,7 @@ def identify(
     picks : :class:`~ema_pipeline.identification.picked.Picks` (a picks file,
         :func:`ema_pipeline.io.read_picks`): fit exactly these poles, with the
         file's band, orders and weighting, and run no automatic selection
-        (:func:`~ema_pipeline.identification.picks.identify_picks`).
+        (:func:`~ema_pipeline.identification.selection.picks.identify_picks`).
     **overrides : fields of :class:`IdentificationOptions` replacing those of
         ``options``, e.g. ``identify(frf, band_hz=(5, 790), max_order=40)``.
 
@@ -84,7 +84,7 @@ def identify(
     poles (sandwich covariance of the noise-weighted local pole-residue fit:
     the noise level from the fit residual, its line-to-line correlation from
     the recorded windows or the residual; no empirical factor, see
-    :mod:`ema_pipeline.identification.uncertainty`); with ``refine=False`` the
+    :mod:`ema_pipeline.identification.refinement.uncertainty`); with ``refine=False`` the
     scatter of the trajectory's poles over the model orders (an underestimate).
 
     Examples

@@ -5,7 +5,7 @@ the report's stabilization diagram. The file's layout (keys, version, comments)
 is :mod:`ema_pipeline.io.picks`, which reads and writes it; the report's
 interactive diagram (:mod:`ema_pipeline.report.stab_diagram`) writes the same
 layout from its script; the fit of the picks is
-:func:`ema_pipeline.identification.picks.identify_picks`. This module is light
+:func:`ema_pipeline.identification.selection.picks.identify_picks`. This module is light
 (no numerics), so that :mod:`ema_pipeline.io` can import it.
 """
 
@@ -72,7 +72,7 @@ class Picks:
     companions : tuple of complex
         Poles (rad/s, before the window correction) refined together with the
         picks and then dropped, not reported (see
-        :mod:`ema_pipeline.identification.picks`).
+        :mod:`ema_pipeline.identification.selection.picks`).
     """
 
     band_hz: tuple[float, float]

@@ -8,19 +8,19 @@ module whose inputs and outputs are its arguments and its return value:
 1. :func:`band_data`: the band's FRFs as the stages see them (scaled,
    weighted, one row per channel).
 2. :func:`search_diagrams`: the candidates of the adaptive order search of
-   :mod:`~ema_pipeline.identification.order_search` (diagrams of growing
+   :mod:`~ema_pipeline.identification.diagram.order_search` (diagrams of growing
    order, pole trajectories) and of the narrower searches (a wide band's
    lowest part, windows of a dense band), and the chosen diagram's
    stabilization data.
 3. :func:`start_poles`: with ``expect_hz``, the expected candidates, answered
    from the automatic selection, whose other modes are refined beside them.
 4. :func:`refine_candidates`: every candidate's pole refined by the local
-   fit of :func:`~ema_pipeline.identification.refine.refine_poles`.
+   fit of :func:`~ema_pipeline.identification.refinement.refine.refine_poles`.
 5. The final tests over all FRFs (``options.accept``, not with
    ``expect_hz``): :func:`first_verdict` keeps a candidate when its refined
    decay rate is determined, when it is a resonance of the data and when it
    is not the same mode found twice (the final tests of
-   :mod:`ema_pipeline.identification.acceptance`), and refits the kept ones
+   :mod:`ema_pipeline.identification.selection.acceptance`), and refits the kept ones
    without those that failed; :func:`try_alternates` tries a narrower
    search's candidate where the one covering it failed; then two searches
    look for modes that the diagrams missed: close modes hidden in a kept
@@ -50,7 +50,37 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ema_pipeline.data import FRFSet, Quantity
-from ema_pipeline.identification.acceptance import (
+from ema_pipeline.identification.common import (
+    default_max_order,
+    finish_identification,
+    resolve_band,
+)
+from ema_pipeline.identification.diagram.narrower_searches import (
+    band_support,
+    shown_by_the_frfs,
+    uncovered_alternates,
+)
+from ema_pipeline.identification.diagram.order_search import (
+    OrderSearch,
+    SearchedBand,
+    add_window_modes,
+    add_zoom_modes,
+)
+from ema_pipeline.identification.diagram.plscf import PoleSet
+from ema_pipeline.identification.diagram.resources import order_cap
+from ema_pipeline.identification.diagram.stabilization import StabilizationData, stabilization
+from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.refinement.refine import (
+    RefinedPoles,
+    band_sensitivity,
+    refine_poles,
+)
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    found_by_code,
+)
+from ema_pipeline.identification.selection.acceptance import (
     Candidates,
     add_found,
     close_partners,
@@ -58,39 +88,13 @@ from ema_pipeline.identification.acceptance import (
     final_tests,
     refit_kept,
 )
-from ema_pipeline.identification.common import (
-    default_max_order,
-    finish_identification,
-    resolve_band,
-)
-from ema_pipeline.identification.narrower_searches import (
-    band_support,
-    shown_by_the_frfs,
-    uncovered_alternates,
-)
-from ema_pipeline.identification.not_kept import resonances_not_kept
-from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.order_search import (
-    OrderSearch,
-    SearchedBand,
-    add_window_modes,
-    add_zoom_modes,
-)
-from ema_pipeline.identification.plscf import PoleSet
-from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, refine_poles
-from ema_pipeline.identification.residual_search import residual_peaks
-from ema_pipeline.identification.resources import order_cap
-from ema_pipeline.identification.result import (
-    IdentificationResult,
-    ResolvedSettings,
-    found_by_code,
-)
-from ema_pipeline.identification.selection import (
+from ema_pipeline.identification.selection.not_kept import resonances_not_kept
+from ema_pipeline.identification.selection.residual_search import residual_peaks
+from ema_pipeline.identification.selection.trajectories import (
     SelectedPoles,
     expected_from_automatic,
     select_expected,
 )
-from ema_pipeline.identification.stabilization import StabilizationData, stabilization
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import poles_overlap
 from ema_pipeline.threads import Mapper, available_cores, process_map
@@ -328,8 +332,8 @@ def refine_candidates(data: BandData, start: StartPoles,
 class Retest:
     """Refine candidates and run the final tests over all FRFs on them: the
     ``retest(candidates, partner, strict) -> (refined, keep)`` of
-    :func:`~ema_pipeline.identification.acceptance.add_found` and
-    :func:`~ema_pipeline.identification.acceptance.refit_kept`. Every
+    :func:`~ema_pipeline.identification.selection.acceptance.add_found` and
+    :func:`~ema_pipeline.identification.selection.acceptance.refit_kept`. Every
     verdict's failed poles whose decay rate is determined are collected in
     ``rejected`` (for :func:`with_not_kept`)."""
 
@@ -359,7 +363,7 @@ class Retest:
 def first_verdict(found: Candidates, retest: Retest) -> Candidates:
     """Stage 5a: the final tests on the refined candidates, then the kept
     ones refined and tested again without those that failed
-    (:func:`~ema_pipeline.identification.acceptance.refit_kept`)."""
+    (:func:`~ema_pipeline.identification.selection.acceptance.refit_kept`)."""
     found = replace(found, keep=retest.verdict(found.ref, found.sel.n_members))
     return refit_kept(found, retest, retest.data.thresholds.refit_rounds)
 
@@ -378,7 +382,7 @@ def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
 
 def add_close_partners(found: Candidates, retest: Retest) -> Candidates:
     """Stage 5c: close modes hidden in a kept resonance
-    (:func:`~ema_pipeline.identification.acceptance.close_partners`)."""
+    (:func:`~ema_pipeline.identification.selection.acceptance.close_partners`)."""
     d = retest.data
     partners = close_partners(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
                               window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,

@@ -15,7 +15,7 @@ It also returns, for a guess with no stable pole near it, whatever pole is
 nearest -- the same pole for several guesses, or an unstable one. Here each
 pole is kept once, only with positive (window-corrected) damping, and only when
 it answers a guess within the tolerance of
-:func:`ema_pipeline.identification.expect.match_expected`; a guess left
+:func:`ema_pipeline.identification.selection.expect.match_expected`; a guess left
 unanswered is a warning (from :func:`identify`), never a distant mode. Orders
 too low to hold the modes looked for (``max_order`` below
 :func:`min_sdypy_order`) are refused.
@@ -36,15 +36,15 @@ from ema_pipeline.identification.common import (
     resolve_band,
     source_prefix,
 )
-from ema_pipeline.identification.expect import EXPECT_TOL_PCT, match_expected
-from ema_pipeline.identification.lsfd import frac, normalised_error
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf_backend import identify_plscf
+from ema_pipeline.identification.refinement.lsfd import frac, normalised_error
 from ema_pipeline.identification.result import (
     IdentificationResult,
     ResolvedSettings,
     StabilizationData,
 )
+from ema_pipeline.identification.selection.expect import EXPECT_TOL_PCT, match_expected
 from ema_pipeline.modal import pole_fd_hz
 
 

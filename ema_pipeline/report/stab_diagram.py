@@ -7,7 +7,7 @@ three diagrams stays small); its script makes every pole of the stored
 diagram a ``circle.pole`` element carrying
 ``data-freq-hz`` (natural frequency, window-corrected), ``data-zeta``,
 ``data-order`` (model order), ``data-mpc`` (MPC of the pole's one-pole local
-fit, :func:`ema_pipeline.identification.picks.pole_mpc`), ``data-group`` (its
+fit, :func:`ema_pipeline.identification.selection.picks.pole_mpc`), ``data-group`` (its
 trajectory: the poles of one mode) and ``data-stable`` (``1`` when stable in
 frequency, damping and vector). Every mode the automatic selection kept is
 drawn as a diamond in the top row ("modes") at its refined frequency (the
@@ -37,7 +37,7 @@ The script writes it (when the page opens and at every click) in the layout
 of :mod:`ema_pipeline.io.picks`, the one home of the format (its version,
 keys and comments; ``tests/test_picks_format.py`` runs the script in a
 browser and reads its text with the io reader). Untouched, the page's picks
-are the automatic result's (:func:`~ema_pipeline.identification.picks.picks_from_result`),
+are the automatic result's (:func:`~ema_pipeline.identification.selection.picks.picks_from_result`),
 with its companions (candidates refined beside the kept modes, then dropped);
 the script writes these only while no pole of the diagram itself is picked.
 """
@@ -49,13 +49,13 @@ import json
 import numpy as np
 
 from ema_pipeline.data import FRFSet
-from ema_pipeline.identification.picks import is_picked, picks_from_result, pole_mpc
 from ema_pipeline.identification.result import (
     STABLE_ALL,
     STABLE_DAMP,
     STABLE_FREQ,
     IdentificationResult,
 )
+from ema_pipeline.identification.selection.picks import is_picked, picks_from_result, pole_mpc
 from ema_pipeline.report.figures import sum_abs_frf
 from ema_pipeline.report.htmlparts import esc
 from ema_pipeline.report.result_tables import label_as_tested

@@ -44,11 +44,16 @@ import numpy as np
 
 from ema_pipeline.data import DataError, FRFSet
 from ema_pipeline.identification.common import finish_identification, resolve_band
-from ema_pipeline.identification.lsfd import mpc
+from ema_pipeline.identification.diagram.plscf import plscf
+from ema_pipeline.identification.diagram.stabilization import pole_to_modal, stabilization
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.picked import PICK_TOL_REL, Pick, Picks
-from ema_pipeline.identification.plscf import plscf
-from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, refine_poles
+from ema_pipeline.identification.refinement.lsfd import mpc
+from ema_pipeline.identification.refinement.refine import (
+    RefinedPoles,
+    band_sensitivity,
+    refine_poles,
+)
 from ema_pipeline.identification.result import (
     IdentificationResult,
     ResolvedSettings,
@@ -56,8 +61,7 @@ from ema_pipeline.identification.result import (
     StabilizationData,
     found_by_code,
 )
-from ema_pipeline.identification.selection import link_fragments, track_poles
-from ema_pipeline.identification.stabilization import pole_to_modal, stabilization
+from ema_pipeline.identification.selection.trajectories import link_fragments, track_poles
 
 #: ``IdentificationResult.extras`` key set on a result of :func:`identify_picks`
 #: (its value: the number of picked modes).
@@ -258,7 +262,7 @@ def pole_mpc(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray,
 
     For every pole the ``n_lines`` lines nearest its damped frequency are
     fitted per channel by ``r / (j w - lambda) + c0 + c1 j w`` (complex linear
-    least squares); the MPC (:func:`ema_pipeline.identification.lsfd.mpc`) of
+    least squares); the MPC (:func:`ema_pipeline.identification.refinement.lsfd.mpc`) of
     the residues r over the channels is returned. A cheap indicator for every
     pole of a diagram, not the MPC of an identified mode (that is ``result.mpc``).
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.plscf import PoleSet
+from ema_pipeline.identification.diagram.plscf import PoleSet
 from ema_pipeline.identification.result import (  # the result types live in result
     STABLE_DAMP,
     STABLE_FREQ,

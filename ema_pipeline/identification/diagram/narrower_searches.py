@@ -24,10 +24,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ema_pipeline.identification.not_kept import visible_peaks
+from ema_pipeline.identification.diagram.order_search import SearchedBand, mode_windows
 from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.order_search import SearchedBand, mode_windows
-from ema_pipeline.identification.selection import SelectedPoles
+from ema_pipeline.identification.selection.not_kept import visible_peaks
+from ema_pipeline.identification.selection.trajectories import SelectedPoles
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, pole_fn_hz, poles_overlap
 

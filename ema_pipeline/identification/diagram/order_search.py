@@ -13,9 +13,9 @@ trajectories that the data determine are still young at its last order
 fewer than 4 pole pairs per mode found plus 16 to spare (noise and the modes
 outside the band take poles too) -- and stops after two doublings without a
 gain in determined modes, or at
-:func:`~ema_pipeline.identification.resources.order_cap`, which depends on the number
+:func:`~ema_pipeline.identification.diagram.resources.order_cap`, which depends on the number
 of lines and references only. "Determined" is the screen
-:func:`~ema_pipeline.identification.local_fits.quick_significance`
+:func:`~ema_pipeline.identification.refinement.local_fits.quick_significance`
 (std(sigma)/sigma below ``max_rel_sigma_std``, own peak above
 ``min_peak_ratio`` of the local data) over the *mature* trajectories
 (started at or below ``mature_fraction`` of the order). The thresholds named
@@ -23,7 +23,7 @@ here are fields of
 :class:`~ema_pipeline.identification.thresholds.SelectionThresholds`
 (``OrderSearch.thresholds``). The diagram with
 the most determined modes is used, plus the determined resonances (the peak
-test of :func:`~ema_pipeline.identification.acceptance.resonant` passed too) of the other
+test of :func:`~ema_pipeline.identification.selection.acceptance.resonant` passed too) of the other
 diagrams that none of its candidates covers: at low SNR a mode is sometimes
 resolved at one order and a neighbour's trajectory at another, and the best
 diagram alone loses one of them (SNR hard cases, seeds 600-615: 1 -> 0 missed of 66).
@@ -52,18 +52,18 @@ import numpy as np
 
 from ema_pipeline.data import DataError
 from ema_pipeline.identification.common import default_max_order
-from ema_pipeline.identification.local_fits import quick_significance
-from ema_pipeline.identification.plscf import PoleSet, plscf
-from ema_pipeline.identification.resources import order_cap
+from ema_pipeline.identification.diagram.plscf import PoleSet, plscf
+from ema_pipeline.identification.diagram.resources import order_cap
+from ema_pipeline.identification.diagram.stabilization import pole_to_modal
+from ema_pipeline.identification.refinement.local_fits import quick_significance
 from ema_pipeline.identification.result import found_by_code
-from ema_pipeline.identification.selection import (
+from ema_pipeline.identification.selection.trajectories import (
     SelectedPoles,
     link_fragments,
     merge_coincident,
     select_trajectories,
     track_poles,
 )
-from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, poles_overlap
 from ema_pipeline.threads import Mapper, SerialMap
@@ -139,7 +139,7 @@ class OrderSearch:
 
     ``min_peak`` is ``thresholds.min_peak_ratio`` or, with 3 or more
     channels, ``min_peak_ratio_shapes``; ``tolerances`` those of the pole
-    linking (:func:`~ema_pipeline.identification.selection.track_poles`;
+    linking (:func:`~ema_pipeline.identification.selection.trajectories.track_poles`;
     ``None``: ``thresholds.link_tol_*``)."""
 
     weights: np.ndarray | None
