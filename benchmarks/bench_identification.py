@@ -76,12 +76,12 @@ import numpy as np
 
 from ema_pipeline import io as frf_io
 from ema_pipeline.identification import IdentificationOptions, identify
-from ema_pipeline.identification.plscf import (
+from ema_pipeline.identification.diagram.plscf import (
     companion_poles,
     plscf_denominators,
     plscf_normal_matrix,
 )
-from ema_pipeline.identification.stabilization import pole_to_modal
+from ema_pipeline.identification.diagram.stabilization import pole_to_modal
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
 from ema_pipeline.threads import BLAS_THREADS_ENV, THREAD_VARIABLES, WORKERS_ENV
 

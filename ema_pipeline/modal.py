@@ -157,8 +157,8 @@ def mpd(phi: np.ndarray) -> np.ndarray:
         MPD = sum_o |phi_o| arccos(|Re(phi_o e^-j theta)| / |phi_o|) / sum_o |phi_o|,
 
     theta = 1/2 atan2(2 S_xy, S_xx - S_yy), the principal axis with the sums of
-    :func:`ema_pipeline.identification.lsfd.mpc` (the same rotation as
-    :func:`ema_pipeline.identification.lsfd.real_normalised`).
+    :func:`ema_pipeline.identification.refinement.lsfd.mpc` (the same rotation as
+    :func:`ema_pipeline.identification.refinement.lsfd.real_normalised`).
 
     Parameters
     ----------

@@ -1,6 +1,6 @@
 """The Levenberg-Marquardt step and damping schedule that the package's two
 nonlinear fits share: the variable-projection pole refinement
-(:func:`ema_pipeline.identification.refine.vp_solve`) and the exact local
+(:func:`ema_pipeline.identification.refinement.refine.vp_solve`) and the exact local
 added-mass fit (:func:`ema_pipeline.added_mass.exact.exact_added_mass`).
 
 This module imports only numpy, so every stage can use it.

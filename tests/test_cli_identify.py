@@ -19,7 +19,7 @@ from ema_pipeline.acquisition import modal_frf
 from ema_pipeline.cli import main
 from ema_pipeline.data import DOF, MIN_FRF_LINES, DataError, FRFSet, ModalParameters, OptionError
 from ema_pipeline.identification import identify
-from ema_pipeline.identification.expect import match_expected, with_expected_rows
+from ema_pipeline.identification.selection.expect import match_expected, with_expected_rows
 from ema_pipeline.pipeline.batch import run_batch
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
 from ema_pipeline.pipeline.single import identify_file

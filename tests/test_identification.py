@@ -39,9 +39,12 @@ from ema_pipeline.identification import (  # noqa: E402
     identify,
     modes_table,
 )
-from ema_pipeline.identification.plscf import lag_sums  # noqa: E402
+from ema_pipeline.identification.diagram.plscf import lag_sums  # noqa: E402
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test  # noqa: E402
-from ema_pipeline.plots import plot_fit_quality, plot_stabilization  # noqa: E402
+from ema_pipeline.report.matplotlib_plots import (  # noqa: E402
+    plot_fit_quality,
+    plot_stabilization,
+)
 
 FREQ = np.fft.rfftfreq(16384, 1 / 2000)  # 8193 lines, 0-1000 Hz
 TAU = 8.192 / 5
@@ -228,8 +231,8 @@ def test_window_search_resolves_ten_narrow_modes():
     12 lines apart, in 120 lines, one reference, 4 outputs. They need order
     40 or more; the window's cap (4:1 equations to coefficients, 59 here) lets
     the search get there, the whole band's n_lines/4 (30) found 3-4 of them."""
-    from ema_pipeline.identification import order_search as pb
-    from ema_pipeline.identification.resources import order_cap
+    from ema_pipeline.identification.diagram import order_search as pb
+    from ema_pipeline.identification.diagram.resources import order_cap
 
     f = 20.0 + 0.1 * np.arange(120)
     fn = 20.6 + 1.2 * np.arange(10)

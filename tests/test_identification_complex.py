@@ -108,8 +108,8 @@ def test_residual_drop_ignores_the_phase_of_the_residues() -> None:
     magnitudes at phases of 0, 70 and -50 degrees (MPC well below 1) explains
     its local residual alike: the drop differs by less than 5 %, and a pole
     where there is only noise gives a drop within 10 % of 1."""
-    from ema_pipeline.identification.acceptance import residual_drop
-    from ema_pipeline.identification.lsfd import mpc
+    from ema_pipeline.identification.refinement.lsfd import mpc
+    from ema_pipeline.identification.selection.acceptance import residual_drop
 
     f = np.linspace(60.0, 140.0, 801)
     jw = 2j * np.pi * f

@@ -176,8 +176,8 @@ def test_true_modes_have_real_local_shapes(family: str, seed: int) -> None:
     """The resonance test judges a weak mode by the MPC of its shape. At the
     exact poles, one global LSFD gives weak real modes of these cases MPC
     0.09-0.87; each mode's own local fit (local_fits.local_shapes) gives > 0.98."""
-    from ema_pipeline.identification.local_fits import local_shapes
-    from ema_pipeline.identification.lsfd import mpc
+    from ema_pipeline.identification.refinement.local_fits import local_shapes
+    from ema_pipeline.identification.refinement.lsfd import mpc
 
     case = hardcases.make_case(family, seed)
     frf = case.frf.reciprocal() if case.roving else case.frf
@@ -194,8 +194,8 @@ def test_complex_modes_generator_and_their_strong_modes_are_found() -> None:
     true modes' local MPCs drop below 0.97, and every mode whose own peak is
     clear (quick_significance ratio >= SelectionThresholds.weak_peak_ratio) is still
     found (weak complex modes may not be: README, "Known limitation")."""
-    from ema_pipeline.identification.local_fits import local_shapes, quick_significance
-    from ema_pipeline.identification.lsfd import mpc
+    from ema_pipeline.identification.refinement.local_fits import local_shapes, quick_significance
+    from ema_pipeline.identification.refinement.lsfd import mpc
     from ema_pipeline.identification.thresholds import SelectionThresholds
 
     real, same = hardcases.make_case("mimo", 6), hardcases.make_case("mimo", 6, 0.0)

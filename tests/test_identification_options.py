@@ -29,9 +29,10 @@ PHI_IN = np.array([[1.0, -0.8, 0.9, 0.7]])
 
 @pytest.fixture(scope="module")
 def mimo():
-    """Hard case mimo-1 (6 modes, 2 references, noisy) and its fixed-order run."""
+    """Hard case mimo-1 (6 modes, 2 references, noisy) and its fixed-order run's
+    raw selection (the trajectory medians, untested)."""
     case = make_case("mimo", 1)
-    base = identify(case.frf, band_hz=case.band_hz, max_order=40, refine=False)
+    base = identify(case.frf, band_hz=case.band_hz, max_order=40, refine=False, accept=False)
     return case, base
 
 
@@ -42,7 +43,7 @@ def test_stabilization_tolerances_reach_the_selection(mimo):
     opposite. The same diagram (fixed order): only the linking differs. The
     trajectory medians move with them (refine=False reports them)."""
     case, base = mimo
-    run = {"band_hz": case.band_hz, "max_order": 40, "refine": False}
+    run = {"band_hz": case.band_hz, "max_order": 40, "refine": False, "accept": False}
     strict = identify(case.frf, tol_freq=0.002, tol_zeta=0.1, tol_mac=0.01, **run)
     loose = identify(case.frf, tol_freq=0.03, tol_zeta=0.6, tol_mac=0.15, **run)
     assert base.settings.tol_zeta == 0.3 and strict.settings.tol_zeta == 0.1
@@ -66,7 +67,7 @@ def test_min_fraction_drops_short_trajectories(mimo):
     n_orders = base.settings.orders.size
     assert n_orders == 40 and base.modes.n_modes == 6
     strict = identify(case.frf, band_hz=case.band_hz, max_order=40, refine=False,
-                      min_fraction=0.6)
+                      accept=False, min_fraction=0.6)
     long_enough = base.selected.n_members >= 0.6 * n_orders
     assert long_enough.sum() == 4
     np.testing.assert_allclose(strict.fn_hz, base.fn_hz[long_enough], rtol=1e-9)
@@ -84,6 +85,65 @@ def test_refine_moves_the_poles_to_the_truth(mimo):
     assert np.abs(refined.fn_hz - case.fn_hz).max() < 0.2 * np.abs(base.fn_hz - case.fn_hz).max()
     assert refined.settings.uncertainty.startswith("least-squares")
     assert base.settings.uncertainty.startswith("scatter")
+
+
+@pytest.fixture(scope="module")
+def impact_switches():
+    """Hard case impact-1 (6 modes, 2-900 Hz, one hammer recording per point)
+    identified with each combination of ``refine`` and ``accept``."""
+    case = make_case("impact", 1)
+    runs = {(refine, accept): identify(case.frf, band_hz=case.band_hz, refine=refine,
+                                       accept=accept)
+            for refine in (True, False) for accept in (True, False)}
+    return case, runs
+
+
+def test_refine_reports_the_refined_or_the_start_poles(impact_switches):
+    """``refine=False`` keeps the final tests: the same six modes are kept as
+    by default, the true ones (fn within 0.1 %), but their poles are the
+    start poles the default refined (``stabilization.mode_pole``), not the
+    refined ones, and the uncertainty is the trajectories' scatter. It
+    changes what is reported, not what is kept."""
+    case, runs = impact_switches
+    default, start = runs[True, True], runs[False, True]
+    for res in (default, start):
+        assert res.modes.n_modes == case.fn_hz.size == 6
+        np.testing.assert_allclose(res.fn_hz, case.fn_hz, rtol=1e-3)
+        assert res.settings.accept
+    np.testing.assert_array_equal(np.sort_complex(start.selected.pole),
+                                  np.sort_complex(default.stabilization.mode_pole))
+    np.testing.assert_array_equal(start.stabilization.mode_pole, start.selected.pole)
+    assert np.max(np.abs(start.fn_hz - default.fn_hz) / default.fn_hz) > 1e-5
+    assert start.settings.uncertainty.startswith("scatter")
+    assert default.settings.uncertainty.startswith("least-squares")
+    # the refined damping is nearer the truth (within 3.1 % against up to 4.8 %)
+    err = {k: np.max(np.abs(r.zeta - case.zeta) / case.zeta) for k, r in
+           (("refined", default), ("start", start))}
+    assert err["refined"] < 0.031 < 0.04 < err["start"], err
+
+
+def test_accept_runs_the_final_tests(impact_switches):
+    """``accept=False`` keeps the refinement but skips the final tests: every
+    candidate of the diagrams is kept, the six true modes with the same
+    refined poles as by default (rtol 1e-7) and three candidates above 780 Hz
+    where there is no mode (the true ones end at 241 Hz), which the final
+    tests reject; the uncertainty is still the refined poles' covariance and
+    no resonance is listed as not kept. With ``refine=False`` as well: the
+    same nine candidates at their start poles (the raw selection)."""
+    case, runs = impact_switches
+    default, untested, raw = runs[True, True], runs[True, False], runs[False, False]
+    assert untested.modes.n_modes == raw.modes.n_modes == 9
+    true = untested.fn_hz < 300.0
+    np.testing.assert_allclose(untested.pole[true], default.pole, rtol=1e-7)
+    np.testing.assert_allclose(untested.modes.fn_std_hz[true], default.modes.fn_std_hz,
+                               rtol=1e-3)
+    spurious = untested.fn_hz[~true]
+    assert spurious.size == 3 and spurious.min() > 780.0
+    assert np.min(np.abs(spurious[:, None] - case.fn_hz[None, :]) / spurious[:, None]) > 0.5
+    assert untested.settings.uncertainty.startswith("least-squares")
+    assert not untested.settings.accept and untested.not_kept_hz.size == 0
+    np.testing.assert_array_equal(raw.selected.pole, untested.stabilization.mode_pole)
+    assert raw.settings.uncertainty.startswith("scatter")
 
 
 def test_residual_terms_stand_for_the_modes_outside_the_band():
@@ -131,7 +191,7 @@ def test_thresholds_are_passed_down(mimo):
                     thresholds=never).modes.n_modes == 0
     strict = replace(SelectionThresholds(), min_stable_orders=1000)
     res = identify(case.frf, band_hz=case.band_hz, max_order=40, refine=False,
-                   thresholds=strict)
+                   accept=False, thresholds=strict)
     assert res.settings.thresholds is strict
     assert all("few_stable_orders" in r for r in doubtful_reasons(res))
 
@@ -159,6 +219,7 @@ REFUSED = [
     ("tol_zeta", 20.0, None, "tol_zeta = 20.0", "in (0, 10]"),
     ("tol_mac", -0.1, None, "tol_mac = -0.1", "in (0, 1]"),
     ("refine", "yes", None, 'refine = "yes"', "a boolean"),
+    ("accept", 0, None, "accept = 0", "a boolean"),
     ("window_searches", 1, None, "window_searches = 1", "a boolean"),
 ]
 
@@ -275,7 +336,7 @@ def test_the_alternates_gate_has_thresholds_of_its_own():
     the other's rule alone."""
     from dataclasses import replace
 
-    from ema_pipeline.identification.narrower_searches import shown_by_the_frfs
+    from ema_pipeline.identification.diagram.narrower_searches import shown_by_the_frfs
     from ema_pipeline.identification.thresholds import SelectionThresholds
 
     f = np.linspace(0.0, 100.0, 401)

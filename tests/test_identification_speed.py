@@ -5,9 +5,9 @@ LAPACK's least squares)."""
 import numpy as np
 from scipy.optimize import nnls
 
-from ema_pipeline.identification.local_band import pole_jacobian, pole_jacobian_factors
-from ema_pipeline.identification.lsfd import batched_qr
-from ema_pipeline.identification.uncertainty import nonnegative_line_fit
+from ema_pipeline.identification.refinement.local_band import pole_jacobian, pole_jacobian_factors
+from ema_pipeline.identification.refinement.lsfd import batched_qr
+from ema_pipeline.identification.refinement.uncertainty import nonnegative_line_fit
 
 
 def test_nonnegative_line_fit_is_scipy_nnls():
@@ -72,7 +72,7 @@ def test_correlated_leverage_products_are_the_einsum_sums():
     its sums written out with einsum, for a window's correlation over all
     lines and three channels; and the pole leverage of vp_covariance,
     diag(Bp (W_c Finv W_c^T) Bp^T), against diag(J_c Finv J_c^T)."""
-    from ema_pipeline.identification.uncertainty import (
+    from ema_pipeline.identification.refinement.uncertainty import (
         correlated_leverage,
         exponential_window_correlation,
         toeplitz_apply,

@@ -10,7 +10,7 @@ import pytest
 
 from ema_pipeline.data import DOF, FRFSet
 from ema_pipeline.identification import identify
-from ema_pipeline.identification.lsfd import (
+from ema_pipeline.identification.refinement.lsfd import (
     batched_qr,
     design_matrix,
     householder_qr,

@@ -1,12 +1,12 @@
 """Resonances the FRFs show but no mode was kept for
-(:mod:`ema_pipeline.identification.not_kept`)."""
+(:mod:`ema_pipeline.identification.selection.not_kept`)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from ema_pipeline.identification.not_kept import (
+from ema_pipeline.identification.selection.not_kept import (
     not_kept_message,
     prominent_peaks,
     resonances_not_kept,

@@ -92,6 +92,7 @@ INVENTORY: dict[str, tuple[str, ...]] = {
         "test_cli_identify.py::test_exp_window_tau_gives_structural_damping",),
     "identify --quiet": (f"{HERE}::test_identify_options_change_the_result",),
     "identify --no-window-search": (f"{HERE}::test_no_window_search_skips_the_window_searches",),
+    "identify --no-accept": (f"{HERE}::test_no_accept_keeps_the_untested_candidates",),
     "identify --memory-limit-gb": (f"{HERE}::test_memory_limit_refuses_before_any_work",),
     "identify --uff": ("test_uff_export_cli.py::test_identify_uff_round_trips_through_pyuff",),
     "identify --verbose": (f"{HERE}::test_verbose_reaches_the_batch_workers",),
@@ -112,6 +113,7 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "batch --exp-window-tau": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --quiet": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --no-window-search": (f"{HERE}::test_no_window_search_skips_the_window_searches",),
+    "batch --no-accept": (f"{HERE}::test_no_accept_keeps_the_untested_candidates",),
     "batch --memory-limit-gb": (f"{HERE}::test_memory_limit_refuses_before_any_work",),
     "batch --uff": ("test_uff_export_cli.py::test_batch_uff_writes_one_file_per_input",),
     "batch --verbose": (f"{HERE}::test_verbose_reaches_the_batch_workers",),
@@ -192,7 +194,11 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "[identification] min_fraction": (
         "test_identification_options.py::test_min_fraction_drops_short_trajectories",),
     "[identification] refine": (
-        "test_identification_options.py::test_refine_moves_the_poles_to_the_truth",),
+        "test_identification_options.py::test_refine_moves_the_poles_to_the_truth",
+        "test_identification_options.py::test_refine_reports_the_refined_or_the_start_poles"),
+    "[identification] accept": (
+        "test_identification_options.py::test_accept_runs_the_final_tests",
+        f"{HERE}::test_no_accept_keeps_the_untested_candidates"),
     **{f"[identification] {k}": (
         "test_identification_options.py::test_residual_terms_stand_for_the_modes_outside_the_"
         "band",) for k in ("lower_residual", "upper_residual")},
@@ -529,6 +535,46 @@ def test_no_window_search_skips_the_window_searches(tmp_path: Path,
     batch = read_results_h5(tmp_path / "batch" / "twelve_result.h5")["identification"]
     assert bool(batch["settings"]["window_searches"]) is False
     np.testing.assert_array_equal(np.asarray(batch["band_support"]), stored["off"]["band_support"])
+
+
+def test_no_accept_keeps_the_untested_candidates(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """Hard case impact-1 (six modes, 2-900 Hz): ``identify`` keeps the six
+    true modes; with ``--no-accept`` (identify and batch) the final tests are
+    skipped and the three untested candidates above 780 Hz stay as well, with
+    the same refined poles for the six (the library's ``accept=False``,
+    ``test_identification_options.py::test_accept_runs_the_final_tests``);
+    the stored settings say so. The experiment file's ``[identification]
+    accept`` is the same option."""
+    from hardcases import make_case
+
+    toml = tmp_path / "experiment.toml"
+    assert schema.read_identification_options({"accept": False}, toml) == \
+        IdentificationOptions(accept=False)
+    with pytest.raises(io.DataError, match="accept"):
+        schema.read_identification_options({"accept": "no"}, toml)
+    case = make_case("impact", 1)
+    folder = tmp_path / "in"
+    folder.mkdir()
+    io.write_frf(case.frf, folder / "impact.h5", "h5")
+    src = folder / "impact.h5"
+    band = ["--band", *map(str, case.band_hz)]
+    table, stored = {}, {}
+    for name, extra in (("default", []), ("untested", ["--no-accept"])):
+        assert _run(["identify", src, "--out", tmp_path / name, "--quiet", *band, *extra],
+                    capsys)[0] == 0
+        table[name] = pd.read_csv(tmp_path / name / "impact_modes.csv")
+        stored[name] = read_results_h5(tmp_path / name / "impact_result.h5")["identification"]
+    np.testing.assert_allclose(table["default"]["fn_hz"], case.fn_hz, rtol=1e-3)
+    untested = table["untested"]["fn_hz"].to_numpy()
+    assert untested.size == 9 and np.all(untested[6:] > 780.0)
+    np.testing.assert_allclose(untested[:6], table["default"]["fn_hz"], rtol=1e-6)
+    assert bool(stored["default"]["settings"]["accept"]) is True
+    assert bool(stored["untested"]["settings"]["accept"]) is False
+    assert _run(["batch", folder, "--out", tmp_path / "batch", "--workers", "1", "--quiet",
+                 *band, "--no-accept"], capsys)[0] == 0
+    batch = pd.read_csv(tmp_path / "batch" / "impact_modes.csv")
+    np.testing.assert_allclose(batch["fn_hz"], untested, rtol=1e-12)
 
 
 def test_memory_limit_refuses_before_any_work(two_mode_folder: Path, tmp_path: Path,

@@ -17,7 +17,8 @@ from ema_pipeline import io
 from ema_pipeline.cli import main
 from ema_pipeline.data import DOF, DataError, FRFSet
 from ema_pipeline.identification import IdentificationOptions, found_by_names, identify
-from ema_pipeline.identification.picks import Pick, is_picked, picks_from_result
+from ema_pipeline.identification.picked import Pick
+from ema_pipeline.identification.selection.picks import is_picked, picks_from_result
 
 FN_HZ = np.array([42.0, 97.0, 161.0])
 ZETA = np.array([0.012, 0.008, 0.01])
@@ -53,11 +54,14 @@ def case(tmp_path_factory) -> tuple[Path, Path]:
 
 
 def page_picks(report: Path) -> str:
-    """The text of the page's ``#picks`` element as the page opens."""
-    text = report.read_text(encoding="utf-8")
-    match = re.search(r'<pre class="picks" id="picks">(.*?)</pre>', text, re.S)
-    assert match, f"{report}: no #picks"
-    return html.unescape(match.group(1))
+    """The picks file of the page's ``#picks`` element as the page opens: the
+    automatic result's picks (read from the ``_result.h5`` beside the page)
+    in the layout of ``io.picks``, which the page's script writes
+    (``tests/test_picks_format.py`` checks the two agree in a browser)."""
+    assert '<pre class="picks" id="picks">' in report.read_text(encoding="utf-8")
+    result_h5 = report.with_name(report.name.replace("_report.html", "_result.h5"))
+    _, result = io.read_identification_result(result_h5)
+    return io.picks_toml(picks_from_result(result))
 
 
 def test_untouched_page_picks_reproduce_the_automatic_result(case, tmp_path):

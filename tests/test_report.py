@@ -169,7 +169,7 @@ def test_no_figures(example_study_uff_no_figures):
 
 def test_identify_report_lists_resonances_not_kept(example_dir):
     """A resonance the FRFs show but no mode was kept for is named on the
-    page (identification.not_kept), and nothing is said when there is none."""
+    page (identification.selection.not_kept), and nothing is said when there is none."""
     frf = io.read_frf(example_dir / "larger_tank.h5")
     result = identify(frf)
     assert result.not_kept_hz.size == 0
@@ -348,7 +348,8 @@ def test_fit_verdict_against_the_noise_on_a_simulated_test(tmp_path):
     97 Hz mode left out (picks of the other two) the page says a mode may be missing."""
     from test_picks import simulated
 
-    from ema_pipeline.identification.picks import Picks, picks_from_result
+    from ema_pipeline.identification.picked import Picks
+    from ema_pipeline.identification.selection.picks import picks_from_result
     from ema_pipeline.report.fit_noise import noise_error
 
     frf = simulated()

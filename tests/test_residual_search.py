@@ -1,4 +1,4 @@
-"""The residual check of the identification (``identification.residual_search``):
+"""The residual check of the identification (``identification.selection.residual_search``):
 modes that no diagram resolved are found as peaks of the fit's residual, and
 noise alone gives none."""
 
@@ -15,7 +15,7 @@ import hardcases  # noqa: E402
 
 from ema_pipeline.data import DOF, FRFSet  # noqa: E402
 from ema_pipeline.identification import identify  # noqa: E402
-from ema_pipeline.identification.residual_search import (  # noqa: E402
+from ema_pipeline.identification.selection.residual_search import (  # noqa: E402
     mean_of_three_lines,
     peak_pole,
     residual_peaks,

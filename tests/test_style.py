@@ -9,6 +9,7 @@ import re
 import shutil
 import subprocess
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -255,8 +256,27 @@ def test_io_loads_no_numerics():
                          env={**os.environ, "PYTHONPATH": str(REPO)}).stdout
     assert out.split(" ", 1)[0] == "False", out
     loaded = set(ast.literal_eval(out.strip().split(" ", 1)[1]))
-    light = {f"ema_pipeline.identification.{m}" for m in ("options", "result", "thresholds")}
-    assert loaded <= light, loaded - light  # the options, the result types: no numerics
+    light = {f"ema_pipeline.identification.{m}"
+             for m in ("options", "picked", "result", "thresholds")}
+    assert loaded <= light, loaded - light  # options, picks, result types: no numerics
+
+
+def test_matplotlib_is_optional():
+    """No module of the package imports matplotlib: not the report pages (SVG),
+    not ``report.matplotlib_plots`` (its functions draw on the caller's Axes);
+    matplotlib is the ``plots`` extra, not a dependency. Checked in a fresh
+    interpreter that imports every module."""
+    code = ("import importlib, pkgutil, sys, ema_pipeline; "
+            "[importlib.import_module(m.name) for m in pkgutil.walk_packages("
+            "ema_pipeline.__path__, 'ema_pipeline.') if not m.name.endswith('__main__')]; "
+            "print(sorted(m for m in sys.modules if m.split('.')[0] == 'matplotlib'))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=REPO, check=True,
+                         env={**os.environ, "PYTHONPATH": str(REPO)}).stdout
+    assert out.strip() == "[]", out
+    project = tomllib.loads((REPO / "pyproject.toml").read_text())["project"]
+    assert not [d for d in project["dependencies"] if d.startswith("matplotlib")]
+    assert project["optional-dependencies"]["plots"] == ["matplotlib>=3.7"]
 
 
 def test_identification_exports_are_lazy_and_complete():

@@ -7,11 +7,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ema_pipeline.identification.local_band import background_columns, pole_columns
-from ema_pipeline.identification.lsfd import real_stack
-from ema_pipeline.identification.refine import refine_poles
-from ema_pipeline.identification.stabilization import pole_to_modal
-from ema_pipeline.identification.uncertainty import (
+from ema_pipeline.identification.diagram.stabilization import pole_to_modal
+from ema_pipeline.identification.refinement.local_band import background_columns, pole_columns
+from ema_pipeline.identification.refinement.lsfd import real_stack
+from ema_pipeline.identification.refinement.refine import refine_poles
+from ema_pipeline.identification.refinement.uncertainty import (
     ToeplitzKernel,
     modal_std,
     noise_model,
@@ -107,7 +107,7 @@ def test_sigma_of_a_mode_that_the_exponential_window_dominates_matches_monte_car
     the scatter of 150 realisations to the mean sigma (standard error about
     6 %); with the leverage of independent lines it was 1.35 for zeta and
     1.33 for f."""
-    from ema_pipeline.identification.uncertainty import correlated_leverage
+    from ema_pipeline.identification.refinement.uncertainty import correlated_leverage
 
     fs, T = 512.0, 4.0
     t = np.arange(int(fs * T)) / fs

@@ -17,9 +17,10 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ema_pipeline import io, paper, plots
+from ema_pipeline import io, paper
 from ema_pipeline.identification import IdentificationOptions, identify, modes_table
 from ema_pipeline.pipeline.simulate import simulate_paper_test
+from ema_pipeline.report.matplotlib_plots import plot_stabilization
 
 frf = simulate_paper_test("genuine", seed=1)
 print(frf)
@@ -40,9 +41,8 @@ print("frequency error in %:", np.round(error_pct, 4))
 # %%
 # The stabilization diagram over the FRF sum, with the selected modes:
 fig, ax = plt.subplots(figsize=(6, 3.2), layout="constrained")
-plots.plot_stabilization(ax, result.stabilization, freq_hz=frf.freq_hz,
-                         frf_sum=np.abs(frf.H).sum(axis=(0, 1)),
-                         selected_hz=result.modes.fn_hz)
+plot_stabilization(ax, result.stabilization, freq_hz=frf.freq_hz,
+                   frf_sum=np.abs(frf.H).sum(axis=(0, 1)), selected_hz=result.modes.fn_hz)
 ax.set_xlim(0, 1000)
 
 # %%

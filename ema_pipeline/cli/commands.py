@@ -204,6 +204,7 @@ IDENTIFY_FLAGS = {
     "expect_hz": "--expect",
     "exp_window_tau_s": "--exp-window-tau",
     "window_searches": "--no-window-search",
+    "accept": "--no-accept",
 }
 
 
@@ -224,6 +225,7 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
             expect_hz=tuple(args.expect or ()),
             exp_window_tau_s=args.exp_window_tau,
             window_searches=not args.no_window_search,
+            accept=not args.no_accept,
         )
     except OptionError as exc:
         raise ConfigError(f"{IDENTIFY_FLAGS.get(exc.field, exc.field)} {exc.reason}") from None
@@ -298,7 +300,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 def _memory_limit(args: argparse.Namespace) -> None:
     """``--memory-limit-gb``: checked, and passed on (also to batch workers) as
     ``$EMA_MEMORY_LIMIT_GB``."""
-    from ema_pipeline.identification.resources import MEMORY_LIMIT_ENV, memory_limit_bytes
+    from ema_pipeline.identification.diagram.resources import MEMORY_LIMIT_ENV, memory_limit_bytes
 
     limit = getattr(args, "memory_limit_gb", None)
     memory_limit_bytes(limit)  # refuse a bad value (or a bad environment variable) now

@@ -183,6 +183,14 @@ def _add_identify_options(p: argparse.ArgumentParser) -> None:
         "whose full-band pole fails the final tests, may be missed (what it saves and "
         "misses on the measured beam: the validation page of the documentation)",
     )
+    p.add_argument(
+        "--no-accept",
+        action="store_true",
+        help="keep every candidate the stabilization diagrams select, untested: skip the "
+        "final tests (decay rate determined, a resonance of the data, not one mode twice), "
+        "the close partners, the residual search and the list of resonances not kept; the "
+        "poles are still refined. For a look at the raw selection, not for results",
+    )
     p.add_argument("--quiet", action="store_true", help="print only errors")
     _add_memory_limit(p)
 

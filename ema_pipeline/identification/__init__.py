@@ -19,20 +19,30 @@ reference, ``method="sdypy-lscf"``, and test against):
   frequencies, standard deviations of f and zeta, correction of the
   exponential window's added damping, and clear errors on bad input.
 
-Modules: ``options`` (:class:`IdentificationOptions`), ``core`` (:func:`identify`
-and the method table :data:`METHODS`), ``plscf_backend`` / ``sdypy_backend``
-(the methods), ``common`` (band checks and the shared finish), ``plscf``,
-``stabilization``, ``selection``, ``order_search`` (the adaptive order search
-of ``plscf_backend``: diagrams of growing order and their candidates),
-``refine`` (pole refinement), ``local_band``
-(the local problem of one mode, shared by ``refine`` and ``local_fits``),
-``local_fits`` (local screens and fits of single modes), ``acceptance``
-(the final tests: which refined candidates are modes), ``residual_search``
-(modes the diagrams missed), ``not_kept`` (resonances the FRFs show that no
-mode was kept for), ``uncertainty`` (noise and covariance model),
-``lsfd`` (residues and fit indicators), ``result`` (the result types:
-light, no scipy). The MAC and the MPD live in :mod:`ema_pipeline.modal`, the
-diagrams in :mod:`ema_pipeline.plots`.
+The package reads as the pipeline. At the top, the public entry:
+``core`` (:func:`identify` and the method table :data:`METHODS`), ``options``
+(:class:`IdentificationOptions`), ``thresholds``
+(:class:`SelectionThresholds`), ``result`` (the result types), ``picked``
+(the picks as data) -- these four light, no scipy -- ``common`` (band checks
+and the shared finish) and the methods ``plscf_backend`` (its stages in
+order) and ``sdypy_backend``. Then the three steps of ``plscf_backend``:
+
+* ``diagram``: ``plscf`` (the poles of every order), ``stabilization``,
+  ``order_search`` (the adaptive order search: diagrams of growing order and
+  their candidates), ``narrower_searches`` (a wide band's lowest part, a
+  dense band's windows), ``resources`` (the order cap, the memory estimate);
+* ``selection``: ``trajectories`` (pole trajectories and the automatic
+  choice), ``acceptance`` (the final tests, close partners),
+  ``residual_search`` (modes the diagrams missed), ``expect`` (guesses),
+  ``picks`` (modes picked by hand), ``not_kept`` (resonances the FRFs show
+  that no mode was kept for);
+* ``refinement``: ``refine`` (pole refinement with covariance),
+  ``local_band`` (the local problem of one mode), ``local_fits`` (local
+  screens and fits of single modes), ``lsfd`` (residues and fit
+  indicators), ``uncertainty`` (noise and covariance model).
+
+The MAC and the MPD live in :mod:`ema_pipeline.modal`, the matplotlib
+diagrams in :mod:`ema_pipeline.report.matplotlib_plots`.
 
 The package loads its modules on first use (a module ``__getattr__`` over
 :data:`EXPORTS`): ``import ema_pipeline.identification`` (and so
@@ -40,7 +50,8 @@ The package loads its modules on first use (a module ``__getattr__`` over
 the numerics; ``from ema_pipeline.identification import identify`` loads what
 identifying needs. The functions ``plscf`` and ``stabilization`` are not
 exported here (the names are their modules'): use
-``identification.plscf.plscf`` and ``identification.stabilization.stabilization``.
+``identification.diagram.plscf.plscf`` and
+``identification.diagram.stabilization.stabilization``.
 """
 
 from __future__ import annotations
@@ -51,10 +62,17 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checkers)
     from ema_pipeline.identification.common import default_max_order, single_reference
     from ema_pipeline.identification.core import METHODS, identify
-    from ema_pipeline.identification.lsfd import frac, mpc, normalised_error, real_normalised
+    from ema_pipeline.identification.diagram.plscf import PoleSet, plscf_normal_matrix
+    from ema_pipeline.identification.diagram.stabilization import pole_to_modal
     from ema_pipeline.identification.options import IdentificationOptions
-    from ema_pipeline.identification.plscf import PoleSet, plscf_normal_matrix
-    from ema_pipeline.identification.refine import refine_poles
+    from ema_pipeline.identification.refinement.lsfd import (
+        frac,
+        mpc,
+        normalised_error,
+        real_normalised,
+    )
+    from ema_pipeline.identification.refinement.refine import refine_poles
+    from ema_pipeline.identification.refinement.uncertainty import modal_std
     from ema_pipeline.identification.result import (
         FOUND_BY,
         STABLE_DAMP,
@@ -68,10 +86,8 @@ if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checke
         found_by_names,
         modes_table,
     )
-    from ema_pipeline.identification.selection import select_trajectories, track_poles
-    from ema_pipeline.identification.stabilization import pole_to_modal
+    from ema_pipeline.identification.selection.trajectories import select_trajectories, track_poles
     from ema_pipeline.identification.thresholds import SelectionThresholds
-    from ema_pipeline.identification.uncertainty import modal_std
 
 __all__ = [
     "FOUND_BY",
@@ -110,14 +126,14 @@ EXPORTS: dict[str, str] = {
     "identify": "core",
     "default_max_order": "common",
     "single_reference": "common",
-    "frac": "lsfd",
-    "mpc": "lsfd",
-    "normalised_error": "lsfd",
-    "real_normalised": "lsfd",
+    "frac": "refinement.lsfd",
+    "mpc": "refinement.lsfd",
+    "normalised_error": "refinement.lsfd",
+    "real_normalised": "refinement.lsfd",
     "IdentificationOptions": "options",
-    "PoleSet": "plscf",
-    "plscf_normal_matrix": "plscf",
-    "refine_poles": "refine",
+    "PoleSet": "diagram.plscf",
+    "plscf_normal_matrix": "diagram.plscf",
+    "refine_poles": "refinement.refine",
     "STABLE_DAMP": "result",
     "STABLE_FREQ": "result",
     "STABLE_VECTOR": "result",
@@ -129,11 +145,11 @@ EXPORTS: dict[str, str] = {
     "found_by_names": "result",
     "FOUND_BY": "result",
     "modes_table": "result",
-    "select_trajectories": "selection",
-    "track_poles": "selection",
-    "pole_to_modal": "stabilization",
+    "select_trajectories": "selection.trajectories",
+    "track_poles": "selection.trajectories",
+    "pole_to_modal": "diagram.stabilization",
     "SelectionThresholds": "thresholds",
-    "modal_std": "uncertainty",
+    "modal_std": "refinement.uncertainty",
 }
 
 

@@ -16,15 +16,21 @@ from ema_pipeline.data import (
     axis_is_uniform,
     quantity_power,
 )
-from ema_pipeline.identification.lsfd import frac, lsfd, mpc, normalised_error, real_normalised
+from ema_pipeline.identification.diagram.stabilization import pole_to_modal
+from ema_pipeline.identification.refinement.lsfd import (
+    frac,
+    lsfd,
+    mpc,
+    normalised_error,
+    real_normalised,
+)
+from ema_pipeline.identification.refinement.uncertainty import modal_std
 from ema_pipeline.identification.result import (
     IdentificationResult,
     ResolvedSettings,
     SelectedPoles,
     StabilizationData,
 )
-from ema_pipeline.identification.stabilization import pole_to_modal
-from ema_pipeline.identification.uncertainty import modal_std
 from ema_pipeline.modal import mac
 
 

@@ -24,13 +24,14 @@ from ema_pipeline.identification.common import (
     single_reference,
     source_prefix,
 )
-from ema_pipeline.identification.expect import match_expected, not_found_message
-from ema_pipeline.identification.narrower_searches import searches_turned_off
+from ema_pipeline.identification.diagram.narrower_searches import searches_turned_off
 from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.picks import Picks, identify_picks
+from ema_pipeline.identification.picked import Picks
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult
 from ema_pipeline.identification.sdypy_backend import identify_sdypy
+from ema_pipeline.identification.selection.expect import match_expected, not_found_message
+from ema_pipeline.identification.selection.picks import identify_picks
 from ema_pipeline.threads import owned_blas_threads
 
 Backend = Callable[[FRFSet, IdentificationOptions], IdentificationResult]
@@ -59,11 +60,11 @@ def identify(
         row per hammer point.
     options : IdentificationOptions (default: all defaults); see its
         attributes for band, order, method, expected frequencies, window,
-        weighting, tolerances, refinement and residual terms.
-    picks : :class:`~ema_pipeline.identification.picks.Picks` (a picks file,
+        weighting, tolerances, refinement, final tests and residual terms.
+    picks : :class:`~ema_pipeline.identification.picked.Picks` (a picks file,
         :func:`ema_pipeline.io.read_picks`): fit exactly these poles, with the
         file's band, orders and weighting, and run no automatic selection
-        (:func:`~ema_pipeline.identification.picks.identify_picks`).
+        (:func:`~ema_pipeline.identification.selection.picks.identify_picks`).
     **overrides : fields of :class:`IdentificationOptions` replacing those of
         ``options``, e.g. ``identify(frf, band_hz=(5, 790), max_order=40)``.
 
@@ -83,7 +84,7 @@ def identify(
     poles (sandwich covariance of the noise-weighted local pole-residue fit:
     the noise level from the fit residual, its line-to-line correlation from
     the recorded windows or the residual; no empirical factor, see
-    :mod:`ema_pipeline.identification.uncertainty`); with ``refine=False`` the
+    :mod:`ema_pipeline.identification.refinement.uncertainty`); with ``refine=False`` the
     scatter of the trajectory's poles over the model orders (an underestimate).
 
     Examples

@@ -39,7 +39,7 @@ WEIGHTING_NAMES: tuple[str, ...] = get_args(Weighting)
 #: computes every second order).
 MIN_ORDER: dict[str, int] = {"plscf": 12, "sdypy-lscf": 10}
 #: Highest ``max_order`` (the data may support less:
-#: :func:`ema_pipeline.identification.resources.order_cap`).
+#: :func:`ema_pipeline.identification.diagram.resources.order_cap`).
 MAX_ORDER = 1000
 
 
@@ -138,6 +138,7 @@ _RULES: dict[str, Callable[[str, Any], Any]] = {
     "tol_mac": _optional(_fraction(1.0)),
     "min_fraction": _fraction(1.0),
     "refine": _flag,
+    "accept": _flag,
     "lower_residual": _flag,
     "upper_residual": _flag,
     "window_searches": _flag,
@@ -184,7 +185,7 @@ class IdentificationOptions:
         for ``"sdypy-lscf"``) to :data:`MAX_ORDER`; default adaptive: from
         :func:`ema_pipeline.identification.default_max_order`
         doubled while the diagram gains modes, up to
-        :func:`ema_pipeline.identification.resources.order_cap`. For
+        :func:`ema_pipeline.identification.diagram.resources.order_cap`. For
         ``"sdypy-lscf"`` sdypy-EMA's ``pol_order_high`` (default 100).
     method : a name in :data:`ema_pipeline.identification.METHODS`:
         ``"plscf"`` (this package) or ``"sdypy-lscf"`` (sdypy-EMA).
@@ -199,13 +200,13 @@ class IdentificationOptions:
         "none" (each output scaled by its RMS in the band) or "coherence"
         (additionally every line weighted by the square root of the mean
         coherence). The pole refinement and the LSFD weight the lines by their
-        own noise model (:mod:`~ema_pipeline.identification.uncertainty`),
+        own noise model (:mod:`~ema_pipeline.identification.refinement.uncertainty`),
         whatever this says.
     tol_freq, tol_zeta, tol_mac : stabilization tolerances (relative frequency,
         relative damping, 1 - MAC of participation vectors; in (0, 1], (0, 10]
         and (0, 1]). A value given is
         used by both the pole linking of the selection
-        (:func:`~ema_pipeline.identification.selection.track_poles`: looser
+        (:func:`~ema_pipeline.identification.selection.trajectories.track_poles`: looser
         tolerances join more poles into a trajectory) and the stabilization
         diagram's flags. ``None`` (default): each uses its tuned default,
         ``thresholds.link_tol_*`` (1 %, 30 %, 0.05) and
@@ -214,18 +215,30 @@ class IdentificationOptions:
         of the computed orders (and at least 6) to count as a physical mode;
         where in the diagram it starts does not matter (a mode that
         stabilises late is kept once it holds them).
-    refine : refine the selected poles by variable-projection nonlinear least
-        squares (:func:`ema_pipeline.identification.refine.refine_poles`), which
-        also gives their covariance, and judge them on the refined values: the
-        final tests, the close partners, the residual search and the list of
-        resonances not kept all work on refined poles, so ``False`` skips them
-        too and keeps every candidate the diagrams select (the measured beam in
-        250-700 Hz: 20 candidates instead of 6 modes), with the trajectories'
-        scatter as their uncertainty. For a look at the raw selection, not
+    refine : report refined poles: each kept pole refined by
+        variable-projection nonlinear least squares
+        (:func:`ema_pipeline.identification.refinement.refine.refine_poles`), which also
+        gives its covariance (the standard deviations). ``False`` reports the
+        start poles instead (the trajectories' medians; the poles found outside
+        the diagrams as found), with the trajectories' scatter as their
+        uncertainty (NaN for a pole found outside the diagrams). It changes the
+        reported poles only: which modes are kept is ``accept``'s, and the
+        final tests judge refined poles either way (with ``accept``, the
+        candidates are refined to be judged).
+    accept : run the final tests over all FRFs: the acceptance tests of every
+        candidate (decay rate determined, a resonance of the data, not the
+        same mode twice: :mod:`~ema_pipeline.identification.selection.acceptance`), the
+        close partners, the residual search, the narrower searches'
+        alternates and the list of resonances not kept. ``False`` keeps every
+        candidate the diagrams select, untested (many more than the modes),
+        with an empty not-kept list; for a look at the raw selection, not
         for results.
+        Expected modes (``expect_hz``) and picked ones are never tested; with
+        ``expect_hz`` the switch reaches the automatic selection they are
+        answered from.
     lower_residual, upper_residual : residual terms in LSFD.
     window_searches : search a dense band again in windows of consecutive
-        candidates (:func:`~ema_pipeline.identification.order_search.add_window_modes`:
+        candidates (:func:`~ema_pipeline.identification.diagram.order_search.add_window_modes`:
         a weak mode between strong ones forms a trajectory there, and a
         window's candidate stands in for a full-band pole that fails the
         final tests); ``False`` skips them: faster on a band of many
@@ -257,6 +270,7 @@ class IdentificationOptions:
     tol_mac: float | None = None
     min_fraction: float = 0.3
     refine: bool = True
+    accept: bool = True
     lower_residual: bool = True
     upper_residual: bool = True
     window_searches: bool = True

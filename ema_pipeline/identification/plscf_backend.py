@@ -2,35 +2,85 @@
 pLSCF diagrams of adaptive order, pole trajectories, refinement with
 covariance, LSFD and per-mode quality.
 
-Candidates: the adaptive order search of
-:mod:`~ema_pipeline.identification.order_search` (diagrams of growing
-order, pole trajectories, the searches of a wide band's lowest part and of
-windows of a dense band).
+:func:`identify_with` runs the stages in order, each a function of this
+module whose inputs and outputs are its arguments and its return value:
 
-Selection: every selected trajectory's pole is refined by the local fit of
-:func:`~ema_pipeline.identification.refine.refine_poles`; it is kept when the
-refined decay rate is determined, when it is a resonance of the data and
-when it is not the same mode found twice (the final tests of
-:mod:`ema_pipeline.identification.acceptance`). Then two searches look for
-modes that the diagrams missed: close modes hidden in a kept resonance
-(:func:`~ema_pipeline.identification.acceptance.close_partners`) and peaks of the residual of
-the kept modes' fit
-(:func:`~ema_pipeline.identification.residual_search.residual_peaks`; on four
-seed ranges of the hard cases, 2712 modes, missed 22 -> 1). Their candidates
-are refined and tested together with the kept ones; when none passes, the
-previous fit stands (a failed candidate bends its neighbours' local fits:
-on the measured beam two model-error peaks beside 414.6 Hz cost that mode),
-else the fit is repeated with those that pass.
+1. :func:`band_data`: the band's FRFs as the stages see them (scaled,
+   weighted, one row per channel).
+2. :func:`search_diagrams`: the candidates of the adaptive order search of
+   :mod:`~ema_pipeline.identification.diagram.order_search` (diagrams of growing
+   order, pole trajectories) and of the narrower searches (a wide band's
+   lowest part, windows of a dense band), and the chosen diagram's
+   stabilization data.
+3. :func:`start_poles`: with ``expect_hz``, the expected candidates, answered
+   from the automatic selection, whose other modes are refined beside them.
+4. :func:`refine_candidates`: every candidate's pole refined by the local
+   fit of :func:`~ema_pipeline.identification.refinement.refine.refine_poles`.
+5. The final tests over all FRFs (``options.accept``, not with
+   ``expect_hz``): :func:`first_verdict` keeps a candidate when its refined
+   decay rate is determined, when it is a resonance of the data and when it
+   is not the same mode found twice (the final tests of
+   :mod:`ema_pipeline.identification.selection.acceptance`), and refits the kept ones
+   without those that failed; :func:`try_alternates` tries a narrower
+   search's candidate where the one covering it failed; then two searches
+   look for modes that the diagrams missed: close modes hidden in a kept
+   resonance (:func:`add_close_partners`) and peaks of the residual of the
+   kept modes' fit (:func:`add_residual_peaks`; on four seed ranges of the
+   hard cases, 2712 modes, missed 22 -> 1). Their candidates are refined and
+   tested together with the kept ones; when none passes, the previous fit
+   stands (a failed candidate bends its neighbours' local fits: on the
+   measured beam two model-error peaks beside 414.6 Hz cost that mode), else
+   the fit is repeated with those that pass.
+6. :func:`kept_modes`: the kept modes at their refined poles with covariance
+   (``options.refine``) or at their start poles.
+7. :func:`finished`, :func:`with_band_support`, :func:`with_not_kept`: LSFD
+   and the result, which narrower searches hold each mode, the resonances
+   the FRFs show that no mode was kept for.
+
+``options.accept`` switches the final tests and searches of stage 5 (off:
+every selected candidate is kept, untested); ``options.refine`` decides
+whether the kept modes are reported at their refined poles or at their start
+poles (the final tests judge refined poles either way).
 """
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ema_pipeline.data import FRFSet
-from ema_pipeline.identification.acceptance import (
+from ema_pipeline.data import FRFSet, Quantity
+from ema_pipeline.identification.common import (
+    default_max_order,
+    finish_identification,
+    resolve_band,
+)
+from ema_pipeline.identification.diagram.narrower_searches import (
+    band_support,
+    shown_by_the_frfs,
+    uncovered_alternates,
+)
+from ema_pipeline.identification.diagram.order_search import (
+    OrderSearch,
+    SearchedBand,
+    add_window_modes,
+    add_zoom_modes,
+)
+from ema_pipeline.identification.diagram.plscf import PoleSet
+from ema_pipeline.identification.diagram.resources import order_cap
+from ema_pipeline.identification.diagram.stabilization import StabilizationData, stabilization
+from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.refinement.refine import (
+    RefinedPoles,
+    band_sensitivity,
+    refine_poles,
+)
+from ema_pipeline.identification.result import (
+    IdentificationResult,
+    ResolvedSettings,
+    found_by_code,
+)
+from ema_pipeline.identification.selection.acceptance import (
     Candidates,
     add_found,
     close_partners,
@@ -38,38 +88,14 @@ from ema_pipeline.identification.acceptance import (
     final_tests,
     refit_kept,
 )
-from ema_pipeline.identification.common import (
-    default_max_order,
-    finish_identification,
-    resolve_band,
-)
-from ema_pipeline.identification.narrower_searches import (
-    band_support,
-    shown_by_the_frfs,
-    uncovered_alternates,
-)
-from ema_pipeline.identification.not_kept import resonances_not_kept
-from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.order_search import (
-    OrderSearch,
-    SearchedBand,
-    add_window_modes,
-    add_zoom_modes,
-)
-from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, refine_poles
-from ema_pipeline.identification.residual_search import residual_peaks
-from ema_pipeline.identification.resources import order_cap
-from ema_pipeline.identification.result import (
-    IdentificationResult,
-    ResolvedSettings,
-    found_by_code,
-)
-from ema_pipeline.identification.selection import (
+from ema_pipeline.identification.selection.not_kept import resonances_not_kept
+from ema_pipeline.identification.selection.residual_search import residual_peaks
+from ema_pipeline.identification.selection.trajectories import (
     SelectedPoles,
     expected_from_automatic,
     select_expected,
 )
-from ema_pipeline.identification.stabilization import StabilizationData, stabilization
+from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import poles_overlap
 from ema_pipeline.threads import Mapper, available_cores, process_map
 
@@ -92,142 +118,374 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
 
 def identify_with(frf: FRFSet, options: IdentificationOptions,
                   map_: Mapper) -> IdentificationResult:
-    """:func:`identify_plscf` with the worker processes of ``map_``."""
+    """:func:`identify_plscf` with the worker processes of ``map_``: the
+    stages of the module's description, in order."""
+    data = band_data(frf, options)
+    diagrams = search_diagrams(data, options, map_)
+    start = start_poles(frf, data, diagrams, options, map_)
+    judged = options.accept and data.expect_hz is None
+    retest = Retest(data, map_)
+    if start.sel.pole.size and (options.refine or judged):
+        found, near = refine_candidates(data, start, map_)
+        if judged:
+            found = first_verdict(found, retest)
+            found = try_alternates(found, diagrams.searched, retest)
+            found = add_close_partners(found, retest)
+            found = add_residual_peaks(found, retest)
+        kept = kept_modes(found, start.neighbours, near, data, refine=options.refine,
+                          map_=map_)
+    else:
+        kept = as_selected(start.sel)
+    result = finished(data, diagrams, kept, options)
+    result = with_band_support(result, start.auto, kept.sel.pole, diagrams.searched,
+                               data.thresholds)
+    return with_not_kept(result, data, retest.rejected, kept.judged)
+
+
+# ------------------------------------------------------------------ 1. the band
+@dataclass(frozen=True)
+class BandData:
+    """The band's FRFs as every stage sees them (:func:`band_data`).
+
+    Attributes
+    ----------
+    sub : the FRF set cut to the band.   band_hz : (lo, hi) in Hz.
+    Hn : (n_out, n_in, n_freq) each output scaled by its RMS in the band.
+    Hc, Hn_c : ``sub.H`` and ``Hn`` with one row per channel (n_out * n_in).
+    weights : the lines' weights of the pLSCF equations (coherence
+        weighting), or None.
+    min_peak : the peak ratio a candidate must reach in the search's screen.
+    window_decay_rate : 1/tau of the exponential window (1/s; 0 without).
+    window_tau_s, force_window_s : the windows of the FRFs (s, or None).
+    expect_hz : the expected frequencies (Hz), None for the automatic selection.
+    thresholds : the selection's thresholds.
+    """
+
+    sub: FRFSet
+    band_hz: tuple[float, float]
+    Hn: np.ndarray
+    Hc: np.ndarray
+    Hn_c: np.ndarray
+    weights: np.ndarray | None
+    min_peak: float
+    window_decay_rate: float
+    window_tau_s: float | None
+    force_window_s: float | None
+    expect_hz: np.ndarray | None
+    thresholds: SelectionThresholds
+
+    @property
+    def freq_hz(self) -> np.ndarray:
+        return self.sub.freq_hz
+
+    @property
+    def quantity(self) -> Quantity:
+        return self.sub.quantity
+
+
+def band_data(frf: FRFSet, options: IdentificationOptions) -> BandData:
+    """Stage 1: the FRFs of the options' band (:func:`resolve_band`), each
+    output scaled by its RMS in the band, the coherence weights and the
+    windows."""
     lo, hi = resolve_band(frf, options.band_hz)
     sub = frf.band(lo, hi)
     n_out, n_in, n_freq = sub.H.shape
+    th = options.thresholds
+    rms = np.sqrt(np.mean(np.abs(sub.H) ** 2, axis=(1, 2)))
+    Hn = sub.H / rms[:, None, None]
+    weights = None
+    if options.weighting == "coherence":
+        assert sub.coherence is not None  # identify() refuses coherence weighting without it
+        weights = np.sqrt(np.clip(np.mean(sub.coherence, axis=1), 0.0, 1.0))
+    return BandData(
+        sub=sub, band_hz=(lo, hi), Hn=Hn, Hc=sub.H.reshape(n_out * n_in, n_freq),
+        Hn_c=Hn.reshape(n_out * n_in, n_freq), weights=weights,
+        min_peak=th.min_peak_ratio_shapes if n_out * n_in >= 3 else th.min_peak_ratio,
+        window_decay_rate=float(frf.acquisition.window_decay_rate),
+        window_tau_s=frf.acquisition.exp_window_tau_s,
+        force_window_s=frf.acquisition.force_window_s,
+        expect_hz=np.asarray(options.expect_hz, dtype=float) if options.expect_hz else None,
+        thresholds=th,
+    )
+
+
+# ------------------------------------------------------------------ 2. the diagrams
+@dataclass(frozen=True)
+class Diagrams:
+    """What the diagrams found (:func:`search_diagrams`).
+
+    Attributes
+    ----------
+    sel : the candidates (start poles, their trajectories).
+    poles : the chosen diagram's poles.
+    stab : its stabilization data, with the trajectory labels as clusters.
+    searched : the narrower searches (band, candidates, those covered).
+    """
+
+    sel: SelectedPoles
+    poles: PoleSet
+    stab: StabilizationData
+    searched: tuple[SearchedBand, ...]
+
+
+def search_diagrams(data: BandData, options: IdentificationOptions,
+                    map_: Mapper) -> Diagrams:
+    """Stage 2: the adaptive order search (from :func:`default_max_order` up
+    to :func:`order_cap`, or ``options.max_order`` alone), then, with the
+    adaptive order and without ``expect_hz``, the search of the band's lowest
+    part and (``options.window_searches``) of the windows of a dense band;
+    the chosen diagram's stabilization flags with the diagram tolerances."""
+    n_in, n_freq = data.Hn.shape[1], data.Hn.shape[2]
     cap = order_cap(n_freq, n_in)
     fixed = options.max_order is not None
     p = min(default_max_order(n_in, n_freq), cap)
     if options.max_order is not None:
         p = int(options.max_order)
-    expect_hz = np.asarray(options.expect_hz, dtype=float) if options.expect_hz else None
-    decay = float(frf.acquisition.window_decay_rate)
-    freq = sub.freq_hz
-    th = options.thresholds
-    rms = np.sqrt(np.mean(np.abs(sub.H) ** 2, axis=(1, 2)))
-    Hn = sub.H / rms[:, None, None]
-    Hn_c = Hn.reshape(n_out * n_in, n_freq)
-    min_peak = th.min_peak_ratio_shapes if n_out * n_in >= 3 else th.min_peak_ratio
-    weights = None
-    if options.weighting == "coherence":
-        assert sub.coherence is not None  # identify() refuses coherence weighting without it
-        weights = np.sqrt(np.clip(np.mean(sub.coherence, axis=1), 0.0, 1.0))
-
-    link_freq, link_zeta, link_mac = options.link_tolerances()
-    search = OrderSearch(weights=weights, window_decay_rate=decay, min_peak=min_peak,
-                         min_fraction=options.min_fraction, expect=expect_hz is not None,
-                         thresholds=th, tolerances=(link_freq, link_zeta, link_mac),
-                         map_=map_)
-    sel, traj, poles = search.run(freq, Hn, (lo, hi), p, cap, fixed)
-    # the narrower searches: bands, candidates, those covered by one already there
+    decay, th = data.window_decay_rate, data.thresholds
+    search = OrderSearch(weights=data.weights, window_decay_rate=decay,
+                         min_peak=data.min_peak, min_fraction=options.min_fraction,
+                         expect=data.expect_hz is not None, thresholds=th,
+                         tolerances=options.link_tolerances(), map_=map_)
+    sel, traj, poles = search.run(data.freq_hz, data.Hn, data.band_hz, p, cap, fixed=fixed)
     searched: list[SearchedBand] = []
-    if not fixed and expect_hz is None:
-        sel = add_zoom_modes(sel, search, freq, Hn, (lo, hi), searched)
+    if not fixed and data.expect_hz is None:
+        sel, zoom = add_zoom_modes(sel, search, data.freq_hz, data.Hn, data.band_hz)
+        searched += zoom
         if options.window_searches:
-            sel = add_window_modes(sel, search, freq, Hn, (lo, hi), searched)
-    p = int(poles.orders[-1])
+            sel, windows = add_window_modes(sel, search, data.freq_hz, data.Hn, data.band_hz)
+            searched += windows
     diagram_freq, diagram_zeta, diagram_mac = options.diagram_tolerances()
     stab = stabilization(
         poles, decay, tol_freq=diagram_freq, tol_zeta=diagram_zeta, tol_mac=diagram_mac,
     )
     stab = StabilizationData(**{**stab.__dict__, "cluster": traj})
-    # with expected frequencies: the automatic selection's other modes and
-    # dropped candidates, refined alongside the expected poles and then dropped
-    neighbours = np.zeros(0, dtype=complex)
-    n_kept_neighbours = 0
+    return Diagrams(sel=sel, poles=poles, stab=stab, searched=tuple(searched))
+
+
+# ------------------------------------------------------------------ 3. the start poles
+@dataclass(frozen=True)
+class StartPoles:
+    """The candidates to refine (:func:`start_poles`).
+
+    Attributes
+    ----------
+    sel : the candidates (start poles).
+    neighbours : (n,) complex  poles refined beside them and then dropped
+        (with ``expect_hz``: the automatic selection's other modes, then its
+        dropped candidates).
+    n_kept_neighbours : the first ``n_kept_neighbours`` of ``neighbours`` are
+        automatic modes (their refined poles enter the band-sensitivity term).
+    auto : with ``expect_hz`` and refinement, the automatic selection.
+    """
+
+    sel: SelectedPoles
+    neighbours: np.ndarray
+    n_kept_neighbours: int = 0
     auto: IdentificationResult | None = None
-    if expect_hz is not None:
-        sel = select_expected(sel, expect_hz, decay, thresholds=th)
-        sel = replace(sel, found_by=found_by_code("expected", sel.pole.size))
-        if options.refine:
-            auto = identify_with(frf, replace(options, expect_hz=()), map_)
-            auto_start = auto.stabilization.mode_pole
-            sel, rest = expected_from_automatic(sel, expect_hz, auto.fn_hz, auto_start, decay,
-                                                thresholds=th)
-            dropped = auto.stabilization.companion_pole
-            if sel.pole.size and dropped.size:  # none on a pole of the expected ones
-                dropped = dropped[~np.any(poles_overlap(dropped, sel.pole), axis=1)]
-            neighbours = np.concatenate([auto_start[rest], dropped])
-            n_kept_neighbours = rest.size
 
-    Hc = sub.H.reshape(n_out * n_in, n_freq)
-    cov = None
-    tau, force_s = frf.acquisition.exp_window_tau_s, frf.acquisition.force_window_s
-    rejected: list[np.ndarray] = []  # refined candidates that failed the final tests
-    start = sel.pole  # the kept modes' start poles, stored with the diagram (--picks)
-    # the start poles of the candidates refined with them and then dropped
-    companions = np.zeros(0, dtype=complex)
-    if options.refine and sel.pole.size:
-        ref = refine_poles(freq, Hc, np.concatenate([sel.pole, neighbours]),
-                           quantity=sub.quantity, window_tau_s=tau, force_window_s=force_s,
-                           thresholds=th, map_=map_)
-        m = sel.pole.size
-        near = ref.pole[m : m + n_kept_neighbours]  # the automatic modes' refined poles
-        ref = RefinedPoles(*(np.asarray(a)[:m] for a in (
-            ref.pole, ref.cov, ref.noise_std, ref.band_hz, ref.n_iter)))
-        keep = np.ones(sel.pole.size, bool)
-        if expect_hz is None:
 
-            def retest(c: SelectedPoles, partner: np.ndarray,
-                       strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
-                r = refine_poles(freq, Hc, c.pole, quantity=sub.quantity, window_tau_s=tau,
-                                 force_window_s=force_s, thresholds=th, map_=map_)
-                ok = final_tests(freq, Hc, Hn_c, r, sub.quantity, c.n_members,
-                                 partner=partner, strict=strict, thresholds=th)
-                rejected.append(r.pole[~ok & decay_determined(r.pole, r.cov, th)])
-                return r, ok
+def start_poles(frf: FRFSet, data: BandData, diagrams: Diagrams,
+                options: IdentificationOptions, map_: Mapper) -> StartPoles:
+    """Stage 3: the diagrams' candidates; with ``expect_hz`` the candidate
+    nearest each guess (:func:`select_expected`) and, with refinement, each
+    guess answered by the automatic selection's mode (:func:`identify_with`
+    without ``expect_hz``; :func:`expected_from_automatic`), whose other modes
+    and dropped candidates are refined alongside."""
+    none = np.zeros(0, dtype=complex)
+    if data.expect_hz is None:
+        return StartPoles(sel=diagrams.sel, neighbours=none)
+    decay, th = data.window_decay_rate, data.thresholds
+    sel = select_expected(diagrams.sel, data.expect_hz, decay, thresholds=th)
+    sel = replace(sel, found_by=found_by_code("expected", sel.pole.size))
+    if not options.refine:
+        return StartPoles(sel=sel, neighbours=none)
+    auto = identify_with(frf, replace(options, expect_hz=()), map_)
+    auto_start = auto.stabilization.mode_pole
+    sel, rest = expected_from_automatic(sel, data.expect_hz, auto.fn_hz, auto_start, decay,
+                                        thresholds=th)
+    dropped = auto.stabilization.companion_pole
+    if sel.pole.size and dropped.size:  # none on a pole of the expected ones
+        dropped = dropped[~np.any(poles_overlap(dropped, sel.pole), axis=1)]
+    return StartPoles(sel=sel, neighbours=np.concatenate([auto_start[rest], dropped]),
+                      n_kept_neighbours=rest.size, auto=auto)
 
-            none = np.zeros(sel.pole.size, bool)
-            found = Candidates(sel, ref, final_tests(freq, Hc, Hn_c, ref, sub.quantity,
-                                                     sel.n_members, thresholds=th), none, none)
-            rejected.append(ref.pole[~found.keep & decay_determined(ref.pole, ref.cov, th)])
-            # the kept candidates refined without those that failed
-            found = refit_kept(found, retest, th.refit_rounds)
-            # where a candidate failed, the narrower searches' candidate it covered
-            alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
-            alt = alt[shown_by_the_frfs(freq, Hc, alt, th)]
-            found = add_found(found, alt, False, np.zeros(alt.size, bool), retest, "alternate")
-            # close modes hidden in a kept resonance, then modes that no
-            # diagram resolved (peaks of the residual)
-            partners = close_partners(freq, Hc, found.kept_poles(), sub.quantity,
-                                      window_tau_s=tau, force_window_s=force_s, thresholds=th,
-                                      map_=map_)
-            found = add_found(found, partners, True, np.zeros(partners.size, bool), retest,
-                              "partner")
-            # starts from a slope into the band's edge (a mode outside the band
-            # looks the same) must pass the resonance test by their peak
-            peaks, from_edge = residual_peaks(freq, Hc, found.kept_poles(), sub.quantity,
-                                              thresholds=th)
-            found = add_found(found, peaks, False, from_edge, retest, "residual")
-            sel, ref, keep = found.sel, found.ref, found.keep
-        order_s = np.argsort(ref.pole[keep].imag)
-        start = sel.pole[keep][order_s]
-        companions = np.concatenate([sel.pole[~keep], neighbours])
-        sel = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
-        cov = ref.cov[keep][order_s]
-        # the local model's own error (band choice), added in quadrature
-        cov = cov + band_sensitivity(freq, Hc, np.concatenate([sel.pole, near]),
-                                     quantity=sub.quantity, window_tau_s=tau,
-                                     force_window_s=force_s, thresholds=th,
-                                     map_=map_)[: sel.pole.size]
-    result = finish_identification(
-        sub,
-        sel.pole,
-        decay=decay,
+
+# ------------------------------------------------------------------ 4. refinement
+def refine_candidates(data: BandData, start: StartPoles,
+                      map_: Mapper) -> tuple[Candidates, np.ndarray]:
+    """Stage 4: the candidates refined together with their neighbours, all
+    kept (no verdict yet), and the kept neighbours' refined poles."""
+    ref = refine_poles(data.freq_hz, data.Hc, np.concatenate([start.sel.pole, start.neighbours]),
+                       quantity=data.quantity, window_tau_s=data.window_tau_s,
+                       force_window_s=data.force_window_s, thresholds=data.thresholds,
+                       map_=map_)
+    m = start.sel.pole.size
+    near = ref.pole[m : m + start.n_kept_neighbours]  # the automatic modes' refined poles
+    ref = RefinedPoles(*(np.asarray(a)[:m] for a in (
+        ref.pole, ref.cov, ref.noise_std, ref.band_hz, ref.n_iter)))
+    none = np.zeros(m, bool)
+    return Candidates(start.sel, ref, np.ones(m, bool), none, none), near
+
+
+# ------------------------------------------------------------------ 5. the final tests
+@dataclass
+class Retest:
+    """Refine candidates and run the final tests over all FRFs on them: the
+    ``retest(candidates, partner, strict) -> (refined, keep)`` of
+    :func:`~ema_pipeline.identification.selection.acceptance.add_found` and
+    :func:`~ema_pipeline.identification.selection.acceptance.refit_kept`. Every
+    verdict's failed poles whose decay rate is determined are collected in
+    ``rejected`` (for :func:`with_not_kept`)."""
+
+    data: BandData
+    map_: Mapper
+    rejected: list[np.ndarray] = field(default_factory=list)
+
+    def verdict(self, ref: RefinedPoles, n_members: np.ndarray, partner: np.ndarray | None = None,
+                strict: np.ndarray | None = None) -> np.ndarray:
+        """Which refined poles ``ref`` pass the final tests; the failed ones
+        with a determined decay rate go to ``rejected``."""
+        d, th = self.data, self.data.thresholds
+        ok = final_tests(d.freq_hz, d.Hc, d.Hn_c, ref, d.quantity, n_members,
+                         partner=partner, strict=strict, thresholds=th)
+        self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, th)])
+        return ok
+
+    def __call__(self, candidates: SelectedPoles, partner: np.ndarray,
+                 strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
+        d = self.data
+        ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
+                           window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
+                           thresholds=d.thresholds, map_=self.map_)
+        return ref, self.verdict(ref, candidates.n_members, partner, strict)
+
+
+def first_verdict(found: Candidates, retest: Retest) -> Candidates:
+    """Stage 5a: the final tests on the refined candidates, then the kept
+    ones refined and tested again without those that failed
+    (:func:`~ema_pipeline.identification.selection.acceptance.refit_kept`)."""
+    found = replace(found, keep=retest.verdict(found.ref, found.sel.n_members))
+    return refit_kept(found, retest, retest.data.thresholds.refit_rounds)
+
+
+def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
+                   retest: Retest) -> Candidates:
+    """Stage 5b: where a candidate failed, the narrower searches' candidate it
+    covered (:func:`uncovered_alternates`), when the FRFs show a peak there
+    (:func:`shown_by_the_frfs`)."""
+    d = retest.data
+    alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
+    alt = alt[shown_by_the_frfs(d.freq_hz, d.Hc, alt, d.thresholds)]
+    return add_found(found, alt, partner=False, strict=np.zeros(alt.size, bool),
+                     retest=retest, found_by="alternate")
+
+
+def add_close_partners(found: Candidates, retest: Retest) -> Candidates:
+    """Stage 5c: close modes hidden in a kept resonance
+    (:func:`~ema_pipeline.identification.selection.acceptance.close_partners`)."""
+    d = retest.data
+    partners = close_partners(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
+                              window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
+                              thresholds=d.thresholds, map_=retest.map_)
+    return add_found(found, partners, partner=True, strict=np.zeros(partners.size, bool),
+                     retest=retest, found_by="partner")
+
+
+def add_residual_peaks(found: Candidates, retest: Retest) -> Candidates:
+    """Stage 5d: modes that no diagram resolved, from the peaks of the kept
+    modes' residual (:func:`residual_peaks`); starts from a slope into the
+    band's edge (a mode outside the band looks the same) must pass the
+    resonance test by their peak."""
+    d = retest.data
+    peaks, from_edge = residual_peaks(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
+                                      thresholds=d.thresholds)
+    return add_found(found, peaks, partner=False, strict=from_edge, retest=retest,
+                     found_by="residual")
+
+
+# ------------------------------------------------------------------ 6. the kept modes
+@dataclass(frozen=True)
+class KeptModes:
+    """The modes kept (:func:`kept_modes`, :func:`as_selected`).
+
+    Attributes
+    ----------
+    sel : the kept modes at their reported poles (refined or start),
+        ascending in frequency.
+    start : (n,) complex  their start poles (stored with the diagram: ``--picks``).
+    companions : (n,) complex  start poles refined with them and then dropped.
+    cov : (n, 2, 2) covariance of the refined poles (with the
+        band-sensitivity term), or None (the trajectories' scatter).
+    judged : (n,) complex  the kept poles as the final tests saw them.
+    """
+
+    sel: SelectedPoles
+    start: np.ndarray
+    companions: np.ndarray
+    cov: np.ndarray | None
+    judged: np.ndarray
+
+
+def as_selected(sel: SelectedPoles) -> KeptModes:
+    """Stage 6 without refinement and tests: every candidate, at its start pole."""
+    return KeptModes(sel=sel, start=sel.pole, companions=np.zeros(0, dtype=complex),
+                     cov=None, judged=sel.pole)
+
+
+def kept_modes(found: Candidates, neighbours: np.ndarray, near: np.ndarray, data: BandData,
+               *, refine: bool, map_: Mapper) -> KeptModes:
+    """Stage 6: the candidates ``found`` kept, ascending in refined frequency,
+    at their refined poles with their covariance plus the band-sensitivity
+    term (:func:`band_sensitivity`, with the automatic neighbours' refined
+    poles ``near``) when ``refine``, else at their start poles, ascending,
+    with the trajectories' scatter (NaN for one found outside the diagrams)."""
+    sel, ref, keep = found.sel, found.ref, found.keep
+    companions = np.concatenate([sel.pole[~keep], neighbours])
+    order_s = np.argsort(ref.pole[keep].imag)
+    judged = ref.pole[keep][order_s]
+    if not refine:
+        kept = sel.subset(keep)
+        kept = kept.subset(np.argsort(kept.pole.imag))
+        none = kept.n_members == 0
+        kept = replace(kept, scatter_fn_hz=np.where(none, np.nan, kept.scatter_fn_hz),
+                       scatter_zeta=np.where(none, np.nan, kept.scatter_zeta))
+        return KeptModes(sel=kept, start=kept.pole, companions=companions, cov=None,
+                         judged=judged)
+    start = sel.pole[keep][order_s]
+    kept = replace(sel.subset(keep), pole=ref.pole[keep]).subset(order_s)
+    cov = ref.cov[keep][order_s]
+    # the local model's own error (band choice), added in quadrature
+    cov = cov + band_sensitivity(data.freq_hz, data.Hc, np.concatenate([kept.pole, near]),
+                                 quantity=data.quantity, window_tau_s=data.window_tau_s,
+                                 force_window_s=data.force_window_s,
+                                 thresholds=data.thresholds, map_=map_)[: kept.pole.size]
+    return KeptModes(sel=kept, start=start, companions=companions, cov=cov, judged=judged)
+
+
+# ------------------------------------------------------------------ 7. the result
+def finished(data: BandData, diagrams: Diagrams, kept: KeptModes,
+             options: IdentificationOptions) -> IdentificationResult:
+    """Stage 7a: LSFD, window correction and indicators of the kept modes
+    (:func:`finish_identification`), with the settings used."""
+    link_freq, link_zeta, link_mac = options.link_tolerances()
+    poles = diagrams.poles
+    return finish_identification(
+        data.sub,
+        kept.sel.pole,
+        decay=data.window_decay_rate,
         lower_residual=options.lower_residual,
         upper_residual=options.upper_residual,
-        stab=replace(stab, mode_pole=start, companion_pole=companions),
-        selected=sel,
-        pole_cov=cov,
+        stab=replace(diagrams.stab, mode_pole=kept.start, companion_pole=kept.companions),
+        selected=kept.sel,
+        pole_cov=kept.cov,
         settings=ResolvedSettings(
             method="plscf",
-            band_hz=(lo, hi),
-            max_order=p,
+            band_hz=data.band_hz,
+            max_order=int(poles.orders[-1]),
             orders=poles.orders,
             dt_s=poles.dt,
             weighting=options.weighting,
-            window_decay_rate=decay,
+            window_decay_rate=data.window_decay_rate,
             tol_freq=link_freq,
             tol_zeta=link_zeta,
             tol_mac=link_mac,
@@ -235,14 +493,23 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
             refine=options.refine,
             lower_residual=options.lower_residual,
             upper_residual=options.upper_residual,
-            expect_hz=expect_hz,
+            expect_hz=data.expect_hz,
             uncertainty="least-squares covariance of the refined poles"
             if options.refine
             else "scatter of the trajectory's poles over model orders",
             window_searches=options.window_searches,
-            thresholds=th,
+            accept=options.accept,
+            thresholds=data.thresholds,
         ),
     )
+
+
+def with_band_support(result: IdentificationResult, auto: IdentificationResult | None,
+                      pole: np.ndarray, searched: tuple[SearchedBand, ...],
+                      thresholds: SelectionThresholds) -> IdentificationResult:
+    """Stage 7b: how many narrower searches hold and find each mode (poles
+    ``pole``; :func:`band_support`); with ``expect_hz``, the automatic
+    selection's ``auto`` support where the mode is its."""
     if auto is not None:  # --expect: the automatic modes' support, where the pole is theirs
         support = np.zeros((result.fn_hz.size, 2), dtype=int)
         if auto.band_support.shape[0] == auto.fn_hz.size:
@@ -250,11 +517,20 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
                 same = np.flatnonzero(np.isclose(auto.fn_hz, f_hz, rtol=1e-6, atol=0.0))
                 if same.size:
                     support[i] = auto.band_support[same[0]]
-        result = replace(result, band_support=support)
-    elif searched:
-        result = replace(result, band_support=band_support(sel.pole, searched, th))
+        return replace(result, band_support=support)
+    if searched:
+        return replace(result, band_support=band_support(pole, list(searched), thresholds))
+    return result
+
+
+def with_not_kept(result: IdentificationResult, data: BandData, rejected: list[np.ndarray],
+                  kept: np.ndarray) -> IdentificationResult:
+    """Stage 7c: the resonances the FRFs show at the ``rejected`` poles away
+    from the ``kept`` ones (:func:`resonances_not_kept`); unchanged when the
+    final tests did not run."""
     if not rejected:
         return result
-    not_kept_hz, not_kept_frfs = resonances_not_kept(freq, Hc, np.concatenate(rejected),
-                                                     sel.pole, th)
+    not_kept_hz, not_kept_frfs = resonances_not_kept(data.freq_hz, data.Hc,
+                                                     np.concatenate(rejected), kept,
+                                                     data.thresholds)
     return replace(result, not_kept_hz=not_kept_hz, not_kept_frfs=not_kept_frfs)

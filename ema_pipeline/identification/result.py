@@ -47,7 +47,7 @@ class StabilizationData:
                               order, before window correction): a trajectory's
                               median or a pole found outside the diagram; what
                               the report's diagram and ``--picks`` use
-                              (:mod:`ema_pipeline.identification.picks`).
+                              (:mod:`ema_pipeline.identification.selection.picks`).
     companion_pole : (n,) complex  the start poles of the candidates refined
                               together with the kept modes in their final
                               fit that the final tests then dropped (before
@@ -151,7 +151,8 @@ class ResolvedSettings:
     ``thresholds`` the tuned thresholds used, which also define the
     ``doubtful`` rule (:func:`doubtful_reasons`); ``window_searches`` whether
     a dense band was searched again in windows (the option of that name;
-    results stored before it had them).
+    results stored before it had them); ``accept`` whether the final tests
+    ran (the option of that name; ``False`` for picked modes, never tested).
     """
 
     method: str
@@ -171,6 +172,7 @@ class ResolvedSettings:
     expect_hz: np.ndarray | None
     uncertainty: str
     window_searches: bool = True
+    accept: bool = True
     thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
 
 
@@ -187,7 +189,7 @@ class IdentificationResult:
     pole : (n_modes,) complex  window-corrected poles lambda_r (rad/s).
     residues : (n_modes, n_out, n_in) complex  receptance residues A_r.
     lower_residual, upper_residual : (n_out, n_in) complex residual terms (in the
-        FRF's quantity; see :mod:`ema_pipeline.identification.lsfd`).
+        FRF's quantity; see :mod:`ema_pipeline.identification.refinement.lsfd`).
     shapes_real : (n_out, n_modes) real-normalised shapes (largest component +1).
     shape_reference : int  index of the reference used for ``modes.shapes``.
     mac : (n_modes, n_modes) auto-MAC of the shapes.
@@ -199,13 +201,13 @@ class IdentificationResult:
     settings : ResolvedSettings
     not_kept_hz : (n,) float  resonances the FRFs show that no mode was kept
         for (candidates that failed the final tests but stand out as a peak in
-        ``not_kept_frfs`` of the FRFs; :mod:`ema_pipeline.identification.not_kept`),
+        ``not_kept_frfs`` of the FRFs; :mod:`ema_pipeline.identification.selection.not_kept`),
         Hz, ascending; empty when there is none and for the sdypy backend.
     not_kept_frfs : (n,) int  in how many FRFs each stands out.
     band_support : (n_modes, 2) int  per mode, how many of the narrower searches
         of the band (its lowest part, the windows of a dense band) hold it and
         how many of those found a candidate there
-        (:func:`~ema_pipeline.identification.narrower_searches.band_support`); no rows
+        (:func:`~ema_pipeline.identification.diagram.narrower_searches.band_support`); no rows
         when there were no such searches' records (picks, the sdypy backend).
     """
 

@@ -15,7 +15,7 @@ It also returns, for a guess with no stable pole near it, whatever pole is
 nearest -- the same pole for several guesses, or an unstable one. Here each
 pole is kept once, only with positive (window-corrected) damping, and only when
 it answers a guess within the tolerance of
-:func:`ema_pipeline.identification.expect.match_expected`; a guess left
+:func:`ema_pipeline.identification.selection.expect.match_expected`; a guess left
 unanswered is a warning (from :func:`identify`), never a distant mode. Orders
 too low to hold the modes looked for (``max_order`` below
 :func:`min_sdypy_order`) are refused.
@@ -36,15 +36,15 @@ from ema_pipeline.identification.common import (
     resolve_band,
     source_prefix,
 )
-from ema_pipeline.identification.expect import EXPECT_TOL_PCT, match_expected
-from ema_pipeline.identification.lsfd import frac, normalised_error
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.plscf_backend import identify_plscf
+from ema_pipeline.identification.refinement.lsfd import frac, normalised_error
 from ema_pipeline.identification.result import (
     IdentificationResult,
     ResolvedSettings,
     StabilizationData,
 )
+from ema_pipeline.identification.selection.expect import EXPECT_TOL_PCT, match_expected
 from ema_pipeline.modal import pole_fd_hz
 
 
@@ -86,7 +86,8 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     p = 100 if options.max_order is None else int(options.max_order)
     if not options.expect_hz:
         auto = identify_plscf(frf, IdentificationOptions(
-            band_hz=(lo, hi), refine=False, window_searches=options.window_searches,
+            band_hz=(lo, hi), refine=False, accept=False,
+            window_searches=options.window_searches,
             thresholds=options.thresholds))
         guesses = auto.modes.fd_hz
         if guesses.size == 0:
@@ -150,7 +151,8 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         tol_mac=float("nan"), min_fraction=float("nan"), refine=False,
         lower_residual=lower_residual, upper_residual=upper_residual,
         expect_hz=guesses if options.expect_hz else None, uncertainty="none (NaN)",
-        window_searches=options.window_searches, thresholds=options.thresholds,
+        window_searches=options.window_searches, accept=False,
+        thresholds=options.thresholds,
     )
     result = finish_identification(
         sub, poles, decay=decay, lower_residual=lower_residual,

@@ -94,8 +94,9 @@ class SelectionThresholds:
         return f"{', '.join(changed)} (others tuned defaults)" if changed else "tuned defaults"
 
     # ------------------------------------------------ stabilization diagram
-    #: Diagram flags (:func:`~ema_pipeline.identification.stabilization.stabilization`,
-    #: drawn by ``plots.plot_stabilization``, not used by the selection): a pole is
+    #: Diagram flags (:func:`~ema_pipeline.identification.diagram.stabilization.stabilization`,
+    #: drawn by ``report.matplotlib_plots.plot_stabilization``, not used by the
+    #: selection): a pole is
     #: stable in frequency when it moved by less than this fraction against the
     #: nearest pole of the previous order (the textbook 1 %) ...
     diagram_tol_freq: float = 0.01
@@ -105,7 +106,7 @@ class SelectionThresholds:
     diagram_tol_mac: float = 0.02
 
     # ------------------------------------------------ trajectories (selection)
-    #: Pole linking of :func:`~ema_pipeline.identification.selection.track_poles`:
+    #: Pole linking of :func:`~ema_pipeline.identification.selection.trajectories.track_poles`:
     #: d = |df| / (tol_freq f) + |dzeta| / (tol_zeta max(zeta)) + (1 - MAC) / tol_mac < 1.
     #: 1 % in frequency keeps two close modes (hard cases ``close_*``, 0.5-2 %
     #: apart) in two trajectories ...
@@ -144,7 +145,8 @@ class SelectionThresholds:
     #: ... and one starts within this many computed orders of the other's end.
     fragment_max_gap: int = 3
     #: An expected frequency is answered by the candidate nearest to it within
-    #: this relative distance (:func:`~ema_pipeline.identification.selection.select_expected`).
+    #: this relative distance
+    #: (:func:`~ema_pipeline.identification.selection.trajectories.select_expected`).
     expect_tol: float = 0.15
 
     # ------------------------------------------------ adaptive order search
@@ -165,7 +167,7 @@ class SelectionThresholds:
     #: the data models background, not a resonance (dropped) ...
     min_peak_ratio: float = 0.05
     #: ... or below this one with 3 or more channels, where the shape test of
-    #: :func:`~ema_pipeline.identification.acceptance.resonant` (MPC) judges the
+    #: :func:`~ema_pipeline.identification.selection.acceptance.resonant` (MPC) judges the
     #: weak candidates that remain.
     min_peak_ratio_shapes: float = 0.02
     #: In the adaptive search a trajectory counts (and is kept) only when it starts

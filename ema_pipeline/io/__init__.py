@@ -14,7 +14,8 @@ and results stores), :mod:`.uff` (dataset 58 in and out, modes out as datasets
 164/15/82/55), :mod:`.uff_format` (the dataset parser), :mod:`.uff_units` (unit
 labels, dataset 164), :mod:`.experiment` (TOML), :mod:`.recording` (raw time
 recordings: UFF-58 time records, TDMS, WAV, CSV, LVM, MAT), :mod:`.channel_sheet` (the
-channel sheet of a roving test), :mod:`.hit_choice` (hits chosen by hand).
+channel sheet of a roving test), :mod:`.hit_choice` (hits chosen by hand),
+:mod:`.picks` (modes picked by hand: the picks file of ``identify --picks``).
 """
 
 from __future__ import annotations
@@ -79,7 +80,7 @@ from ema_pipeline.io.hdf5 import (
     write_frf_h5,
     write_results_h5,
 )
-from ema_pipeline.io.picks import read_picks, write_picks
+from ema_pipeline.io.picks import picks_toml, read_picks, write_picks
 from ema_pipeline.io.recording import RECORDING_SUFFIXES, is_recording, read_recording
 from ema_pipeline.io.uff import (
     UFF_SUFFIXES,
@@ -253,6 +254,7 @@ __all__ = [
     "open_regular",
     "parse_unit_label",
     "partial_folder",
+    "picks_toml",
     "pid_alive",
     "read_csv",
     "read_experiment",

@@ -21,7 +21,7 @@ from pathlib import Path
 
 from ema_pipeline.data import ConfigError, Geometry
 from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.picks import Picks
+from ema_pipeline.identification.picked import Picks
 from ema_pipeline.pipeline.reports import write_identify_report
 from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
 from ema_pipeline.threads import can_fork, init_worker_process, worker_count

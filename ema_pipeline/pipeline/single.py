@@ -28,15 +28,15 @@ from ema_pipeline.identification import (
     modes_table,
 )
 from ema_pipeline.identification.common import ends_at_usable_top, single_reference
-from ema_pipeline.identification.expect import (
+from ema_pipeline.identification.diagram.narrower_searches import searches_turned_off
+from ema_pipeline.identification.diagram.resources import check_identification
+from ema_pipeline.identification.picked import Picks
+from ema_pipeline.identification.selection.expect import (
     match_expected,
     not_found_message,
     with_expected_rows,
 )
-from ema_pipeline.identification.narrower_searches import searches_turned_off
-from ema_pipeline.identification.not_kept import not_kept_message
-from ema_pipeline.identification.picks import Picks
-from ema_pipeline.identification.resources import check_identification
+from ema_pipeline.identification.selection.not_kept import not_kept_message
 from ema_pipeline.report.wording import model_text
 
 
@@ -142,7 +142,7 @@ def identify_file(
     the identification result (for a report). Problems with the file (unreadable, NaN, no modes)
     are returned as ``status="failed"`` with the reason, never raised. With
     ``picks`` (a picks file, :func:`ema_pipeline.io.read_picks`) exactly those
-    poles are fitted (:func:`ema_pipeline.identification.picks.identify_picks`).
+    poles are fitted (:func:`ema_pipeline.identification.selection.picks.identify_picks`).
     """
     options = IdentificationOptions() if options is None else options
     path, out_dir = Path(path), Path(out_dir)

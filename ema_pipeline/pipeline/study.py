@@ -52,7 +52,7 @@ from ema_pipeline.data import (
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.identification import identify
 from ema_pipeline.identification.common import single_reference
-from ema_pipeline.identification.resources import check_identification
+from ema_pipeline.identification.diagram.resources import check_identification
 from ema_pipeline.io.experiment import experiment_channel_sheet, experiment_recording_paths
 from ema_pipeline.pipeline.frf import FRFSettings, configuration_frf
 from ema_pipeline.pipeline.roving import sheet_frf
@@ -196,7 +196,7 @@ def prepare_study(
     Each file is read (HDF5 checked in a child process first, see
     :func:`ema_pipeline.io.check_hdf5`), its sensors compared with the
     experiment's, and the identification settings checked against it
-    (:func:`ema_pipeline.identification.resources.check_identification`: band,
+    (:func:`ema_pipeline.identification.diagram.resources.check_identification`: band,
     orders, window time constant, memory). Returns the FRF sets by
     configuration name; raises DataError / ConfigError (input errors) naming
     the file. A configuration naming raw recordings gets its FRFs from them

@@ -16,7 +16,7 @@ import pandas as pd
 from ema_pipeline.added_mass.modal import pair_modes as pair_configurations
 from ema_pipeline.data import FRFSet, Geometry
 from ema_pipeline.identification.common import ends_at_usable_top
-from ema_pipeline.identification.not_kept import not_kept_message
+from ema_pipeline.identification.selection.not_kept import not_kept_message
 from ema_pipeline.report import figures as figs
 from ema_pipeline.report.fit_noise import noise_error
 from ema_pipeline.report.htmlparts import (

@@ -7,7 +7,7 @@ three diagrams stays small); its script makes every pole of the stored
 diagram a ``circle.pole`` element carrying
 ``data-freq-hz`` (natural frequency, window-corrected), ``data-zeta``,
 ``data-order`` (model order), ``data-mpc`` (MPC of the pole's one-pole local
-fit, :func:`ema_pipeline.identification.picks.pole_mpc`), ``data-group`` (its
+fit, :func:`ema_pipeline.identification.selection.picks.pole_mpc`), ``data-group`` (its
 trajectory: the poles of one mode) and ``data-stable`` (``1`` when stable in
 frequency, damping and vector). Every mode the automatic selection kept is
 drawn as a diamond in the top row ("modes") at its refined frequency (the
@@ -37,10 +37,13 @@ where the page animates the shapes on a geometry, a button
 (``[data-show-shape]``) that brings that mode's view into sight. Clicking a
 pole toggles it; a mode has one pole, so clicking another pole of the same trajectory
 moves the pick there. The element ``#picks`` always holds the picks file
-(TOML, :class:`ema_pipeline.identification.picks.Picks`) of the current
-selection, with a copy and a download button: ``ema-pipeline identify FILE
---picks picks.toml`` fits exactly those poles. Untouched, the page's picks
-are the automatic result's (:func:`~ema_pipeline.identification.picks.picks_from_result`),
+of the current selection, with a copy and a download button:
+``ema-pipeline identify FILE --picks picks.toml`` fits exactly those poles.
+The script writes it (when the page opens and at every click) in the layout
+of :mod:`ema_pipeline.io.picks`, the one home of the format (its version,
+keys and comments; ``tests/test_picks_format.py`` runs the script in a
+browser and reads its text with the io reader). Untouched, the page's picks
+are the automatic result's (:func:`~ema_pipeline.identification.selection.picks.picks_from_result`),
 with its companions (candidates refined beside the kept modes, then dropped);
 the script writes these only while no pole of the diagram itself is picked.
 """
@@ -52,13 +55,13 @@ import json
 import numpy as np
 
 from ema_pipeline.data import FRFSet
-from ema_pipeline.identification.picks import is_picked, picks_from_result, pole_mpc
 from ema_pipeline.identification.result import (
     STABLE_ALL,
     STABLE_DAMP,
     STABLE_FREQ,
     IdentificationResult,
 )
+from ema_pipeline.identification.selection.picks import is_picked, picks_from_result, pole_mpc
 from ema_pipeline.report.figures import sum_abs_frf
 from ema_pipeline.report.htmlparts import esc
 from ema_pipeline.report.result_tables import label_as_tested
@@ -192,7 +195,7 @@ function text(){
   '# these poles (refinement, LSFD and uncertainty as for automatic modes).',
   '# A pick with `order` is the pole of that model order nearest to freq_hz',
   '# (within 0.1 %); a pick with `pole` (rad/s) is the start pole of a mode the',
-  '# automatic selection kept, taken as given.','',
+  '# automatic selection kept, taken as given.','version = 1','',
   '[diagram]  # the settings that reproduce the stabilization diagram',
   'band_hz = ['+num(cfg.band_hz[0])+', '+num(cfg.band_hz[1])+']',
   'orders = ['+cfg.orders.join(', ')+']','weighting = "'+cfg.weighting+'"'];
@@ -512,7 +515,7 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
         '<p><span class="npicks">0</span> poles picked '
         '<button type="button" class="copy-picks">Copy picks</button> '
         '<button type="button" class="download-picks">Download picks</button></p>'
-        f'<pre class="picks" id="{esc(picks_id)}">{esc(picks.toml())}</pre>'
+        f'<pre class="picks" id="{esc(picks_id)}"></pre>'
         f'<script type="application/json" class="stab-poles">{data}</script>'
         f"<script>{_SCRIPT}</script></div>"
     )

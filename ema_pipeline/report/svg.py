@@ -12,7 +12,8 @@ linear or logarithmic axes, which this module writes as SVG text directly:
   written as relative path commands (a few bytes per point);
 * text stays text: searchable, selectable and sharp in print at any size.
 
-:mod:`ema_pipeline.plots` keeps the matplotlib versions for interactive use.
+:mod:`ema_pipeline.report.matplotlib_plots` keeps matplotlib versions of two of
+them (the stabilization diagram, the fit) for interactive use.
 Nothing here knows about modal analysis; :mod:`ema_pipeline.report.figures`
 draws the report's figures with it.
 """

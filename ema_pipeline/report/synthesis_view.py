@@ -3,7 +3,7 @@
 The page refits the FRFs whenever a pole is picked or unpicked and draws the
 sum of |H_synth| over all channels (``path[data-synthesis]``) over the sum of
 |H| of the measurement (``path[data-frf-overlay]``), on the same log scale.
-The model is LSFD's (:func:`ema_pipeline.identification.lsfd.design_matrix`):
+The model is LSFD's (:func:`ema_pipeline.identification.refinement.lsfd.design_matrix`):
 for every picked pole lambda (from its frequency and damping, less the
 window's decay rate; a kept mode's refined ones, as the tables give them and
 as ``--picks`` refines the pick), a complex residue per channel with its

@@ -1,8 +1,11 @@
-"""Diagrams of the identification stage, drawn onto matplotlib axes (owned by the report).
+"""Diagrams of the identification stage drawn onto matplotlib axes, for
+interactive use (a notebook, a script).
 
-The numerics (:mod:`ema_pipeline.identification`) never import matplotlib; the
-report (:mod:`ema_pipeline.report`) and interactive users call these with an
-``Axes`` of their own figure. No pyplot: no global backend state.
+The report's pages draw their figures as SVG (:mod:`.figures`, :mod:`.svg`)
+and do not use this module. matplotlib is optional: this module never imports
+it (the functions draw on an ``Axes`` of the caller's own figure; no pyplot,
+no global backend state), so only their callers need it, e.g. through the
+``plots`` extra (``pip install ema-pipeline[plots]``).
 """
 
 from __future__ import annotations

@@ -2,7 +2,7 @@
 
 Derivation (no empirical factor). The refined pole of mode r is the weighted
 least-squares estimate of the local fit of
-:mod:`ema_pipeline.identification.refine` (variable projection: the linear
+:mod:`ema_pipeline.identification.refinement.refine` (variable projection: the linear
 terms -- residues and background -- eliminated). To first order its error is
 d theta = F^-1 J^T u, with J the noise-weighted Jacobian projected off the
 linear terms (rows: real and imaginary part of every line and channel) and u
@@ -63,7 +63,7 @@ the weighted noise, so
   times the sigma (Monte Carlo of a windowed mode,
   ``tests/test_uncertainty.py``, and of the impact hard cases; p68 of
   |error|/sigma 1.45-1.5 for those modes on seeds 600-615, 1.11-1.14 with it).
-* **Local model** (:func:`ema_pipeline.identification.refine.band_sensitivity`):
+* **Local model** (:func:`ema_pipeline.identification.refinement.refine.band_sensitivity`):
   the local fit stands for the modes outside its band by a quadratic
   background and subtracted LSFD terms; where that is not exact the pole
   carries an error the residual cannot show. The change d of the pole when

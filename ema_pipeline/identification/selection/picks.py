@@ -1,9 +1,11 @@
 """Modes picked by hand: the poles a user chose in the stabilization diagram.
 
 A *picks file* (TOML, written by the interactive diagram of the identify
-report, :mod:`ema_pipeline.report.stab_diagram`, read by
-:func:`ema_pipeline.io.read_picks`) records the settings that reproduce the
-diagram (band, orders, weighting) and one ``[[pick]]`` table per mode:
+report, :mod:`ema_pipeline.report.stab_diagram`; its layout, reader and
+writer are :mod:`ema_pipeline.io.picks`, its content as data
+:class:`~ema_pipeline.identification.picked.Picks`) records the settings that
+reproduce the diagram (band, orders, weighting) and one ``[[pick]]`` table per
+mode:
 
 * a pole of the diagram, by its model ``order``, natural frequency
   ``freq_hz`` and damping ratio ``zeta``: it is looked up in the diagram
@@ -35,19 +37,23 @@ trajectory selection, no final tests, no searches).
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from ema_pipeline.data import DataError, FRFSet
 from ema_pipeline.identification.common import finish_identification, resolve_band
-from ema_pipeline.identification.lsfd import mpc
+from ema_pipeline.identification.diagram.plscf import plscf
+from ema_pipeline.identification.diagram.stabilization import pole_to_modal, stabilization
 from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.plscf import plscf
-from ema_pipeline.identification.refine import RefinedPoles, band_sensitivity, refine_poles
+from ema_pipeline.identification.picked import PICK_TOL_REL, Pick, Picks
+from ema_pipeline.identification.refinement.lsfd import mpc
+from ema_pipeline.identification.refinement.refine import (
+    RefinedPoles,
+    band_sensitivity,
+    refine_poles,
+)
 from ema_pipeline.identification.result import (
     IdentificationResult,
     ResolvedSettings,
@@ -55,185 +61,11 @@ from ema_pipeline.identification.result import (
     StabilizationData,
     found_by_code,
 )
-from ema_pipeline.identification.selection import link_fragments, track_poles
-from ema_pipeline.identification.stabilization import pole_to_modal, stabilization
-
-#: A diagram pick matches the pole of its order whose natural frequency is
-#: within this relative distance (nearest first).
-PICK_TOL_REL: float = 1e-3
+from ema_pipeline.identification.selection.trajectories import link_fragments, track_poles
 
 #: ``IdentificationResult.extras`` key set on a result of :func:`identify_picks`
 #: (its value: the number of picked modes).
 PICKED = "picked_modes"
-
-
-@dataclass(frozen=True)
-class Pick:
-    """One picked pole.
-
-    Attributes
-    ----------
-    freq_hz, zeta : float
-        Natural frequency (Hz) and damping ratio of the pole (window-corrected,
-        as the diagram shows them).
-    order : int or None
-        Model order of a diagram pole; ``None`` for a pole given by value.
-    pole : complex or None
-        The pole itself (rad/s, before the window correction) for the start
-        pole of an automatically kept mode; ``None`` for a diagram pole.
-    """
-
-    freq_hz: float
-    zeta: float = float("nan")
-    order: int | None = None
-    pole: complex | None = None
-
-    def label(self) -> str:
-        """``"274.6 Hz at order 40"`` / ``"18.1 Hz (mode pole)"`` for messages."""
-        where = f"at order {self.order}" if self.order is not None else "(mode pole)"
-        return f"{self.freq_hz:.6g} Hz {where}"
-
-
-@dataclass(frozen=True)
-class Picks:
-    """The content of a picks file: the diagram's settings and the picks.
-
-    Attributes
-    ----------
-    band_hz : (float, float)
-        The identification band (Hz).
-    orders : tuple of int
-        The model orders of the diagram (its highest is the pLSCF order p).
-    picks : tuple of Pick
-        One :class:`Pick` per mode.
-    weighting : str
-        "none" or "coherence".
-    source : str
-        The file (for messages).
-    companions : tuple of complex
-        Poles (rad/s, before the window correction) refined together with the
-        picks and then dropped, not reported (see the module's description).
-    """
-
-    band_hz: tuple[float, float]
-    orders: tuple[int, ...]
-    picks: tuple[Pick, ...]
-    weighting: str = "none"
-    source: str = ""
-    companions: tuple[complex, ...] = ()
-
-    @property
-    def max_order(self) -> int:
-        return int(max(self.orders))
-
-    def options(self, options: IdentificationOptions) -> IdentificationOptions:
-        """``options`` with the picks file's band, order and weighting."""
-        return replace(options, band_hz=self.band_hz, max_order=self.max_order,
-                       weighting=self.weighting)  # type: ignore[arg-type]
-
-    def toml(self) -> str:
-        """The picks file's text (see :func:`picks_from_mapping` for reading it back).
-
-        Examples
-        --------
-        >>> p = Picks((5.0, 100.0), (2, 4, 6), (Pick(30.0, 0.01, order=6),))
-        >>> picks_from_mapping(tomllib_loads(p.toml())) == p
-        True
-        >>> q = replace(p, companions=(-2.5 + 300.0j,))
-        >>> picks_from_mapping(tomllib_loads(q.toml())).companions
-        ((-2.5+300j),)
-        """
-        lines = [
-            "# ema-pipeline picks: `ema-pipeline identify FILE --picks THIS_FILE` fits exactly",
-            "# these poles (refinement, LSFD and uncertainty as for automatic modes).",
-            "# A pick with `order` is the pole of that model order nearest to freq_hz",
-            "# (within 0.1 %); a pick with `pole` (rad/s) is the start pole of a mode the",
-            "# automatic selection kept, taken as given.",
-            "",
-            "[diagram]  # the settings that reproduce the stabilization diagram",
-            f"band_hz = [{_num(self.band_hz[0])}, {_num(self.band_hz[1])}]",
-            f"orders = [{', '.join(str(int(o)) for o in self.orders)}]",
-            f'weighting = "{self.weighting}"',
-        ]
-        if self.companions:
-            lines += ["# poles fitted alongside the picks, not reported: candidates the automatic",
-                      "# selection refined with its modes and then dropped (rad/s)",
-                      "companions = [" + ", ".join(f"[{_num(c.real)}, {_num(c.imag)}]"
-                                                   for c in self.companions) + "]"]
-        for pk in self.picks:
-            lines += ["", "[[pick]]", f"freq_hz = {_num(pk.freq_hz)}",
-                      f"zeta = {_num(pk.zeta)}"]
-            if pk.order is not None:
-                lines.append(f"order = {int(pk.order)}")
-            if pk.pole is not None:
-                lines.append(f"pole = [{_num(pk.pole.real)}, {_num(pk.pole.imag)}]")
-        return "\n".join(lines) + "\n"
-
-
-def tomllib_loads(text: str) -> dict[str, Any]:
-    """``tomllib.loads`` (for the doctest; the file is read by :mod:`ema_pipeline.io`)."""
-    import tomllib
-
-    return tomllib.loads(text)
-
-
-def _num(x: float) -> str:
-    """A float as TOML (``nan`` for NaN, full precision)."""
-    return "nan" if not math.isfinite(x) else repr(float(x))
-
-
-def picks_from_mapping(data: Mapping[str, Any], source: str = "") -> Picks:
-    """Picks from the parsed TOML of a picks file; a missing or wrong key is a
-    :class:`DataError` naming ``source`` and the key.
-
-    Examples
-    --------
-    >>> picks_from_mapping({"diagram": {"band_hz": [5, 100], "orders": [2, 4]},
-    ...                     "pick": [{"freq_hz": 30, "order": 4}]}).picks
-    (Pick(freq_hz=30.0, zeta=nan, order=4, pole=None),)
-    >>> picks_from_mapping({"diagram": {"band_hz": [5, 100], "orders": [2, 4]}}, "p.toml")
-    Traceback (most recent call last):
-    ...
-    ema_pipeline.data.DataError: p.toml: no [[pick]] table: pick at least one pole
-    """
-    where = f"{source}: " if source else ""
-    diagram = data.get("diagram")
-    if not isinstance(diagram, Mapping):
-        raise DataError(f"{where}no [diagram] table (band_hz, orders)")
-    try:
-        band = tuple(float(b) for b in diagram["band_hz"])
-        orders = tuple(int(o) for o in diagram["orders"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise DataError(f"{where}[diagram] needs band_hz = [LO, HI] and orders = [...] "
-                        f"({exc})") from None
-    if len(band) != 2 or not band[0] < band[1] or not orders or min(orders) < 1:
-        raise DataError(f"{where}[diagram] band_hz must be [LO, HI] with LO < HI and "
-                        "orders positive integers")
-    weighting = str(diagram.get("weighting", "none"))
-    try:
-        companions = tuple(complex(float(re), float(im))
-                           for re, im in diagram.get("companions", []))
-    except (TypeError, ValueError) as exc:
-        raise DataError(f"{where}[diagram] companions must be [[RE, IM], ...] ({exc})") from None
-    rows = data.get("pick")
-    if not rows:
-        raise DataError(f"{where}no [[pick]] table: pick at least one pole")
-    picks = []
-    for k, row in enumerate(rows, start=1):
-        try:
-            f = float(row["freq_hz"])
-            zeta = float(row.get("zeta", float("nan")))
-            order = None if row.get("order") is None else int(row["order"])
-            pole = None if row.get("pole") is None else complex(*(float(v) for v in row["pole"]))
-        except (KeyError, TypeError, ValueError) as exc:
-            raise DataError(f"{where}pick {k}: needs freq_hz and order, or freq_hz and "
-                            f"pole = [RE, IM] ({exc!r})") from None
-        if (order is None) == (pole is None):
-            raise DataError(f"{where}pick {k} ({f:g} Hz): give either order (a pole of the "
-                            "diagram) or pole = [RE, IM] (a mode pole), not both nor neither")
-        picks.append(Pick(freq_hz=f, zeta=zeta, order=order, pole=pole))
-    return Picks(band_hz=(band[0], band[1]), orders=orders, picks=tuple(picks),
-                 weighting=weighting, source=source, companions=companions)
 
 
 def picks_from_result(result: IdentificationResult) -> Picks:
@@ -412,6 +244,7 @@ def identify_picks(frf: FRFSet, options: IdentificationOptions,
             uncertainty=("least-squares covariance of the refined poles" if options.refine
                          else "none (picked poles, not refined)"),
             window_searches=False,  # the picked poles are fitted, nothing is searched
+            accept=False,  # nor tested
             thresholds=th,
         ),
     )
@@ -429,7 +262,7 @@ def pole_mpc(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray,
 
     For every pole the ``n_lines`` lines nearest its damped frequency are
     fitted per channel by ``r / (j w - lambda) + c0 + c1 j w`` (complex linear
-    least squares); the MPC (:func:`ema_pipeline.identification.lsfd.mpc`) of
+    least squares); the MPC (:func:`ema_pipeline.identification.refinement.lsfd.mpc`) of
     the residues r over the channels is returned. A cheap indicator for every
     pole of a diagram, not the MPC of an identified mode (that is ``result.mpc``).
 

@@ -3,7 +3,7 @@ backend, and the step that adds the modes found outside the diagrams.
 
 Every candidate of :func:`~ema_pipeline.identification.plscf_backend.identify_plscf`
 (a trajectory of a diagram, a close partner, a residual peak) is refined by
-:func:`~ema_pipeline.identification.refine.refine_poles` and then judged here
+:func:`~ema_pipeline.identification.refinement.refine.refine_poles` and then judged here
 (:func:`final_tests`):
 
 1. its decay rate is determined (:func:`decay_determined`,
@@ -17,13 +17,13 @@ Every candidate of :func:`~ema_pipeline.identification.plscf_backend.identify_pl
 The candidates that pass are refined and tested again without those that
 failed (:func:`refit_kept`); where a candidate of the full band failed, the
 candidate of a narrower search that it covered is tried
-(:func:`~ema_pipeline.identification.narrower_searches.uncovered_alternates`,
+(:func:`~ema_pipeline.identification.diagram.narrower_searches.uncovered_alternates`,
 through :func:`add_found`).
 
 Close modes hidden in a kept resonance are looked for by
 :func:`close_partners` (one pole more in that mode's local fit,
 :func:`pair_is_real`); those and the starts of
-:func:`~ema_pipeline.identification.residual_search.residual_peaks` join the
+:func:`~ema_pipeline.identification.selection.residual_search.residual_peaks` join the
 kept modes through :func:`add_found`, which refines and tests all together
 and keeps the previous fit when none of the new ones passes.
 
@@ -41,20 +41,20 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.identification.local_band import (
+from ema_pipeline.identification.refinement.local_band import (
     background_columns,
     global_residues,
     local_problem,
     pole_columns,
     scaled_solve,
 )
-from ema_pipeline.identification.local_fits import (
+from ema_pipeline.identification.refinement.local_fits import (
     local_shapes,
     quick_significance,
     split_fit,
 )
-from ema_pipeline.identification.lsfd import lsfd, mpc
-from ema_pipeline.identification.refine import PARALLEL_MIN_MODES, RefinedPoles
+from ema_pipeline.identification.refinement.lsfd import lsfd, mpc
+from ema_pipeline.identification.refinement.refine import PARALLEL_MIN_MODES, RefinedPoles
 from ema_pipeline.identification.result import SelectedPoles, found_by_code
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, pole_fd_hz
@@ -81,6 +81,7 @@ class Candidates:
 def add_found(
     found: Candidates,
     new: np.ndarray,
+    *,
     partner: bool,
     strict: np.ndarray,
     retest: Callable[[SelectedPoles, np.ndarray, np.ndarray], tuple[RefinedPoles, np.ndarray]],
@@ -99,7 +100,8 @@ def add_found(
     --------
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
     >>> empty = Candidates(none, None, np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, bool))
-    >>> add_found(empty, np.zeros(0, complex), False, np.zeros(0, bool), None) is empty
+    >>> add_found(empty, np.zeros(0, complex), partner=False, strict=np.zeros(0, bool),
+    ...           retest=None) is empty
     True
     """
     is_partner = np.full(new.size, partner)
@@ -226,7 +228,7 @@ def final_tests(
     resonance test; a weak partner's shape in its neighbour's shadow has an
     MPC of 0.9-0.95, which the resonance test asks only of lone weak poles.
     Poles marked ``strict`` (a residual slope into the band's edge,
-    :func:`~ema_pipeline.identification.residual_search.residual_peaks`) must
+    :func:`~ema_pipeline.identification.selection.residual_search.residual_peaks`) must
     pass the resonance test by their peak, not by their shape alone.
 
     Examples
@@ -236,7 +238,7 @@ def final_tests(
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.ones((3, 1))
     >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
-    >>> from ema_pipeline.identification.refine import refine_poles
+    >>> from ema_pipeline.identification.refinement.refine import refine_poles
     >>> ref = refine_poles(f, H, lam, quantity="receptance")
     >>> final_tests(f, H, H, ref, "receptance").tolist()
     [True]
@@ -265,14 +267,14 @@ def close_partners(
     map_: Mapper | None = None,
 ) -> np.ndarray:
     """Poles of close modes hidden in the resonances of the kept ``pole``: for
-    each, the extra pole of :func:`~ema_pipeline.identification.local_fits.split_fit`
+    each, the extra pole of :func:`~ema_pipeline.identification.refinement.local_fits.split_fit`
     when it passes the tests of ``thresholds.partner_max_residual_ratio`` (rad/s,
     ascending frequency; empty when there is none). ``H`` (n_ch, n_freq) on
     the lines ``freq_hz``; with fewer than ``thresholds.min_shape_channels``
     channels no shape tells two modes from one, and none is added. With
     ``map_`` (worker processes, :func:`ema_pipeline.threads.map_each`) the
     modes' split fits are shared out from
-    :data:`~ema_pipeline.identification.refine.PARALLEL_MIN_MODES` modes on;
+    :data:`~ema_pipeline.identification.refinement.refine.PARALLEL_MIN_MODES` modes on;
     the same numbers.
 
     Examples
@@ -342,7 +344,7 @@ def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity:
     """True when the last two of ``pole`` have nearly real shapes (MPC >=
     ``thresholds.partner_min_mpc``) in one global LSFD of all of them or, failing
     that, each in its own local fit
-    (:func:`~ema_pipeline.identification.local_fits.local_shapes`). A weak mode
+    (:func:`~ema_pipeline.identification.refinement.local_fits.local_shapes`). A weak mode
     beside a strong one has its shape bent by what either model misses (on
     the hard close pairs the true partners reach 0.9 in one of the two, at
     0.82-0.91 in the other); the measured beam's split pairs stay below 0.75
@@ -379,12 +381,12 @@ def resonant(
 ) -> np.ndarray:
     """True for poles that are resonances of the data: own peak ratio at least
     ``weak_peak_ratio``, or peak SNR at least ``min_weak_peak_snr``
-    (both from :func:`~ema_pipeline.identification.local_fits.quick_significance`),
+    (both from :func:`~ema_pipeline.identification.refinement.local_fits.quick_significance`),
     or, with at least 3 channels ``H`` (n_ch, n_freq), whatever the shape
     (complex modes too), a peak SNR of at least ``complex_min_snr`` with a
     residual drop (:func:`residual_drop`) of at least
     ``complex_min_residual_drop``, or a local shape
-    (:func:`~ema_pipeline.identification.local_fits.local_shapes`) of
+    (:func:`~ema_pipeline.identification.refinement.local_fits.local_shapes`) of
     MPC >= ``weak_min_mpc`` (only the poles marked ``by_shape``, when
     given); with fewer channels every pole is kept. Thresholds of
     ``thresholds``.
@@ -434,7 +436,7 @@ def residual_drop(
     """For each pole (of those marked ``only``, when given; NaN for the
     others), the residual of its local problem without it over the
     residual with it (sums of squares over the local band and all channels;
-    the problem of :func:`~ema_pipeline.identification.local_band.local_problem`
+    the problem of :func:`~ema_pipeline.identification.refinement.local_band.local_problem`
     at the given poles, its residues and background solved linearly); NaN
     where the band is too short.
 

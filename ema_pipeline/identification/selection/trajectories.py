@@ -21,12 +21,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ema_pipeline.identification.plscf import PoleSet
+from ema_pipeline.identification.diagram.plscf import PoleSet
+from ema_pipeline.identification.diagram.stabilization import pole_to_modal
 from ema_pipeline.identification.result import (  # light result types
     SelectedPoles,
     found_by_code,
 )
-from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, poles_overlap
 
@@ -52,7 +52,7 @@ def track_poles(
 
     Examples
     --------
-    >>> from ema_pipeline.identification.plscf import PoleSet
+    >>> from ema_pipeline.identification.diagram.plscf import PoleSet
     >>> lam = np.array([-1 + 100j, -1 + 100.2j, -5 + 300j, -1 + 100.3j])
     >>> ps = PoleSet(order=np.array([2, 4, 4, 6]), pole=lam,
     ...              participation=np.ones((4, 1), complex), orders=np.array([2, 4, 6]), dt=1e-3)
@@ -217,7 +217,7 @@ def select_trajectories(
 
     Examples
     --------
-    >>> from ema_pipeline.identification.plscf import PoleSet
+    >>> from ema_pipeline.identification.diagram.plscf import PoleSet
     >>> order = np.repeat(np.arange(2, 22, 2), 2)
     >>> lam = np.tile([-2 + 2 * np.pi * 50j, -900 + 2 * np.pi * 80j], 10)
     >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((20, 1), complex),

@@ -1,6 +1,6 @@
 """Resonances that the FRFs show but the identification did not keep as modes.
 
-The final tests (:mod:`~ema_pipeline.identification.acceptance`) judge a
+The final tests (:mod:`~ema_pipeline.identification.selection.acceptance`) judge a
 candidate by what it adds to the fit of all FRFs together. A resonance that
 stands out in some FRFs only, beside a much stronger mode, can fail them: on
 the measured beam (``../shared/data``) 42.0, 274.7 and 325.1 Hz are clear
@@ -159,7 +159,7 @@ def resonances_not_kept(
     ``thresholds``), away from
     the ``kept`` poles' half-power bands. Pass only candidates whose decay
     rate is determined
-    (:func:`~ema_pipeline.identification.acceptance.decay_determined`).
+    (:func:`~ema_pipeline.identification.selection.acceptance.decay_determined`).
     Returns their natural frequencies (Hz, ascending, one per peak) and the
     number of FRFs in which each stands out.
 

@@ -8,8 +8,8 @@ of the other modes from one global LSFD (:func:`global_residues`).
 of that local model, :func:`pole_jacobian` its derivative with respect to the
 poles, and :func:`scaled_solve` the one least-squares projection that serves
 every channel. The variable-projection fit of
-:mod:`ema_pipeline.identification.refine` and the screens of
-:mod:`ema_pipeline.identification.local_fits` are built on these.
+:mod:`ema_pipeline.identification.refinement.refine` and the screens of
+:mod:`ema_pipeline.identification.refinement.local_fits` are built on these.
 
 Why written here: what makes the local fits cheap enough to run on every mode
 is eliminating the linear terms (variable projection) and sharing one
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import (
+from ema_pipeline.identification.refinement.lsfd import (
     column_scale,
     design_matrix,
     lsfd,
@@ -36,7 +36,7 @@ from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
 def pole_columns(freq_hz: np.ndarray, lam: np.ndarray, bg_r: np.ndarray) -> np.ndarray:
     """Real-stacked design (2n, 2m + K_bg) of sum_r a_r/(jw - l_r) + conj + background:
-    the modal columns of :func:`~ema_pipeline.identification.lsfd.design_matrix`
+    the modal columns of :func:`~ema_pipeline.identification.refinement.lsfd.design_matrix`
     (no residual terms) and ``bg_r``, the real-stacked background columns."""
     modal = design_matrix(freq_hz, lam, "receptance", lower=False, upper=False)
     n, m2 = modal.shape

@@ -13,8 +13,8 @@ The residue of the receptance is A_cr = a_cr / lambda_r^q with q = 0, 1, 2 for
 the three quantities (:func:`ema_pipeline.data.quantity_power`), and the modal
 constant 2j omega_dr A_cr equals phi_o phi_i for mass-normalised real modes.
 
-Pole refinement lives in :mod:`ema_pipeline.identification.refine`, the noise
-and covariance model in :mod:`ema_pipeline.identification.uncertainty`, the MAC
+Pole refinement lives in :mod:`ema_pipeline.identification.refinement.refine`, the noise
+and covariance model in :mod:`ema_pipeline.identification.refinement.uncertainty`, the MAC
 in :mod:`ema_pipeline.modal`.
 """
 

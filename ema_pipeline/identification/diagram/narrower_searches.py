@@ -1,11 +1,11 @@
 """What the narrower searches of the order search add after the final tests:
 the alternates of failed candidates, and each kept mode's band support.
 
-:func:`~ema_pipeline.identification.order_search.add_zoom_modes` and
-:func:`~ema_pipeline.identification.order_search.add_window_modes` record each
+:func:`~ema_pipeline.identification.diagram.order_search.add_zoom_modes` and
+:func:`~ema_pipeline.identification.diagram.order_search.add_window_modes` record each
 narrower search (its band, its candidates, and those a full-band candidate
-covered: :data:`~ema_pipeline.identification.order_search.SearchedBand`).
-After the final tests of :mod:`ema_pipeline.identification.acceptance`:
+covered: :data:`~ema_pipeline.identification.diagram.order_search.SearchedBand`).
+After the final tests of :mod:`ema_pipeline.identification.selection.acceptance`:
 
 * where a full-band candidate failed, the narrower search's candidate it
   covered is tried (:func:`uncovered_alternates`), only where the FRFs show
@@ -24,10 +24,10 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ema_pipeline.identification.not_kept import visible_peaks
+from ema_pipeline.identification.diagram.order_search import SearchedBand, mode_windows
 from ema_pipeline.identification.options import IdentificationOptions
-from ema_pipeline.identification.order_search import SearchedBand, mode_windows
-from ema_pipeline.identification.selection import SelectedPoles
+from ema_pipeline.identification.selection.not_kept import visible_peaks
+from ema_pipeline.identification.selection.trajectories import SelectedPoles
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, pole_fn_hz, poles_overlap
 
@@ -37,7 +37,7 @@ __all__ = ["band_support", "searches_turned_off", "shown_by_the_frfs", "uncovere
 def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None]) -> np.ndarray:
     """The poles of ``alternates`` (candidates of narrower searches that a
     candidate of the full band covered,
-    :func:`~ema_pipeline.identification.order_search.covered_candidates`) that
+    :func:`~ema_pipeline.identification.diagram.order_search.covered_candidates`) that
     no ``kept`` pole covers (within the sum of their half-power half-widths):
     their cover failed the final tests, so they have not been judged. One per
     resonance: an alternate covered by one of more orders is left out.
@@ -67,7 +67,7 @@ def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
                       thresholds: SelectionThresholds | None = None) -> np.ndarray:
     """Per pole: at least ``alternate_min_frfs`` of the FRFs ``H`` (n_ch, n_freq)
     show a peak of their own within ``alternate_peak_lines`` lines of its natural frequency
-    (:func:`~ema_pipeline.identification.not_kept.visible_peaks`). An
+    (:func:`~ema_pipeline.identification.selection.not_kept.visible_peaks`). An
     alternate (:func:`uncovered_alternates`) is a second chance for a
     resonance whose cover failed, so it is tried only where the data show one:
     on the measured beam the alternate at 602.9 Hz (band 250-700 Hz) stands
@@ -96,7 +96,7 @@ def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
                  thresholds: SelectionThresholds | None = None) -> np.ndarray:
     """Per pole (n, 2) int: how many of the narrower searches ``searched``
     (their bands in Hz and candidates: the first two entries of each
-    :data:`~ema_pipeline.identification.order_search.SearchedBand`) hold it
+    :data:`~ema_pipeline.identification.diagram.order_search.SearchedBand`) hold it
     (its damped frequency inside their band by ``band_support_margin`` of
     itself) and how many of those have a candidate that covers it (within the
     sum of their half-power half-widths); the doubtful rule
@@ -132,7 +132,7 @@ def searches_turned_off(options: IdentificationOptions, band_hz: tuple[float, fl
     selection, which ran them). Would have run: the search of the band's
     lowest part where the top is ``zoom_ratio`` times the bottom or more, the
     windows where the modes ``fn_hz`` (Hz) make a dense band
-    (:func:`~ema_pipeline.identification.order_search.mode_windows`) and
+    (:func:`~ema_pipeline.identification.diagram.order_search.mode_windows`) and
     ``options.window_searches`` is on.
 
     Examples

@@ -4,17 +4,17 @@
 fit of the poles, with the linear terms eliminated, that minimises the
 noise-weighted squared error sum_c sum_k |e_ck|^2 / (s_c v_k)^2. The noise level
 is estimated from the residual of the initial fit
-(:func:`ema_pipeline.identification.uncertainty.noise_model`); the covariance of
+(:func:`ema_pipeline.identification.refinement.uncertainty.noise_model`); the covariance of
 the pole parameters (sigma_r, omega_dr) is the sandwich covariance of that fit
 with the line correlation of the noise (see
-:mod:`ema_pipeline.identification.uncertainty`). :func:`vp_solve` is that fit on
-one local problem (:mod:`ema_pipeline.identification.local_band`);
+:mod:`ema_pipeline.identification.refinement.uncertainty`). :func:`vp_solve` is that fit on
+one local problem (:mod:`ema_pipeline.identification.refinement.local_band`);
 :func:`band_sensitivity` repeats the refinement on a narrower band for the
 model-choice part of the covariance. The screens that solve the same local
-problem once (:func:`~ema_pipeline.identification.local_fits.quick_significance`)
+problem once (:func:`~ema_pipeline.identification.refinement.local_fits.quick_significance`)
 or with one pole more
-(:func:`~ema_pipeline.identification.local_fits.split_fit`) live in
-:mod:`ema_pipeline.identification.local_fits`.
+(:func:`~ema_pipeline.identification.refinement.local_fits.split_fit`) live in
+:mod:`ema_pipeline.identification.refinement.local_fits`.
 
 Why written here: scipy's ``least_squares`` neither eliminates the linear terms
 (variable projection) nor shares one projection between channels, which is what
@@ -29,15 +29,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.identification.local_band import (
+from ema_pipeline.identification.refinement.local_band import (
     WeightedPoleDesign,
     background_columns,
     global_residues,
     local_problem,
     pole_jacobian_factors,
 )
-from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.identification.uncertainty import (
+from ema_pipeline.identification.refinement.uncertainty import (
     ToeplitzKernel,
     correlated_information,
     correlated_leverage,
@@ -46,6 +45,7 @@ from ema_pipeline.identification.uncertainty import (
     rect_window_correlation,
     residual_correlation,
 )
+from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.numerics import MarquardtDamping, marquardt_step
 from ema_pipeline.threads import Mapper, map_each
 
@@ -112,7 +112,7 @@ def vp_fit(
 
     Callers that use only the poles or the noise level (the narrower band of
     :func:`band_sensitivity`, the fit without the extra pole of
-    :func:`~ema_pipeline.identification.local_fits.split_fit`, a refinement
+    :func:`~ema_pipeline.identification.refinement.local_fits.split_fit`, a refinement
     that wandered off) skip the sandwich covariance of :func:`vp_covariance`,
     about half of :func:`vp_solve`'s time with a window's line correlation;
     the poles are the same numbers.

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.lsfd import lsfd
+from ema_pipeline.identification.refinement.lsfd import lsfd
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 

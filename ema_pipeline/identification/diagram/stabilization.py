@@ -2,14 +2,14 @@
 
 The record, :class:`~ema_pipeline.identification.result.StabilizationData`,
 is one of the light result types of :mod:`~ema_pipeline.identification.result`.
-The diagram is drawn by :func:`ema_pipeline.plots.plot_stabilization`.
+The diagram is drawn by :func:`ema_pipeline.report.matplotlib_plots.plot_stabilization`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.plscf import PoleSet
+from ema_pipeline.identification.diagram.plscf import PoleSet
 from ema_pipeline.identification.result import (  # the result types live in result
     STABLE_DAMP,
     STABLE_FREQ,

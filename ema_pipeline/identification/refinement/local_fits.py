@@ -1,16 +1,16 @@
 """Local screens and fits of single modes, used by the acceptance tests.
 
 Each solves the local problem of
-:func:`~ema_pipeline.identification.refine.refine_poles`
-(:func:`~ema_pipeline.identification.local_band.local_problem`: the mode's
+:func:`~ema_pipeline.identification.refinement.refine.refine_poles`
+(:func:`~ema_pipeline.identification.refinement.local_band.local_problem`: the mode's
 band, its member poles, a quadratic background, the other modes' global LSFD
 terms subtracted) in a cheaper or a different way:
 :func:`quick_significance` solves it once, without iterating (a screen of
 candidate poles); :func:`local_shapes` takes each mode's residues from it (a
 weak mode's shape, which one global LSFD bends); :func:`split_fit` solves one
 mode's problem with one pole more (a hidden close mode). The refinement itself
-lives in :mod:`ema_pipeline.identification.refine`, the tests that use these
-in :mod:`ema_pipeline.identification.acceptance`.
+lives in :mod:`ema_pipeline.identification.refinement.refine`, the tests that use these
+in :mod:`ema_pipeline.identification.selection.acceptance`.
 
 Why written here: as for the refinement, scipy's ``least_squares`` would
 neither eliminate the linear terms (variable projection) nor share one
@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ema_pipeline.identification.local_band import (
+from ema_pipeline.identification.refinement.local_band import (
     background_columns,
     block_fisher,
     global_residues,
@@ -33,7 +33,7 @@ from ema_pipeline.identification.local_band import (
     pole_jacobian_factors,
     scaled_solve,
 )
-from ema_pipeline.identification.refine import vp_covariance, vp_fit
+from ema_pipeline.identification.refinement.refine import vp_covariance, vp_fit
 from ema_pipeline.identification.thresholds import SelectionThresholds
 
 
@@ -46,7 +46,7 @@ def quick_significance(
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cheap screen of candidate poles: std(sigma_r)/sigma_r, peak ratio and peak SNR.
 
-    The local problem of :func:`~ema_pipeline.identification.refine.refine_poles`
+    The local problem of :func:`~ema_pipeline.identification.refinement.refine.refine_poles`
     (band ``thresholds.local_half_width``, ``local_min_lines``)
     at the given poles, solved once without iterating, with white noise per
     channel whose variance is the residual's mean square over the degrees of
@@ -124,7 +124,7 @@ def local_shapes(
 ) -> np.ndarray:
     """(n_modes, n_ch) complex residues of each pole from its own local
     problem (the band, member poles and quadratic background of
-    :func:`~ema_pipeline.identification.refine.refine_poles`, the global LSFD
+    :func:`~ema_pipeline.identification.refinement.refine.refine_poles`, the global LSFD
     terms of the other modes subtracted), at the given poles; NaN where the
     band is too short.
 
@@ -188,7 +188,7 @@ def split_fit(
     thresholds: SelectionThresholds | None = None,
 ) -> SplitFit | None:
     """Refit pole r's local problem (as
-    :func:`~ema_pipeline.identification.refine.refine_poles`, on
+    :func:`~ema_pipeline.identification.refinement.refine.refine_poles`, on
     +-``thresholds.split_half_width`` half-power bandwidths) with one extra
     pole started one decay rate above and below it; the better of the two, or
     None when the band is too short.

@@ -13,9 +13,9 @@ trajectories that the data determine are still young at its last order
 fewer than 4 pole pairs per mode found plus 16 to spare (noise and the modes
 outside the band take poles too) -- and stops after two doublings without a
 gain in determined modes, or at
-:func:`~ema_pipeline.identification.resources.order_cap`, which depends on the number
+:func:`~ema_pipeline.identification.diagram.resources.order_cap`, which depends on the number
 of lines and references only. "Determined" is the screen
-:func:`~ema_pipeline.identification.local_fits.quick_significance`
+:func:`~ema_pipeline.identification.refinement.local_fits.quick_significance`
 (std(sigma)/sigma below ``max_rel_sigma_std``, own peak above
 ``min_peak_ratio`` of the local data) over the *mature* trajectories
 (started at or below ``mature_fraction`` of the order). The thresholds named
@@ -23,7 +23,7 @@ here are fields of
 :class:`~ema_pipeline.identification.thresholds.SelectionThresholds`
 (``OrderSearch.thresholds``). The diagram with
 the most determined modes is used, plus the determined resonances (the peak
-test of :func:`~ema_pipeline.identification.acceptance.resonant` passed too) of the other
+test of :func:`~ema_pipeline.identification.selection.acceptance.resonant` passed too) of the other
 diagrams that none of its candidates covers: at low SNR a mode is sometimes
 resolved at one order and a neighbour's trajectory at another, and the best
 diagram alone loses one of them (SNR hard cases, seeds 600-615: 1 -> 0 missed of 66).
@@ -52,18 +52,18 @@ import numpy as np
 
 from ema_pipeline.data import DataError
 from ema_pipeline.identification.common import default_max_order
-from ema_pipeline.identification.local_fits import quick_significance
-from ema_pipeline.identification.plscf import PoleSet, plscf
-from ema_pipeline.identification.resources import order_cap
+from ema_pipeline.identification.diagram.plscf import PoleSet, plscf
+from ema_pipeline.identification.diagram.resources import order_cap
+from ema_pipeline.identification.diagram.stabilization import pole_to_modal
+from ema_pipeline.identification.refinement.local_fits import quick_significance
 from ema_pipeline.identification.result import found_by_code
-from ema_pipeline.identification.selection import (
+from ema_pipeline.identification.selection.trajectories import (
     SelectedPoles,
     link_fragments,
     merge_coincident,
     select_trajectories,
     track_poles,
 )
-from ema_pipeline.identification.stabilization import pole_to_modal
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, poles_overlap
 from ema_pipeline.threads import Mapper, SerialMap
@@ -139,7 +139,7 @@ class OrderSearch:
 
     ``min_peak`` is ``thresholds.min_peak_ratio`` or, with 3 or more
     channels, ``min_peak_ratio_shapes``; ``tolerances`` those of the pole
-    linking (:func:`~ema_pipeline.identification.selection.track_poles`;
+    linking (:func:`~ema_pipeline.identification.selection.trajectories.track_poles`;
     ``None``: ``thresholds.link_tol_*``)."""
 
     weights: np.ndarray | None
@@ -160,10 +160,13 @@ class OrderSearch:
         band: tuple[float, float],
         p: int,
         cap: int,
+        *,
         fixed: bool,
     ) -> tuple[SelectedPoles, np.ndarray, PoleSet]:
         """Selected candidates, trajectory labels and poles of the chosen diagram.
-        ``Hn`` (n_out, n_in, n_freq) normalised FRFs on the lines ``freq``."""
+        ``Hn`` (n_out, n_in, n_freq) normalised FRFs on the lines ``freq``; the
+        search starts at order ``p`` and grows up to ``cap``, or computes
+        order ``p`` alone when ``fixed``."""
         lo, hi = band
         n_in = Hn.shape[1]
         Hn_c = Hn.reshape(-1, Hn.shape[-1])
@@ -263,7 +266,7 @@ def search_window(
 
     Examples
     --------
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
     >>> search_window(search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)) is None
     True
     """
@@ -277,7 +280,7 @@ def search_window(
     cap = order_cap(fz.size, n_in, window=True)
     try:
         zsel, _, _ = search.run(fz, Hz, window_hz, min(default_max_order(n_in, fz.size), cap),
-                                cap, False)
+                                cap, fixed=False)
     except DataError:
         return None
     return zsel
@@ -347,31 +350,31 @@ def add_zoom_modes(
     freq: np.ndarray,
     Hn: np.ndarray,
     band: tuple[float, float],
-    searched: list[SearchedBand] | None = None,
-) -> SelectedPoles:
+) -> tuple[SelectedPoles, list[SearchedBand]]:
     """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of a
     second search of the band's lowest 1/``zoom_ratio`` (of
-    ``search.thresholds``). Unchanged for a narrower band or one with too few
-    lines in that part. The search is appended to ``searched`` (when given):
-    its band, its candidates and those of them that ``sel`` covers
-    (:func:`covered_candidates`).
+    ``search.thresholds``), and that search: its band, its candidates and
+    those of them that ``sel`` covers (:func:`covered_candidates`). ``sel``
+    unchanged and no search for a narrower band or one with too few lines in
+    that part.
 
     Examples
     --------
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
-    >>> add_zoom_modes(none, search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)).pole.size
-    0
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
+    >>> sel, searched = add_zoom_modes(none, search, np.arange(10.0, 60.0),
+    ...                                np.ones((1, 1, 50)), (10, 60))
+    >>> sel.pole.size, searched
+    (0, [])
     """
     lo, hi = band
     zoom = search.thresholds.zoom_ratio
     if hi < zoom * lo:
-        return sel
+        return sel, []
     zsel = search_window(search, freq, Hn, (lo, lo + (hi - lo) / zoom))
     sel = without_merged(sel, zsel)
-    if searched is not None:
-        searched.append(((lo, lo + (hi - lo) / zoom), zsel, covered_candidates(sel, zsel)))
-    return add_uncovered(sel, zsel, "window")
+    searched = [((lo, lo + (hi - lo) / zoom), zsel, covered_candidates(sel, zsel))]
+    return add_uncovered(sel, zsel, "window"), searched
 
 
 def without_merged(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPoles:
@@ -434,20 +437,20 @@ def add_window_modes(
     freq: np.ndarray,
     Hn: np.ndarray,
     band: tuple[float, float],
-    searched: list[SearchedBand] | None = None,
-) -> SelectedPoles:
+) -> tuple[SelectedPoles, list[SearchedBand]]:
     """``sel`` plus the uncovered candidates (:func:`add_uncovered`) of searches
     in the windows of :func:`mode_windows` (a dense band; unchanged with fewer
-    than ``window_min_modes`` candidates). Each window's search is appended
-    to ``searched`` (when given), as by :func:`add_zoom_modes`.
+    than ``window_min_modes`` candidates), and each window's search, as by
+    :func:`add_zoom_modes`.
 
     Examples
     --------
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, False)
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
     >>> f = np.arange(10.0, 60.0)
-    >>> add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60)).pole.size
-    0
+    >>> sel, searched = add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60))
+    >>> sel.pole.size, searched
+    (0, [])
     """
     windows = mode_windows(pole_fd_hz(sel.pole), band, search.thresholds)
     # the windows' searches are independent: side by side in the worker
@@ -456,8 +459,8 @@ def add_window_modes(
     local = replace(search, map_=None)  # a worker's search runs in the worker
     map_ = search.map_ if search.map_ is not None else SerialMap()
     found = map_(partial(search_window, local, freq, Hn), windows)
+    searched: list[SearchedBand] = []
     for window, wsel in zip(windows, found, strict=True):
-        if searched is not None:
-            searched.append((window, wsel, covered_candidates(sel, wsel)))
+        searched.append((window, wsel, covered_candidates(sel, wsel)))
         sel = add_uncovered(sel, wsel, "window")
-    return sel
+    return sel, searched
