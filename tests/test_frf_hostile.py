@@ -776,3 +776,51 @@ def test_a_quiet_record_toggling_between_two_codes_is_no_overload(rec):
     hits = hitlib.check_hits(recording, 0, found, exp_window=True)
     assert "overload" not in hits[2].reasons
     assert [h.reasons for k, h in enumerate(hits) if k != 2] == [()] * 4
+
+
+KILLED_SWAP = """
+import os, sys
+from pathlib import Path
+from ema_pipeline import io
+folder = Path(sys.argv[1])
+real = os.replace
+renames = []
+def replace_then_die(a, b, *args, **kwargs):
+    real(a, b, *args, **kwargs)
+    renames.append(b)
+    if len(renames) == 2:  # killed after the second of three renames
+        os._exit(9)
+os.replace = replace_then_die
+with io.replace_together():
+    for name in ("a.txt", "b.txt", "c.txt"):
+        io.write_text("new " + name, folder / name)
+"""
+
+
+def test_a_swap_killed_between_its_renames_is_put_back_by_the_next(tmp_path):
+    """A process killed between the renames of replace_together (a real
+    os._exit in a child, after two of three) leaves a mixed set and its journal;
+    the next replace_together into that folder puts the old set back first,
+    with a warning naming the files, and then writes its own; nothing hidden
+    is left."""
+    import subprocess
+    import sys
+
+    (tmp_path / "a.txt").write_text("old a.txt")
+    (tmp_path / "c.txt").write_text("old c.txt")  # b.txt did not exist
+    child = subprocess.run([sys.executable, "-c", KILLED_SWAP, str(tmp_path)],
+                           capture_output=True, text=True)
+    assert child.returncode == 9, child.stderr
+    assert (tmp_path / "a.txt").read_text() == "new a.txt"  # mixed: a and b new, c old
+    assert (tmp_path / "b.txt").read_text() == "new b.txt"
+    assert (tmp_path / "c.txt").read_text() == "old c.txt"
+    assert len(list(tmp_path.glob(".ema-replace-*.journal"))) == 1
+    with pytest.warns(UserWarning, match=r"interrupted between its renames; put back a\.txt, "
+                                         r"b\.txt as they were"):  # c was not reached
+        with io.replace_together():
+            io.write_text("third d", tmp_path / "d.txt")
+    assert (tmp_path / "a.txt").read_text() == "old a.txt"
+    assert not (tmp_path / "b.txt").exists()
+    assert (tmp_path / "c.txt").read_text() == "old c.txt"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "c.txt", "d.txt"]
+    assert io.recover_interrupted(tmp_path) == []  # nothing left to put back
