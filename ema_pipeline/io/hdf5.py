@@ -124,8 +124,11 @@ HDF5_SUFFIXES = {".h5", ".hdf5", ".hdf"}
 MAX_DATASET_BYTES = 1 << 30
 #: Deepest group nesting and most objects walked in one file.
 MAX_DEPTH, MAX_OBJECTS = 64, 200_000
-#: The child check of a file may take CHILD_TIMEOUT_S + size / CHILD_READ_RATE seconds.
-CHILD_TIMEOUT_S, CHILD_READ_RATE = 5.0, 10e6
+#: The child check of a file may take CHILD_TIMEOUT_S + size / CHILD_READ_RATE seconds,
+#: and CHILD_START_S more when it is a fresh interpreter (threads in this process rule
+#: out a fork): its start-up alone took more than 5 s on a 2-core machine at load 8,
+#: and a valid file must not fail on a busy machine.
+CHILD_TIMEOUT_S, CHILD_READ_RATE, CHILD_START_S = 5.0, 10e6, 30.0
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _ALLOWED_KINDS = frozenset("biufcSUO")  # bool, ints, floats, complex, strings
 _EXIT_OK, _EXIT_DATA, _EXIT_OTHER = 0, 3, 4
@@ -607,7 +610,8 @@ def check_hdf5(path: str | os.PathLike[str], timeout_s: float | None = None) -> 
     Raises DataError naming the file when it is not a non-empty regular HDF5
     file, when the child finds a structural problem (links, types, sizes), or
     when libhdf5 crashed or hung in the child (killed after ``timeout_s``,
-    default ``CHILD_TIMEOUT_S + size / CHILD_READ_RATE``). See the module
+    default ``CHILD_TIMEOUT_S + size / CHILD_READ_RATE``, plus ``CHILD_START_S``
+    for a fresh interpreter). See the module
     docstring for why and what it costs.
 
     Examples
@@ -620,10 +624,12 @@ def check_hdf5(path: str | os.PathLike[str], timeout_s: float | None = None) -> 
     path = Path(path)
     size = check_readable(path, "an HDF5 file").st_size
     _check_signature(path, size)
+    default = timeout_s is None
     timeout_s = _child_timeout(size) if timeout_s is None else timeout_s
     if hasattr(os, "fork") and only_fork_safe_threads():
         status, message = _fork_check(path, timeout_s)
     else:
+        timeout_s += CHILD_START_S if default else 0.0
         status, message = _spawn_check(path, timeout_s)
     if status == "ok":
         return
