@@ -44,6 +44,8 @@ REAL_UFF = SHARED_DATA / "ufsc-beam-hammer.uff"
 PYFRF_UFF = SHARED_DATA / "pyfrf-impact.uff"
 #: Three of pyuff's public test files, with pyuff's MIT licence.
 PYUFF_DIR = SHARED_DATA / "pyuff"
+#: The measured beam's geometry (examples/make_ufsc_geometry.py).
+BEAM_GEOMETRY = REPO / "examples" / "ufsc-beam-geometry.uff"
 
 
 @pytest.fixture(scope="session")
@@ -52,6 +54,17 @@ def real_uff() -> Path:
     if not REAL_UFF.is_file():
         pytest.skip(f"measured data not available at {REAL_UFF}")
     return REAL_UFF
+
+
+@pytest.fixture(scope="session")
+def beam_identified(real_uff: Path):
+    """``identify(io.read_frf(real_uff))``: the library on the measured beam at
+    the defaults (the reciprocity rule inside ``identify``), run once per
+    session for test_identification.py and test_library_cli.py (about 10 s)."""
+    from ema_pipeline import io
+    from ema_pipeline.identification import identify
+
+    return identify(io.read_frf(real_uff))
 
 
 @pytest.fixture(scope="session")
@@ -136,6 +149,13 @@ FUZZ_WORKERS = 1
 _BG_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path, dict[str, tuple[int, ...]]]]()
 _MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
 _FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
+_BEAM_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
+
+
+def beam_report_args(out: Path) -> list[str]:
+    """The arguments of the shared run of the measured beam (:func:`beam_report`)."""
+    return ["identify", str(REAL_UFF), "--out", str(out), "--report", "--no-figures",
+            "--geometry", str(BEAM_GEOMETRY), "--quiet"]
 
 
 def _start_mypy() -> subprocess.Popen[str]:
@@ -155,6 +175,19 @@ def _start_script(prefix: str, script: str,
     with open(root / "runner.log", "wb") as log:
         proc = subprocess.Popen(
             [sys.executable, str(REPO / "tests" / script), *args(root)],
+            cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+        )
+    return proc, root
+
+
+def _start_beam_report() -> tuple[subprocess.Popen[bytes], Path]:
+    """``python -m ema_pipeline.cli`` with :func:`beam_report_args` (ROOT/out)."""
+    root = Path(tempfile.mkdtemp(prefix="ema-beam-"))
+    env = dict(os.environ, EMA_PIPELINE_WORKERS="1", PYTHONPATH=os.pathsep.join(
+        filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    with open(root / "runner.log", "wb") as log:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "ema_pipeline.cli", *beam_report_args(root / "out")],
             cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
         )
     return proc, root
@@ -208,6 +241,10 @@ def pytest_collection_finish(session: pytest.Session) -> None:
     needed = _background_needed(session.items)
     if needed:
         session.config.stash[_BG_KEY] = (*_start_background(needed), needed)
+    if REAL_UFF.is_file() and BEAM_GEOMETRY.is_file() and any(
+        "beam_report" in getattr(item, "fixturenames", ()) for item in session.items
+    ):
+        session.config.stash[_BEAM_KEY] = _start_beam_report()
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
@@ -215,11 +252,12 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     mypy = config.stash.get(_MYPY_KEY, None)
     fuzz = config.stash.get(_FUZZ_KEY, None)
     bg = config.stash.get(_BG_KEY, None)
-    for proc in (mypy, fuzz[0] if fuzz else None, bg[0] if bg else None):
+    beam = config.stash.get(_BEAM_KEY, None)
+    for proc in (mypy, *(job[0] for job in (fuzz, bg, beam) if job)):
         if proc is not None and proc.poll() is None:
             proc.kill()
             proc.wait()
-    for job in (fuzz, bg):
+    for job in (fuzz, bg, beam):
         if job is not None:
             shutil.rmtree(job[1], ignore_errors=True)
 
@@ -247,6 +285,25 @@ def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
     proc.wait()
     assert proc.returncode == 0, f"fuzz corpus run failed:\n{_log_tail(root)}"
     return json.loads((root / "verdicts.json").read_text())
+
+
+@pytest.fixture(scope="session")
+def beam_report(request: pytest.FixtureRequest, real_uff: Path) -> Path:
+    """The results folder of ``ema-pipeline identify`` on the measured beam
+    with ``--report --no-figures --geometry examples/ufsc-beam-geometry.uff
+    --quiet`` (:func:`beam_report_args`): modes CSV, result and report page.
+    It runs once per session, in a child process started at collection (about
+    10 s on the second core); the tests only read it (test_library_cli,
+    test_picks, test_picks_browser, test_report)."""
+    if not BEAM_GEOMETRY.is_file():
+        pytest.skip(f"the beam's geometry {BEAM_GEOMETRY} is not there")
+    job = request.config.stash.get(_BEAM_KEY, None)
+    if job is None:
+        job = request.config.stash[_BEAM_KEY] = _start_beam_report()
+    proc, root = job
+    proc.wait()
+    assert proc.returncode == 0, f"the measured beam's run failed:\n{_log_tail(root)}"
+    return root / "out"
 
 
 class Background:
