@@ -150,6 +150,7 @@ _BG_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path, dict[str, tuple[i
 _MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
 _FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 _BEAM_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
+_DOCS_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 
 
 def beam_report_args(out: Path) -> list[str]:
@@ -189,6 +190,23 @@ def _start_beam_report() -> tuple[subprocess.Popen[bytes], Path]:
         proc = subprocess.Popen(
             [sys.executable, "-m", "ema_pipeline.cli", *beam_report_args(root / "out")],
             cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+        )
+    return proc, root
+
+
+def _start_docs() -> tuple[subprocess.Popen[bytes], Path]:
+    """The documentation site built with ``sphinx -W`` into ROOT/html, its
+    stdout and stderr in ROOT/stdout.txt and ROOT/stderr.txt (for test_docs.py;
+    sphinx-gallery runs every tutorial and writes their pages to
+    ``docs/tutorials/``, which git ignores)."""
+    root = Path(tempfile.mkdtemp(prefix="ema-docs-"))
+    env = dict(os.environ, MPLBACKEND="Agg", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
+               PYTHONPATH=str(REPO), EMA_DOCS_RUN_ALL="1")
+    with open(root / "stdout.txt", "wb") as out, open(root / "stderr.txt", "wb") as err:
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-E", "-j", "1", "-q",
+             "-b", "html", str(REPO / "docs"), str(root / "html")],
+            cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=out, stderr=err,
         )
     return proc, root
 
@@ -245,6 +263,8 @@ def pytest_collection_finish(session: pytest.Session) -> None:
         "beam_report" in getattr(item, "fixturenames", ()) for item in session.items
     ):
         session.config.stash[_BEAM_KEY] = _start_beam_report()
+    if any("docs_site" in getattr(item, "fixturenames", ()) for item in session.items):
+        session.config.stash[_DOCS_KEY] = _start_docs()
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
@@ -253,11 +273,12 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     fuzz = config.stash.get(_FUZZ_KEY, None)
     bg = config.stash.get(_BG_KEY, None)
     beam = config.stash.get(_BEAM_KEY, None)
-    for proc in (mypy, *(job[0] for job in (fuzz, bg, beam) if job)):
+    docs = config.stash.get(_DOCS_KEY, None)
+    for proc in (mypy, *(job[0] for job in (fuzz, bg, beam, docs) if job)):
         if proc is not None and proc.poll() is None:
             proc.kill()
             proc.wait()
-    for job in (fuzz, bg, beam):
+    for job in (fuzz, bg, beam, docs):
         if job is not None:
             shutil.rmtree(job[1], ignore_errors=True)
 
@@ -304,6 +325,25 @@ def beam_report(request: pytest.FixtureRequest, real_uff: Path) -> Path:
     proc.wait()
     assert proc.returncode == 0, f"the measured beam's run failed:\n{_log_tail(root)}"
     return root / "out"
+
+
+@pytest.fixture(scope="session")
+def docs_site(request: pytest.FixtureRequest) -> Path:
+    """The folder of the documentation site built with ``sphinx -W`` (about
+    45 s, in a child process started at collection): the build must succeed
+    with no warning and no error."""
+    job = request.config.stash.get(_DOCS_KEY, None)
+    if job is None:
+        job = request.config.stash[_DOCS_KEY] = _start_docs()
+    proc, root = job
+    start = time.perf_counter()
+    proc.wait(timeout=600)
+    waited = time.perf_counter() - start
+    stderr = (root / "stderr.txt").read_text(errors="replace")
+    assert proc.returncode == 0, (
+        f"sphinx -W failed ({waited:.0f} s after its test asked for it):\n{stderr[-6000:]}")
+    assert "WARNING" not in stderr and "ERROR" not in stderr, stderr[-6000:]
+    return root / "html"
 
 
 class Background:
