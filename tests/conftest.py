@@ -27,6 +27,7 @@ import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 import tqdm  # noqa: E402
 from background_job import claim, output_path, write_outputs  # noqa: E402
+from readme_blocks import INDEX, readme_key, runs_in_background, write_outcome  # noqa: E402
 
 from ema_pipeline.cli import main  # noqa: E402
 
@@ -151,6 +152,7 @@ _MYPY_KEY = pytest.StashKey[subprocess.Popen[str]]()
 _FUZZ_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 _BEAM_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
 _DOCS_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path]]()
+_README_KEY = pytest.StashKey[tuple[subprocess.Popen[bytes], Path, list[int]]]()
 
 
 def beam_report_args(out: Path) -> list[str]:
@@ -164,15 +166,18 @@ def _start_mypy() -> subprocess.Popen[str]:
                             stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True)
 
 
-def _start_script(prefix: str, script: str,
-                  args: Callable[[Path], list[str]]) -> tuple[subprocess.Popen[bytes], Path]:
+def _start_script(prefix: str, script: str, args: Callable[[Path], list[str]],
+                  one_worker: bool = True) -> tuple[subprocess.Popen[bytes], Path]:
     """``python tests/SCRIPT ARGS`` in a child process with the repository on
-    its path, output to ROOT/runner.log, ROOT a fresh folder (``args(ROOT)``)."""
+    its path, output to ROOT/runner.log, ROOT a fresh folder (``args(ROOT)``);
+    ``one_worker``: with ``EMA_PIPELINE_WORKERS=1``."""
     root = Path(tempfile.mkdtemp(prefix=prefix))
-    # one process each: the jobs run beside the suite on 2 cores (no worker
-    # processes of their own, ema_pipeline.threads)
-    env = dict(os.environ, EMA_PIPELINE_WORKERS="1", PYTHONPATH=os.pathsep.join(
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
+    if one_worker:
+        # one process each: the jobs run beside the suite on 2 cores (no worker
+        # processes of their own, ema_pipeline.threads)
+        env["EMA_PIPELINE_WORKERS"] = "1"
     with open(root / "runner.log", "wb") as log:
         proc = subprocess.Popen(
             [sys.executable, str(REPO / "tests" / script), *args(root)],
@@ -231,6 +236,29 @@ def _start_background(jobs: dict[str, tuple[int, ...]]) -> tuple[subprocess.Pope
     return _start_script("ema-bg-", "background_job.py", lambda root: [str(root), *specs])
 
 
+def _readme_needed(items: list[pytest.Item]) -> list[int]:
+    """The indices (readme_blocks.BLOCKS) of the selected readme blocks that
+    may run in the background job (readme_blocks.runs_in_background), in
+    test order."""
+    needed = []
+    for item in items:
+        if getattr(item, "originalname", None) != "test_readme_block_runs":
+            continue
+        params = item.callspec.params  # type: ignore[attr-defined]
+        if runs_in_background(params["lang"], params["body"], params["directive"]):
+            needed.append(INDEX[params["line"]])
+    return needed
+
+
+def _start_readme(indices: list[int]) -> tuple[subprocess.Popen[bytes], Path]:
+    """``python tests/readme_blocks.py ROOT INDEX ...``: the bash blocks run in
+    the background, one outcome file each in ROOT. The blocks run in the
+    suite's environment (as their tests did), so without the jobs'
+    ``EMA_PIPELINE_WORKERS=1``."""
+    return _start_script("ema-readme-", "readme_blocks.py",
+                         lambda root: [str(root), *map(str, indices)], one_worker=False)
+
+
 def _background_needed(items: list[pytest.Item]) -> dict[str, tuple[int, ...]]:
     """The entries of the test modules' ``BACKGROUND`` ("KIND:NAME" -> seeds) that
     the selected tests using the ``background`` fixture may read: for a test
@@ -265,6 +293,9 @@ def pytest_collection_finish(session: pytest.Session) -> None:
         session.config.stash[_BEAM_KEY] = _start_beam_report()
     if any("docs_site" in getattr(item, "fixturenames", ()) for item in session.items):
         session.config.stash[_DOCS_KEY] = _start_docs()
+    readme = _readme_needed(session.items)
+    if readme:
+        session.config.stash[_README_KEY] = (*_start_readme(readme), readme)
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
@@ -274,11 +305,12 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     bg = config.stash.get(_BG_KEY, None)
     beam = config.stash.get(_BEAM_KEY, None)
     docs = config.stash.get(_DOCS_KEY, None)
-    for proc in (mypy, *(job[0] for job in (fuzz, bg, beam, docs) if job)):
+    readme = config.stash.get(_README_KEY, None)
+    for proc in (mypy, *(job[0] for job in (fuzz, bg, beam, docs, readme) if job)):
         if proc is not None and proc.poll() is None:
             proc.kill()
             proc.wait()
-    for job in (fuzz, bg, beam, docs):
+    for job in (fuzz, bg, beam, docs, readme):
         if job is not None:
             shutil.rmtree(job[1], ignore_errors=True)
 
@@ -394,3 +426,49 @@ class Background:
 def background(request: pytest.FixtureRequest) -> Background:
     """Cases identified in the background (:class:`Background`)."""
     return Background(request.config.stash.get(_BG_KEY, None))
+
+
+class ReadmeOutcomes:
+    """The bash blocks of README.md and the docs run by the background job
+    (``tests/readme_blocks.py``): :meth:`outcome` reads a block's. A block the
+    job has not started, the test process claims and runs itself (written
+    like the job's); while the job runs the block a test waits for, the test
+    process runs blocks the job has not started (the last first)."""
+
+    def __init__(self, job: tuple[subprocess.Popen[bytes], Path, list[int]] | None) -> None:
+        self.job = job
+
+    def outcome(self, index: int) -> dict[str, object] | None:
+        """{"returncode", "stdout", "stderr", "script"} of block ``index``; None
+        when the job does not run it (the test then runs it itself)."""
+        if self.job is None or index not in self.job[2]:
+            return None
+        proc, root, _ = self.job
+        path = output_path(root, readme_key(index))
+        if not path.exists() and claim(root, readme_key(index)):
+            write_outcome(root, index)
+        while not path.exists():
+            if proc.poll() is not None and not path.exists():
+                raise AssertionError(f"readme block job failed (block {index}):\n"
+                                     f"{_log_tail(root)}")
+            if not self._take_one():
+                time.sleep(0.1)
+        return json.loads(path.read_text())
+
+    def _take_one(self) -> bool:
+        """Run one block that nobody has claimed yet (the job's last first);
+        False when there is none."""
+        assert self.job is not None
+        _, root, indices = self.job
+        for index in reversed(indices):
+            key = readme_key(index)
+            if not output_path(root, key).exists() and claim(root, key):
+                write_outcome(root, index)
+                return True
+        return False
+
+
+@pytest.fixture(scope="session")
+def readme_outcomes(request: pytest.FixtureRequest) -> ReadmeOutcomes:
+    """The readme bash blocks run in the background (:class:`ReadmeOutcomes`)."""
+    return ReadmeOutcomes(request.config.stash.get(_README_KEY, None))
