@@ -13,9 +13,11 @@ import os
 for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
+import contextlib  # noqa: E402
 import importlib.util  # noqa: E402
 import json  # noqa: E402
 import shutil  # noqa: E402
+import signal  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -123,7 +125,6 @@ def example_study_uff_no_figures(tmp_path_factory: pytest.TempPathFactory,
     example, run once per session for the tests that read it (no figures in
     test_report.py, the modes' UFF files in test_uff_export_cli.py, and its console
     output, stdout then stderr, kept in ``../console.txt`` for test_cli_first_hour.py)."""
-    import contextlib
     import io as text_io
 
     results = tmp_path_factory.mktemp("study_uff") / "results"
@@ -167,10 +168,12 @@ def _start_mypy() -> subprocess.Popen[str]:
 
 
 def _start_script(prefix: str, script: str, args: Callable[[Path], list[str]],
-                  one_worker: bool = True) -> tuple[subprocess.Popen[bytes], Path]:
+                  one_worker: bool = True,
+                  new_session: bool = False) -> tuple[subprocess.Popen[bytes], Path]:
     """``python tests/SCRIPT ARGS`` in a child process with the repository on
     its path, output to ROOT/runner.log, ROOT a fresh folder (``args(ROOT)``);
-    ``one_worker``: with ``EMA_PIPELINE_WORKERS=1``."""
+    ``one_worker``: with ``EMA_PIPELINE_WORKERS=1``; ``new_session``: in a
+    process group of its own (:func:`pytest_unconfigure` stops the whole group)."""
     root = Path(tempfile.mkdtemp(prefix=prefix))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(
         filter(None, [str(REPO), os.environ.get("PYTHONPATH")])))
@@ -182,6 +185,7 @@ def _start_script(prefix: str, script: str, args: Callable[[Path], list[str]],
         proc = subprocess.Popen(
             [sys.executable, str(REPO / "tests" / script), *args(root)],
             cwd=REPO, env=env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT,
+            start_new_session=new_session,
         )
     return proc, root
 
@@ -254,9 +258,11 @@ def _start_readme(indices: list[int]) -> tuple[subprocess.Popen[bytes], Path]:
     """``python tests/readme_blocks.py ROOT INDEX ...``: the bash blocks run in
     the background, one outcome file each in ROOT. The blocks run in the
     suite's environment (as their tests did), so without the jobs'
-    ``EMA_PIPELINE_WORKERS=1``."""
+    ``EMA_PIPELINE_WORKERS=1``; in a process group of its own, so that a run
+    stopped early stops the block's commands too."""
     return _start_script("ema-readme-", "readme_blocks.py",
-                         lambda root: [str(root), *map(str, indices)], one_worker=False)
+                         lambda root: [str(root), *map(str, indices)], one_worker=False,
+                         new_session=True)
 
 
 def _background_needed(items: list[pytest.Item]) -> dict[str, tuple[int, ...]]:
@@ -306,6 +312,9 @@ def pytest_unconfigure(config: pytest.Config) -> None:
     beam = config.stash.get(_BEAM_KEY, None)
     docs = config.stash.get(_DOCS_KEY, None)
     readme = config.stash.get(_README_KEY, None)
+    if readme is not None and readme[0].poll() is None:  # the job and the block it runs
+        with contextlib.suppress(ProcessLookupError):
+            os.killpg(readme[0].pid, signal.SIGKILL)
     for proc in (mypy, *(job[0] for job in (fuzz, bg, beam, docs, readme) if job)):
         if proc is not None and proc.poll() is None:
             proc.kill()

@@ -141,7 +141,10 @@ def write_outcome(out_dir: Path, index: int) -> None:
 
 def main(argv: list[str]) -> int:
     out_dir = Path(argv[0])
+    parent = os.getppid()
     for index in map(int, argv[1:]):
+        if os.getppid() != parent:  # the test run is gone (killed): stop
+            return 1
         if claim(out_dir, readme_key(index)):
             write_outcome(out_dir, index)
     return 0
