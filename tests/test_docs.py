@@ -1,21 +1,18 @@
 """The documentation site builds with ``-W`` (issue 29): a broken docstring, a
 dangling reference or a failing tutorial fails the suite.
 
-The Sphinx build runs once, in a child process, into a temporary folder
-(sphinx-gallery writes the tutorials' generated pages to ``docs/tutorials/``,
-which git ignores). Its ``objects.inv`` must list the public API, and the
+The Sphinx build runs once, in a child process started at collection
+(tests/conftest.py, ``docs_site``), into a temporary folder (sphinx-gallery
+writes the tutorials' generated pages to ``docs/tutorials/``, which git
+ignores). Its ``objects.inv`` must list the public API, and the
 tutorials' pages must hold output computed during the build that agrees with
 the simulation's truth (the paper's Table 1).
 """
 
 from __future__ import annotations
 
-import os
 import posixpath
 import re
-import subprocess
-import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -39,20 +36,10 @@ for _module in ("sphinx", "furo", "myst_parser", "sphinx_gallery", "sphinxarg"):
 
 
 @pytest.fixture(scope="module")
-def site(tmp_path_factory) -> Path:
-    out = tmp_path_factory.mktemp("docs") / "html"
-    env = dict(os.environ, MPLBACKEND="Agg", OMP_NUM_THREADS="1", OPENBLAS_NUM_THREADS="1",
-               PYTHONPATH=str(REPO), EMA_DOCS_RUN_ALL="1")
-    start = time.perf_counter()
-    proc = subprocess.run(
-        [sys.executable, "-m", "sphinx", "-W", "--keep-going", "-E", "-j", "1", "-q",
-         "-b", "html", str(DOCS), str(out)],
-        cwd=REPO, env=env, capture_output=True, text=True, timeout=600,
-    )
-    seconds = time.perf_counter() - start
-    assert proc.returncode == 0, f"sphinx -W failed after {seconds:.0f} s:\n{proc.stderr[-6000:]}"
-    assert "WARNING" not in proc.stderr and "ERROR" not in proc.stderr, proc.stderr[-6000:]
-    return out
+def site(docs_site: Path) -> Path:
+    """The site's folder (conftest.py's ``docs_site``: built in the background
+    from collection on, ``-W``, no warning or error)."""
+    return docs_site
 
 
 def _inventory(site: Path) -> set[str]:

@@ -497,7 +497,34 @@ TWELVE_MODES = ModalParameters(
     zeta=[0.01] * 12)
 
 
-def test_no_window_search_skips_the_window_searches(tmp_path: Path,
+def _twelve_frf() -> FRFSet:
+    """:data:`TWELVE_MODES` noise-free, 3 x 1 receptances, 0-800 Hz."""
+    f = np.linspace(0.0, 800.0, 2049)
+    phi = np.random.default_rng(3).standard_normal((3, 12))
+    return FRFSet(freq_hz=f, H=modal_frf(f, TWELVE_MODES, phi, phi[:1], quantity="receptance"),
+                  quantity="receptance")
+
+
+@pytest.fixture(scope="module")
+def twelve(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
+    """:func:`_twelve_frf` as IN/twelve.uff and ``identify --quiet`` of it at the
+    defaults, run once for the window-search and fixed-order tests: (the file,
+    the output folder, the run's stderr)."""
+    import contextlib
+    import io as text_io
+
+    root = tmp_path_factory.mktemp("twelve")
+    (root / "in").mkdir()
+    src = io.write_frf(_twelve_frf(), root / "in" / "twelve.uff", "uff")
+    err = text_io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["identify", str(src), "--out", str(root / "default"), "--quiet"])
+    assert code == 0, err.getvalue()
+    return src, root / "default", err.getvalue()
+
+
+def test_no_window_search_skips_the_window_searches(twelve: tuple[Path, Path, str],
+                                                    tmp_path: Path,
                                                     capsys: pytest.CaptureFixture[str]) -> None:
     """On a noise-free twelve-mode FRF (3 x 1, 0-800 Hz): by default the band is
     searched again in windows of consecutive candidates, so the middle modes are
@@ -505,25 +532,20 @@ def test_no_window_search_skips_the_window_searches(tmp_path: Path,
     ``--no-window-search`` (identify and batch) only the low-band search is left,
     which holds none of them, the stored settings say so, and the twelve modes
     are the same. The experiment file's ``[identification] window_searches``
-    is the same option."""
+    is the same option. The default run is the module's (``twelve``)."""
     toml = tmp_path / "experiment.toml"
     assert schema.read_identification_options({"window_searches": False}, toml) == \
         IdentificationOptions(window_searches=False)
     with pytest.raises(io.DataError, match="window_searches"):
         schema.read_identification_options({"window_searches": "no"}, toml)
-    f = np.linspace(0.0, 800.0, 2049)
-    phi = np.random.default_rng(3).standard_normal((3, 12))
-    H = modal_frf(f, TWELVE_MODES, phi, phi[:1], quantity="receptance")
-    folder = tmp_path / "in"
-    folder.mkdir()
-    io.write_frf(FRFSet(freq_hz=f, H=H, quantity="receptance"), folder / "twelve.uff", "uff")
-    src = folder / "twelve.uff"
+    src, default, _ = twelve
+    folder = src.parent
+    assert _run(["identify", src, "--out", tmp_path / "off", "--quiet", "--no-window-search"],
+                capsys)[0] == 0
     stored = {}
-    for name, extra in (("default", []), ("off", ["--no-window-search"])):
-        assert _run(["identify", src, "--out", tmp_path / name, "--quiet", *extra],
-                    capsys)[0] == 0
-        stored[name] = read_results_h5(tmp_path / name / "twelve_result.h5")["identification"]
-        np.testing.assert_allclose(pd.read_csv(tmp_path / name / "twelve_modes.csv")["fn_hz"],
+    for name, out in (("default", default), ("off", tmp_path / "off")):
+        stored[name] = read_results_h5(out / "twelve_result.h5")["identification"]
+        np.testing.assert_allclose(pd.read_csv(out / "twelve_modes.csv")["fn_hz"],
                                    TWELVE_MODES.fn_hz, rtol=1e-5)
     middle = (np.asarray(TWELVE_MODES.fn_hz) > 200) & (np.asarray(TWELVE_MODES.fn_hz) < 500)
     held = {k: np.asarray(v["band_support"])[:, 0] for k, v in stored.items()}
@@ -1147,27 +1169,25 @@ def test_batch_geometry(two_mode_folder: Path, tmp_path: Path,
 
 
 def test_a_fixed_order_says_it_turned_the_narrower_searches_off(
-        tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+        twelve: tuple[Path, Path, str], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
     """Issue 38, item 3: ``--max-order`` fixes the diagram and turns off the
     narrower searches, which run with the adaptive order only. On the twelve-mode
     FRF (a dense band, 0-800 Hz) ``identify --max-order 60`` says so on stderr and
-    the stored band support is empty; the adaptive run says nothing and its
-    windows hold the middle modes."""
+    the stored band support is empty; the adaptive run (the module's,
+    ``twelve``) says nothing and its windows hold the middle modes."""
     from ema_pipeline.identification import identify
 
-    f = np.linspace(0.0, 800.0, 2049)
-    phi = np.random.default_rng(3).standard_normal((3, 12))
-    frf = FRFSet(freq_hz=f, H=modal_frf(f, TWELVE_MODES, phi, phi[:1], quantity="receptance"),
-                 quantity="receptance")
-    src = tmp_path / "twelve.h5"
-    io.write_frf(frf, src)
+    src, default, default_err = twelve
     code, _, err = _run(["identify", src, "--out", tmp_path / "fixed", "--quiet",
                          "--max-order", "60"], capsys)
     assert code == 0
     assert "--max-order" in err and "the windows of a dense band" in err
     fixed = read_results_h5(tmp_path / "fixed" / "twelve_result.h5")["identification"]
     assert np.asarray(fixed["band_support"]).sum() == 0
-    code, _, err = _run(["identify", src, "--out", tmp_path / "auto", "--quiet"], capsys)
-    assert code == 0 and "narrower searches" not in err
+    assert "narrower searches" not in default_err
+    auto = read_results_h5(default / "twelve_result.h5")["identification"]
+    middle = (np.asarray(TWELVE_MODES.fn_hz) > 200) & (np.asarray(TWELVE_MODES.fn_hz) < 500)
+    assert np.all(np.asarray(auto["band_support"])[middle, 0] >= 2)
     with pytest.warns(UserWarning, match="turned off the narrower searches"):
-        identify(frf, max_order=60)
+        identify(_twelve_frf(), max_order=60)

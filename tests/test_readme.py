@@ -18,69 +18,45 @@ Convention, in README.md and the docs pages: an HTML comment on the line before 
 
 The reason must be given. Blocks that need files of ``../shared/data`` are
 skipped, naming them, where they are absent.
+
+The blocks and how a bash block runs are in tests/readme_blocks.py; the bash
+blocks that need nothing of the suite's own results run there in a background
+job started at collection (tests/conftest.py), and their tests assert on its
+outcome.
 """
 
 from __future__ import annotations
 
 import contextlib
 import io as stdio
-import os
 import re
 import shlex
-import shutil
-import subprocess
-import sys
 import tomllib
 from pathlib import Path
 
 import pytest
-
-REPO = Path(__file__).resolve().parents[1]
-README = REPO / "README.md"
-DOCS = REPO / "docs"
-SOURCES = [README, *sorted(p for p in DOCS.rglob("*.md")
-                           if not {"_build", "tutorials"} & set(p.relative_to(DOCS).parts))]
-SHARED = REPO.parent / "shared"
-FENCE = re.compile(
-    r"(?:<!--\s*readme-test:\s*(?P<directive>.*?)\s*-->\s*\n)?```(?P<lang>\w*)\n(?P<body>.*?)```",
-    re.S,
+from readme_blocks import (
+    BLOCKS,
+    INDEX,
+    make_sandbox,
+    missing_shared,
+    needs_results,
+    run_bash,
+    runnable_body,
 )
-
-
-def _blocks() -> list[tuple[str, str, str, str]]:
-    """(language, body, directive, ``file:line``) of every block of SOURCES."""
-    out = []
-    for source in SOURCES:
-        text = source.read_text(encoding="utf-8")
-        for m in FENCE.finditer(text):
-            if m.group("lang") in ("python", "bash", "toml"):
-                line = text[: m.start("body")].count("\n") + 1
-                where = f"{source.relative_to(REPO)}:{line}"
-                out.append((m.group("lang"), m.group("body"), m.group("directive") or "", where))
-    return out
-
-
-BLOCKS = _blocks()
 
 
 @pytest.fixture
 def sandbox(tmp_path, request) -> Path:
-    """A scratch repository: raw_frf/ copied, ../shared linked, and for a block
-    that reads results/ the tables of the suite's ``ema-pipeline run`` (results/
-    is not in the repository: the README's first command writes it)."""
-    repo = tmp_path / "repo"
-    repo.mkdir()
-    shutil.copytree(REPO / "raw_frf", repo / "raw_frf")
-    shutil.copytree(REPO / "examples", repo / "examples")
+    """A scratch repository (readme_blocks.make_sandbox): raw_frf/ copied,
+    ../shared linked, and for a block that reads results/ the tables of the
+    suite's ``ema-pipeline run`` (results/ is not in the repository: the
+    README's first command writes it)."""
     callspec = getattr(request.node, "callspec", None)
-    if callspec is not None and "results/" in callspec.params.get("body", ""):
+    tables = None
+    if callspec is not None and needs_results(callspec.params.get("body", "")):
         tables = request.getfixturevalue("example_study") / "tables"
-        shutil.copytree(tables, repo / "results" / "tables")
-    shutil.copytree(REPO / "benchmarks", repo / "benchmarks")
-    if SHARED.is_dir():
-        (tmp_path / "shared").symlink_to(SHARED)
-    (tmp_path / "scratch").mkdir()
-    return repo
+    return make_sandbox(tmp_path, tables)
 
 
 def test_readme_has_blocks_of_each_kind_and_skips_give_reasons():
@@ -100,23 +76,31 @@ def test_readme_has_blocks_of_each_kind_and_skips_give_reasons():
     ("lang", "body", "directive", "line"), BLOCKS,
     ids=[f"{b[3].removeprefix('docs/').replace('.md:', '-line')}-{b[0]}" for b in BLOCKS]
 )
-def test_readme_block_runs(lang, body, directive, line, sandbox, monkeypatch):
+def test_readme_block_runs(lang, body, directive, line, request, monkeypatch):
+    """The block runs without error. A bash block that needs nothing of the
+    suite's results may have run in the background job started at collection
+    (tests/conftest.py, ``readme_outcomes``): its exit status and output are
+    that run's."""
     if directive.startswith("skip"):
         pytest.skip(f"{line}: {directive}")
-    if directive.startswith("reduce"):
-        _, old, new, *_reason = shlex.split(directive)
-        body = body.replace(old, new)
-    needed = sorted({m.rstrip(".") for m in re.findall(r"\.\./shared[\w./-]*", body)})
-    missing = [name for name in needed if not (REPO / name).exists()]
+    body = runnable_body(body, directive)
+    missing = missing_shared(body)
     if missing:
         pytest.skip(f"{line} needs {', '.join(missing)} beside the repository (absent here)")
+    if lang == "bash":
+        outcome = request.getfixturevalue("readme_outcomes").outcome(INDEX[line])
+        if outcome is None:  # not a block of the background job: run it here
+            outcome = run_bash(body, request.getfixturevalue("sandbox"))
+        assert outcome["returncode"] == 0, (
+            f"{line}\n{outcome['script']}\n{outcome['stdout']}\n{outcome['stderr']}")
+        return
+    sandbox = request.getfixturevalue("sandbox")
     monkeypatch.chdir(sandbox)
-    scratch = sandbox.parent / "scratch"
     if lang == "python":
         namespace: dict[str, object] = {"__name__": "__readme__"}
         with contextlib.redirect_stdout(stdio.StringIO()):
             exec(compile(body, line, "exec"), namespace)  # noqa: S102
-    elif lang == "toml":
+    else:
         doc = tomllib.loads(body)
         if "experiment" in doc:
             from ema_pipeline import io
@@ -125,13 +109,3 @@ def test_readme_block_runs(lang, body, directive, line, sandbox, monkeypatch):
             path.write_text(body, encoding="utf-8")
             experiment = io.read_experiment(path)
             assert experiment.name == doc["experiment"]["name"]
-    else:
-        cli = f'"{sys.executable}" -m ema_pipeline.cli'
-        # /tmp/ first: the interpreter itself may live under /tmp (a venv there)
-        script = body.replace("/tmp/", f"{scratch}/")
-        script = re.sub(r"(?m)(^|\s|&&\s*)ema-pipeline(?=\s)", rf"\1{cli}", script)
-        script = re.sub(r"(?m)(^|\s)python(?=\s)", rf'\1"{sys.executable}"', script)
-        env = dict(os.environ, PYTHONPATH=str(REPO), MPLBACKEND="Agg")
-        proc = subprocess.run(["bash", "-e", "-o", "pipefail", "-c", script], cwd=sandbox,
-                              env=env, capture_output=True, text=True, timeout=600)
-        assert proc.returncode == 0, f"{line}\n{script}\n{proc.stdout}\n{proc.stderr}"

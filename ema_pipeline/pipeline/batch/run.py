@@ -316,6 +316,16 @@ class _Loop:
                 self.failures.writerow([rec.file, rec.sha256 or "-", rec.reason])
 
 
+class _Bar(tqdm):
+    """The batch's progress bar, without tqdm's monitor thread (it is updated at
+    every file): the monitor outlives the bars (tqdm 4.70), and a second thread
+    makes every later :func:`ema_pipeline.io.check_hdf5` of the process (the
+    batch report reads each file's result) start a fresh interpreter instead
+    of forking, 1-3 s per file."""
+
+    monitor_interval = 0
+
+
 def run_tasks(
     tasks: Iterator[FileTask],
     report: BatchReport,
@@ -336,7 +346,7 @@ def run_tasks(
         aborted = True
         stack.callback(lambda: backend.close(abort=aborted))
         bar = stack.enter_context(
-            tqdm(
+            _Bar(
                 total=report.n_files,
                 unit="file",
                 desc="batch",
