@@ -126,6 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.json:
         Path(args.json).write_text(json.dumps(
             {"default_fn_hz": default["fn_hz"].tolist(),
+             "default_fn_std_hz": default["fn_std_hz"].tolist(),
+             "default_zeta": default["zeta"].tolist(), "default_mpc": default["mpc"].tolist(),
              "bands": {f"{b[0]:g}-{b[1]:g}": out["fn_hz"].tolist() for b, out in bands.items()},
              "pairs": rows}, indent=1, default=float))
     return 0

@@ -247,6 +247,14 @@ def finish_identification(
 ) -> IdentificationResult:
     """LSFD, window correction, standard deviations, indicators.
 
+    One global LSFD of all poles over the band gives the synthesis ``H_fit``
+    (FRAC, error) and the residual terms; each mode's residues, shape, MPC and
+    MAC come from its own local band (:func:`local_residues`, the global
+    residues of the other modes subtracted there), so that a mode's shape
+    does not depend on how wide the band is; the shape of a mode with
+    several references is read from the rank-one part of its residues
+    (:func:`reference_column`).
+
     ``sub`` is the FRF set cut to the band, ``pole_id`` the identified poles
     (before window correction), ``decay`` the window's decay rate 1/tau (1/s).
     ``pole_cov`` (n_modes, 2, 2), the covariance of (sigma, omega_d) of refined
