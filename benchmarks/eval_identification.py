@@ -12,7 +12,10 @@ For every family: true modes, missed and spurious (a match is
 |f_id - f_true| <= (zeta_true + 0.005) f_true, one-to-one by minimum total
 distance), and for the matched modes the fraction with |err| <= 2 sigma and the
 68th percentile of |err| / sigma, for f_n and zeta separately (a missing sigma
-counts as infinitely wrong), plus the mean time per file.
+counts as infinitely wrong), plus the mean time per file. The shapes of the
+matched modes are compared with the true shapes at the identified response
+DOFs (cases with at least 3 of them): the 10th percentile of the MAC and the fraction of
+matched modes with a MAC below 0.95 (columns "MAC p10", "<.95").
 
 The single place that calls the identification is :func:`identify_case`; adapt
 it when the signature changes (``identify(frf, options)``).
@@ -61,7 +64,26 @@ def identify_case(frf: FRFSet, band_hz: tuple[float, float] | None,
     res = identify(frf, band_hz=band_hz, window_searches=impl != "no-window-search")
     m = res.modes
     return {"fn_hz": np.asarray(m.fn_hz), "zeta": np.asarray(m.zeta),
-            "fn_std_hz": np.asarray(m.fn_std_hz), "zeta_std": np.asarray(m.zeta_std)}
+            "fn_std_hz": np.asarray(m.fn_std_hz), "zeta_std": np.asarray(m.zeta_std),
+            "shapes": np.asarray(m.shapes),
+            "nodes": np.array([d.node for d in m.dofs], dtype=int)}
+
+
+def shape_macs(case: hardcases.HardCase, out: dict[str, np.ndarray],
+               pairs: list[tuple[int, int]]) -> list[float]:
+    """MAC of each matched mode's identified shape with the true shape at the
+    identified response DOFs (the hard cases number their points node k + 1
+    for row k of ``case.shapes``); empty below 3 response DOFs, where a MAC
+    says little."""
+    nodes = out.get("nodes", np.zeros(0, dtype=int))
+    if nodes.size < 3 or "shapes" not in out:
+        return []
+    from ema_pipeline.modal import mac_pairs
+
+    rows = nodes - 1
+    true = case.shapes[rows][:, [i for i, _ in pairs]]
+    ident = out["shapes"][:, [j for _, j in pairs]]
+    return [float(x) for x in mac_pairs(ident, true)]
 
 
 # --------------------------------------------------------------------------- scoring
@@ -86,6 +108,7 @@ def score_case(case: hardcases.HardCase, out: dict[str, np.ndarray]) -> dict:
         sf, sz = out["fn_std_hz"][j], out["zeta_std"][j]
         rf.append(abs(ef) / sf if np.isfinite(sf) and sf > 0 else np.inf)
         rz.append(abs(ez) / sz if np.isfinite(sz) and sz > 0 else np.inf)
+    macs = shape_macs(case, out, pairs) if pairs else []
     matched_true = {i for i, _ in pairs}
     return {
         "n_true": int(case.fn_hz.size),
@@ -97,6 +120,7 @@ def score_case(case: hardcases.HardCase, out: dict[str, np.ndarray]) -> dict:
                         if j not in {jj for _, jj in pairs}],
         "rf": rf,
         "rz": rz,
+        "mac": macs,
     }
 
 
@@ -130,19 +154,23 @@ def run_family(family: str, seeds: list[int], impl: str, verbose: bool = False,
 
     cf, pf = stats(rf)
     cz, pz = stats(rz)
+    macs = np.array([x for r in rows for x in r["mac"]])
     return {
         "family": family, "files": len(seeds),
         "true": sum(r["n_true"] for r in rows),
         "missed": sum(r["missed"] for r in rows),
         "spurious": sum(r["spurious"] for r in rows),
         "cov_f": cf, "p68_f": pf, "cov_z": cz, "p68_z": pz,
+        "mac_p10": float(np.percentile(macs, 10)) if macs.size else np.nan,
+        "mac_below_095": float(np.mean(macs < 0.95)) if macs.size else np.nan,
         "time_s": float(np.mean(times)), "errors": errors, "rows": rows,
     }
 
 
 def print_table(results: list[dict]) -> None:
     head = (f"{'family':<14}{'files':>6}{'true':>6}{'missed':>8}{'spur':>6}"
-            f"{'f<=2s':>8}{'p68 f':>8}{'z<=2s':>8}{'p68 z':>8}{'s/file':>8}")
+            f"{'f<=2s':>8}{'p68 f':>8}{'z<=2s':>8}{'p68 z':>8}{'MAC p10':>8}{'<.95':>6}"
+            f"{'s/file':>8}")
     print(head)
     print("-" * len(head))
     tot = {"true": 0, "missed": 0, "spurious": 0}
@@ -151,7 +179,8 @@ def print_table(results: list[dict]) -> None:
             tot[k] += r[k]
         print(f"{r['family']:<14}{r['files']:>6}{r['true']:>6}{r['missed']:>8}{r['spurious']:>6}"
               f"{100 * r['cov_f']:>7.0f}%{r['p68_f']:>8.2f}{100 * r['cov_z']:>7.0f}%"
-              f"{r['p68_z']:>8.2f}{r['time_s']:>8.2f}")
+              f"{r['p68_z']:>8.2f}{r['mac_p10']:>8.3f}{100 * r['mac_below_095']:>5.0f}%"
+              f"{r['time_s']:>8.2f}")
         for e in r["errors"]:
             print(f"    ERROR {e}")
     print(f"{'total':<14}{'':>6}{tot['true']:>6}{tot['missed']:>8}{tot['spurious']:>6}")

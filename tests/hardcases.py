@@ -593,3 +593,27 @@ def make_case(family: str, seed: int, complex_phase_deg: float = 0.0) -> HardCas
 def cases(family: str, seeds: range | list[int]) -> list[HardCase]:
     """``make_case(family, s)`` for every seed."""
     return [make_case(family, int(s)) for s in seeds]
+
+
+def noise_free_case(family: str, seed: int) -> tuple[HardCase, np.ndarray]:
+    """The case ``make_case(family, seed)`` without its noise, and the noise's
+    std per FRF and line (n_out, n_in, n_freq), for Monte Carlo runs that
+    draw the noise again (``benchmarks/eval_complex_sigmas.py``). The
+    frequency-domain families and ``complex_chain`` only: the impact
+    families add their noise in the time domain."""
+    global _cnoise
+    if family in ("impact", "impact_close"):
+        raise ValueError(f"{family}: the noise is added in the time domain")
+    drawn: dict[str, np.ndarray] = {}
+    real = _cnoise
+
+    def no_noise(rng: np.random.Generator, std: np.ndarray) -> np.ndarray:
+        drawn["std"] = std  # the last draw of the case: nothing after it changes
+        return np.zeros(std.shape, dtype=complex)
+
+    _cnoise = no_noise
+    try:
+        case = make_case(family, seed)
+    finally:
+        _cnoise = real
+    return case, drawn["std"]

@@ -24,6 +24,7 @@ from ema_pipeline.identification.refinement.lsfd import (
     normalised_error,
     real_normalised,
 )
+from ema_pipeline.identification.refinement.refine import local_residues
 from ema_pipeline.identification.refinement.uncertainty import modal_std
 from ema_pipeline.identification.result import (
     IdentificationResult,
@@ -202,6 +203,36 @@ def default_max_order(n_in: int, n_lines: int) -> int:
     return int(min(p, n_lines // 2 - 1))
 
 
+def reference_column(residues: np.ndarray, i_ref: int) -> np.ndarray:
+    """Column ``i_ref`` of each mode's residue matrix, (n_modes, n_out), from
+    its rank-one part.
+
+    A mode's residues over the responses o and references i are
+    phi_o phi_i / (2j omega_d m): a rank-one matrix. With several references
+    its shape is read from all of them: the column of reference ``i_ref`` of
+    the best rank-one approximation s_1 u_1 v_1^H of the fitted matrix
+    (its largest singular triple), i.e. the direction u_1 that all
+    references agree on, scaled as reference ``i_ref`` sees it. A mode that
+    reference ``i_ref`` barely excites then keeps the direction the other
+    references give (its own column there holds mostly noise: a close_2ref
+    case's mode at MAC 0.80 with the truth, 0.999 from the rank-one part).
+    One reference: the column itself.
+
+    Examples
+    --------
+    >>> phi = np.array([1.0, -2.0, 0.5])
+    >>> A = (phi[:, None] * np.array([1e-3, 1.0])[None, :])[None]  # reference 0 barely excited
+    >>> A[0, :, 0] += np.array([0.0, 0.0, 1e-3])  # and noise there
+    >>> col = reference_column(A, 0)[0]
+    >>> (col / col[0]).real.round(6).tolist(), float(abs(col[0])) < 1.1e-3
+    ([1.0, -2.0, 0.5], True)
+    """
+    if residues.shape[2] == 1 or residues.shape[0] == 0:
+        return residues[:, :, i_ref]
+    U, s, Vh = np.linalg.svd(residues, full_matrices=False)
+    return s[:, :1] * U[:, :, 0] * Vh[:, 0, i_ref][:, None]
+
+
 def finish_identification(
     sub: FRFSet,
     pole_id: np.ndarray,
@@ -215,6 +246,14 @@ def finish_identification(
     pole_cov: np.ndarray | None = None,
 ) -> IdentificationResult:
     """LSFD, window correction, standard deviations, indicators.
+
+    One global LSFD of all poles over the band gives the synthesis ``H_fit``
+    (FRAC, error) and the residual terms; each mode's residues, shape, MPC and
+    MAC come from its own local band (:func:`local_residues`, the global
+    residues of the other modes subtracted there), so that a mode's shape
+    does not depend on how wide the band is; the shape of a mode with
+    several references is read from the rank-one part of its residues
+    (:func:`reference_column`).
 
     ``sub`` is the FRF set cut to the band, ``pole_id`` the identified poles
     (before window correction), ``decay`` the window's decay rate 1/tau (1/s).
@@ -236,8 +275,12 @@ def finish_identification(
     fn, fd, zeta = pole_to_modal(pole)
     if m:
         fit = lsfd(freq, Hc, pole_id, sub.quantity, lower=lower_residual, upper=upper_residual)
+        # the residues (and shapes) from each mode's local band, the global
+        # fit's terms of the other modes subtracted; the synthesis stays the
+        # global fit's
+        a_local, _ = local_residues(freq, Hc, pole_id, fit.a, thresholds=settings.thresholds)
         q = quantity_power(sub.quantity)
-        residues = (fit.a / pole[:, None] ** q).reshape(m, n_out, n_in)
+        residues = (a_local / pole[:, None] ** q).reshape(m, n_out, n_in)
         H_fit = fit.H_fit.reshape(n_out, n_in, n_freq)
         low = fit.lower.reshape(n_out, n_in)
         up = fit.upper.reshape(n_out, n_in)
@@ -247,7 +290,7 @@ def finish_identification(
         low = np.zeros((n_out, n_in), dtype=complex)
         up = np.zeros((n_out, n_in), dtype=complex)
     i_ref = int(np.argmax(np.sum(np.abs(residues) ** 2, axis=(0, 1)))) if m else 0
-    shapes = (2j * pole.imag)[None, :] * residues[:, :, i_ref].T  # (n_out, m)
+    shapes = (2j * pole.imag)[None, :] * reference_column(residues, i_ref).T  # (n_out, m)
     modes = ModalParameters(
         fn_hz=fn,
         zeta=zeta,

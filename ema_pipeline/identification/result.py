@@ -185,16 +185,22 @@ class IdentificationResult:
     modes : ModalParameters
         f_n, zeta (window-corrected, structural), their standard deviations,
         complex mode shapes (modal constants 2j omega_d A_r at the response DOFs
-        for the reference ``shape_reference``), configuration.
+        for the reference ``shape_reference``, from the rank-one part of A_r
+        with several references:
+        :func:`~ema_pipeline.identification.common.reference_column`), configuration.
     pole : (n_modes,) complex  window-corrected poles lambda_r (rad/s).
-    residues : (n_modes, n_out, n_in) complex  receptance residues A_r.
-    lower_residual, upper_residual : (n_out, n_in) complex residual terms (in the
-        FRF's quantity; see :mod:`ema_pipeline.identification.refinement.lsfd`).
+    residues : (n_modes, n_out, n_in) complex  receptance residues A_r, each
+        mode's from its local band
+        (:func:`~ema_pipeline.identification.refinement.refine.local_residues`).
+    lower_residual, upper_residual : (n_out, n_in) complex residual terms of
+        the global LSFD that gives ``H_fit`` (in the FRF's quantity; see
+        :mod:`ema_pipeline.identification.refinement.lsfd`).
     shapes_real : (n_out, n_modes) real-normalised shapes (largest component +1).
     shape_reference : int  index of the reference used for ``modes.shapes``.
     mac : (n_modes, n_modes) auto-MAC of the shapes.
     mpc : (n_modes,) modal phase collinearity (1 = real mode).
-    freq_hz : (n_freq,) the band's lines.   H_fit : (n_out, n_in, n_freq) synthesis.
+    freq_hz : (n_freq,) the band's lines.   H_fit : (n_out, n_in, n_freq) synthesis
+        of the global LSFD (all modes and the residual terms over the band).
     frac, error : (n_out, n_in) FRAC and normalised error ||H - H_fit|| / ||H|| per FRF.
     stabilization : StabilizationData (empty arrays for the sdypy backend).
     selected : SelectedPoles (cluster bookkeeping; ``None`` for the sdypy backend).

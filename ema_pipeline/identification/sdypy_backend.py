@@ -74,7 +74,8 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     refinement are pLSCF's. Poles are
     window-corrected like the pLSCF ones. The synthesised FRFs (and FRAC,
     error) are sdypy-EMA's LSFD reconstruction; residues, shapes, MAC and MPC
-    come from this package's LSFD at sdypy-EMA's poles (same model).
+    come from this package's LSFD at sdypy-EMA's poles (each mode's local
+    LSFD, as for pLSCF: :func:`~ema_pipeline.identification.common.finish_identification`).
     Called by :func:`ema_pipeline.identification.identify`, which checks the
     input first.
     """

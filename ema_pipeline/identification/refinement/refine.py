@@ -452,6 +452,86 @@ def _refine(
     return RefinedPoles(pole=out, cov=cov, noise_std=noise, band_hz=bands, n_iter=iters)
 
 
+def local_residues(
+    freq_hz: np.ndarray,
+    H: np.ndarray,
+    poles: np.ndarray,
+    a_all: np.ndarray,
+    *,
+    thresholds: SelectionThresholds | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each mode's residues from its own local band: a local LSFD.
+
+    A global LSFD (:func:`~ema_pipeline.identification.refinement.lsfd.lsfd`)
+    over a wide band fits every mode's residues to all the band's lines: a
+    low mode's terms reach far beyond its resonance (their tail falls off as
+    1/w only), so the misfit of lines far from it -- modes outside the
+    band that two residual terms follow only roughly, the noise of lines
+    where |H| is large -- goes partly into its residues, and its shape then
+    depends on the band (the measured beam's first mode: MAC 0.89 between
+    the whole band and 10-130 Hz, MPC 0.73 against 0.93). Here mode r's
+    residues come from the local problem of the pole refinement
+    (:func:`~ema_pipeline.identification.refinement.local_band.local_problem`:
+    its lines within ``thresholds.local_half_width`` half-power bandwidths,
+    its member poles, a quadratic background per channel, the other modes'
+    terms of the global residues ``a_all`` subtracted), solved linearly at
+    the given poles with the noise weights of :func:`vp_fit`: only the
+    lines that carry the mode decide its residues.
+
+    Parameters
+    ----------
+    freq_hz : (n_freq,) Hz.   H : (n_ch, n_freq) complex FRFs (any quantity).
+    poles : (n_modes,) complex, Im > 0, rad/s.
+    a_all : (n_modes, n_ch) complex  the global LSFD's residues (of the FRFs'
+        quantity), kept for a mode without a local problem (fewer than 12
+        lines in its band).
+
+    Returns
+    -------
+    a : (n_modes, n_ch) complex residues of the FRFs' quantity.
+    local : (n_modes,) bool  whether each came from its local band.
+
+    Examples
+    --------
+    Modes at 20 and 150 Hz with real shapes on 6 channels, and a strong one
+    at 300 Hz just above the band (1-280 Hz), which the residual terms follow
+    only roughly: the global fit's shape of the 20 Hz mode has MAC 0.84 with
+    the truth and MPC 0.49, the local one is exact.
+
+    >>> from ema_pipeline.identification.refinement.lsfd import lsfd, mpc
+    >>> from ema_pipeline.modal import mac_pairs
+    >>> f = np.arange(1.0, 281.0)
+    >>> lam = 2j * np.pi * np.array([20.0, 150.0, 300.0]) - np.array([0.6, 3.0, 3.0])
+    >>> a = 1j * np.random.default_rng(0).standard_normal((3, 6)) * [[1], [30], [300]]
+    >>> jw = 2j * np.pi * f[:, None]
+    >>> H = (1 / (jw - lam) @ a + 1 / (jw - lam.conj()) @ a.conj()).T  # (6, 280)
+    >>> a_all = lsfd(f, H, lam[:2], "receptance").a
+    >>> a_loc, local = local_residues(f, H, lam[:2], a_all)
+    >>> mac_pairs(a_all.T, a[:2].T).round(2), mpc(a_all.T).round(2)
+    (array([0.84, 1.  ]), array([0.49, 1.  ]))
+    >>> mac_pairs(a_loc.T, a[:2].T).round(6), bool(local.all())
+    (array([1., 1.]), True)
+    """
+    th = thresholds or SelectionThresholds()
+    freq_hz = np.asarray(freq_hz, dtype=float)
+    a = np.array(a_all, dtype=complex, copy=True)
+    local = np.zeros(poles.size, dtype=bool)
+    for r in range(poles.size):
+        problem = local_problem(freq_hz, H, poles, r, th.local_half_width, th.local_min_lines,
+                                a_all)
+        if problem is None:
+            continue
+        f, Y, members, background, k, _ = problem
+        # the noise-weighted linear fit at the given poles (no iteration)
+        solved = vp_fit(f, Y, poles[members], background, 0).solved
+        if solved is None:  # pragma: no cover - vp_fit always solves once
+            continue
+        X = solved[2]
+        a[r] = X[2 * k] + 1j * X[2 * k + 1]
+        local[r] = True
+    return a, local
+
+
 def band_sensitivity(
     freq_hz: np.ndarray,
     H: np.ndarray,
