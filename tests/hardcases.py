@@ -29,11 +29,16 @@ and 1-3 strong discrete dashpots (non-proportional damping, strongly complex
 modes); its FRFs are the exact inverse of the dynamic stiffness
 K - w^2 M + jw C, and its truth the eigenvalues of the state-space matrix.
 ``impact_close`` is the impact family with one or two pairs of close modes
-below 80 Hz.
+below 80 Hz, measured by 1-4 accelerometers (since issue 42 one accelerometer
+too: its seeds that drew one, 2 before, are one-channel cases now).
+
+Issue 42's ``FEW_CHANNEL_FAMILIES``: ``impact_1ch`` and ``impact_2ch`` are the
+impact family with exactly one and two accelerometers, and in half of the
+cases a close partner beside one of the modes.
 
 Use ``make_case(family, seed)`` or ``cases(family, seeds)``; ``FAMILIES`` lists
-the families of issue 11, ``ALL_FAMILIES`` those and ``COMPLEX_FAMILIES``.
-The same (family, seed) always gives the same case.
+the families of issue 11, ``ALL_FAMILIES`` those, ``COMPLEX_FAMILIES`` and
+``FEW_CHANNEL_FAMILIES``. The same (family, seed) always gives the same case.
 """
 
 from __future__ import annotations
@@ -61,7 +66,10 @@ FAMILIES: tuple[str, ...] = (
 #: run every family): strongly complex modes of a physical chain with discrete
 #: dashpots, and close low-frequency modes in time-domain impact tests.
 COMPLEX_FAMILIES: tuple[str, ...] = ("complex_chain", "impact_close")
-ALL_FAMILIES: tuple[str, ...] = FAMILIES + COMPLEX_FAMILIES
+#: Families of issue 42, kept apart as well: impact tests with one and with
+#: two accelerometers (one hammer point), half of them with a close pair.
+FEW_CHANNEL_FAMILIES: tuple[str, ...] = ("impact_1ch", "impact_2ch")
+ALL_FAMILIES: tuple[str, ...] = FAMILIES + COMPLEX_FAMILIES + FEW_CHANNEL_FAMILIES
 _FAMILY_ID = {name: k for k, name in enumerate(ALL_FAMILIES)}
 _Q = {"receptance": 0, "mobility": 1, "accelerance": 2}
 #: Peak of a mode's own term over the noise std, combined over channels (20 dB).
@@ -473,19 +481,24 @@ def _modal_pulse_response(t: np.ndarray, pole: np.ndarray, tp: float, f0: float)
     return np.where(t[None, :] >= 0, y, 0.0)
 
 
+def _close_separation(rng: np.random.Generator, f1: float, z: np.ndarray, T: float) -> float:
+    """Relative distance of a close pair at ``f1`` (Hz) with damping ratios
+    ``z``: 2-8 %, but at least the sum of their half-power half-widths with
+    the exponential window's decay of about 1/tau = 5.5/T, and 3 lines of 1/T."""
+    hw = z * f1 + 5.5 / T / (2 * np.pi)  # half-power half-widths with the window, Hz
+    return float(max(rng.uniform(0.02, 0.08), (hw[0] + hw[1]) / f1, 3.0 / T / f1))
+
+
 def _close_low_modes(rng: np.random.Generator, T: float) -> tuple[np.ndarray, np.ndarray]:
     """fn, zeta of ``impact_close``: one or two pairs of close modes at 10-80 Hz
-    (2-8 % apart, but at least the sum of their half-power half-widths with
-    the exponential window's decay of about 1/tau = 5.5/T, and 3 lines of
-    1/T) and 2-6 other modes at 90-780 Hz."""
+    (:func:`_close_separation`) and 2-6 other modes at 90-780 Hz."""
     u = rng.uniform
     n_pairs = int(rng.integers(1, 3))
     lows = _spaced_log(rng, n_pairs, 10.0, 70.0, 1.6, 3.0)
     fn_list, z_list = [], []
     for f1 in lows:
         z = np.exp(u(np.log(0.002), np.log(0.015), 2))
-        hw = z * f1 + 5.5 / T / (2 * np.pi)  # half-power half-widths with the window, Hz
-        sep = max(u(0.02, 0.08), (hw[0] + hw[1]) / f1, 3.0 / T / f1)
+        sep = _close_separation(rng, f1, z, T)
         fn_list += [f1, f1 * (1 + sep)]
         z_list += list(z)
     n_hi = int(rng.integers(2, 7))
@@ -496,11 +509,33 @@ def _close_low_modes(rng: np.random.Generator, T: float) -> tuple[np.ndarray, np
     return fn[order], zeta[order]
 
 
+def _few_channel_modes(rng: np.random.Generator, T: float) -> tuple[np.ndarray, np.ndarray]:
+    """fn, zeta of ``impact_1ch`` and ``impact_2ch``: 4-10 modes at 12-780 Hz
+    as ``impact``, and in half of the cases a close partner beside one of
+    them (:func:`_close_separation`, at most 40 % of the way to the next
+    mode, zeta of both 0.2-1.5 %)."""
+    u = rng.uniform
+    n = int(rng.integers(4, 11))
+    fn = _spaced_log(rng, n, 12.0, 780.0, 1.08, 2.5)
+    zeta = np.exp(u(np.log(0.002), np.log(0.02), n))
+    if u() < 0.5:
+        i = int(rng.integers(0, n))
+        z = np.exp(u(np.log(0.002), np.log(0.015), 2))
+        sep = _close_separation(rng, fn[i], z, T)
+        room = (fn[i + 1] / fn[i] - 1) * 0.4 if i < n - 1 else 0.1
+        if sep <= room and fn[i] * (1 + sep) < 790.0:
+            zeta[i] = z[0]
+            fn, zeta = np.append(fn, fn[i] * (1 + sep)), np.append(zeta, z[1])
+    order = np.argsort(fn)
+    return fn[order], zeta[order]
+
+
 def _impact_case(seed: int, rng: np.random.Generator,
                  complex_phase_deg: float = 0.0, family: str = "impact") -> HardCase:
     """Roving-free impact test: 1 hammer point, 1-4 accelerometers, 3-5 hits
     (``family`` "impact_close": close pairs at low frequency,
-    :func:`_close_low_modes`)."""
+    :func:`_close_low_modes`; "impact_1ch", "impact_2ch": 1 or 2
+    accelerometers, :func:`_few_channel_modes`)."""
     from scipy.signal import decimate
 
     u = rng.uniform
@@ -511,8 +546,11 @@ def _impact_case(seed: int, rng: np.random.Generator,
     n_out = int(rng.integers(1, 5))
     n_avg = int(rng.integers(3, 6))
     if family == "impact_close":
-        n_out = max(n_out, 2)
         fn, zeta = _close_low_modes(rng, T)
+        n = fn.size
+    elif family in FEW_CHANNEL_FAMILIES:
+        n_out = 1 if family == "impact_1ch" else 2
+        fn, zeta = _few_channel_modes(rng, T)
         n = fn.size
     else:
         n = int(rng.integers(4, 11))
@@ -583,7 +621,7 @@ def make_case(family: str, seed: int, complex_phase_deg: float = 0.0) -> HardCas
     if family not in _FAMILY_ID:
         raise ValueError(f"unknown family {family!r}; known: {', '.join(FAMILIES)}")
     rng = np.random.default_rng([11, _FAMILY_ID[family], int(seed)])
-    if family in ("impact", "impact_close"):
+    if family in ("impact", "impact_close", *FEW_CHANNEL_FAMILIES):
         return _impact_case(seed, rng, complex_phase_deg, family)
     if family == "complex_chain":
         return _chain_case(seed, rng)
