@@ -22,7 +22,7 @@ the band to identify and the true f_n and zeta of every mode inside that band
 (modes outside the band, present in the data, are not counted). A mode is only
 generated if it is visible: its own peak over the noise, combined over all
 channels, is at least 20 dB (weaker modes get a smaller modal mass; in the
-time-domain impact families, :func:`_impact_visibility`, all but ``impact``,
+time-domain impact families, :func:`impact_visibility`, all but ``impact``,
 which keeps its cases of issue 11).
 
 Two families of issue 31 (``COMPLEX_FAMILIES``) are built differently:
@@ -532,7 +532,7 @@ def _few_channel_modes(rng: np.random.Generator, T: float) -> tuple[np.ndarray, 
     return fn[order], zeta[order]
 
 
-def _impact_visibility(freq_hz: np.ndarray, H1: np.ndarray, lam: np.ndarray) -> np.ndarray:
+def impact_visibility(freq_hz: np.ndarray, H1: np.ndarray, lam: np.ndarray) -> np.ndarray:
     """Each mode's own peak over the noise, combined over the channels, in an
     impact test's H1 estimates ``H1`` (n_out, n_lines): the modes' terms at
     their poles shifted by the window ``lam`` (and a constant) fitted by least
@@ -629,7 +629,7 @@ def _impact_case(seed: int, rng: np.random.Generator,
     for _round in range(4 if family != "impact" else 0):  # "impact" as it was
         # every mode visible (issue 42): the weak ones' residues scaled up; the
         # noise grows with them (it follows the largest response), so repeated
-        vis = _impact_visibility(np.fft.rfftfreq(N, 1 / fs), H1, pole - 1.0 / tau)
+        vis = impact_visibility(np.fft.rfftfreq(N, 1 / fs), H1, pole - 1.0 / tau)
         if np.all(vis >= MIN_VISIBILITY):
             break
         boost = np.where(vis < MIN_VISIBILITY, 1.2 * MIN_VISIBILITY / np.maximum(vis, 1e-3),

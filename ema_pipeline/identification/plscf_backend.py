@@ -430,7 +430,7 @@ def merge_unsupported_pairs(found: Candidates,
     if d.Hc.shape[0] >= d.thresholds.min_shape_channels or not found.keep.any():
         return found, none
     drop, merged = unsupported_partners(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
-                                        window_tau_s=d.window_tau_s, thresholds=d.thresholds)
+                                        thresholds=d.thresholds)
     if not drop.any():
         return found, none
     kept_at = np.flatnonzero(found.keep)

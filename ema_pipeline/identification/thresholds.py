@@ -276,14 +276,17 @@ class SelectionThresholds:
     #: 42) a pole is a second mode beside a close partner only on evidence one
     #: channel can give: two poles fit the pair's local problem better than
     #: one beyond what the noise explains (``acceptance.pair_significance``:
-    #: an F test at this significance level, its critical value raised by the
-    #: exponential window's line correlation), or its peak shows apart from
-    #: the partner's (``acceptance.peaks_apart``). Otherwise the weaker pole
-    #: is dropped and the mode marked (``second_pole_not_significant``); a
-    #: close partner of the split fit is added only when significant. True
-    #: close pairs of the impact families give F 1.5e3-4e6 times this
-    #: critical value, the measured pyFRF recording's pairs 20-1e4 (model
-    #: error, not noise: hence the mark below) ...
+    #: an F test at this significance level), or its peak shows apart from the
+    #: partner's (``acceptance.peaks_apart``). Otherwise the weaker pole is
+    #: dropped and the mode marked (``second_pole_not_significant``); the
+    #: pairs of the diagrams are judged as if the noise were white (both
+    #: poles passed the diagrams' and the final tests), a close partner of
+    #: the split fit with the critical value raised by the exponential
+    #: window's line correlation (sum |rho|^2, about 1/(tau df): what a free
+    #: second pole takes up of windowed noise beside one mode, measured 5.6
+    #: and 20 times the white noise's at tau = T/5 and T/16). True close pairs
+    #: of the impact families give 2.3-1e5, the measured pyFRF recording's
+    #: pairs 20-1e4 (model error, not noise: hence the mark below) ...
     pair_significance_level: float = 1e-3
     #: ... a close partner of the split fit is added with fewer channels
     #: (``acceptance.close_partners``) only where the F test is calibrated:
