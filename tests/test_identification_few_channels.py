@@ -208,3 +208,11 @@ def test_real_one_channel_recording_marks_what_one_channel_cannot_split(
     assert not any("second_pole_not_significant" in r for r in reasons.values())
     page = (pyfrf_identified / "id" / "real_report.html").read_text(encoding="utf-8")
     assert "pair under one peak" in page
+    # the flags are stored with the result: read back, the same reasons
+    from ema_pipeline import io
+    from ema_pipeline.identification import doubtful_reasons
+
+    _, back = io.read_identification_result(pyfrf_identified / "id" / "real_result.h5")
+    assert back.pair_flags.size == 35
+    order = np.argsort(back.fn_hz)
+    assert [doubtful_reasons(back)[k] for k in order] == list(table["doubtful_reason"].fillna(""))
