@@ -79,6 +79,19 @@ def pyfrf_uff() -> Path:
 
 
 @pytest.fixture(scope="session")
+def pyfrf_identified(tmp_path_factory: pytest.TempPathFactory, pyfrf_uff: Path) -> Path:
+    """pyFRF's recording through ``ema-pipeline frf --out real.h5`` and
+    ``identify real.h5 --out id --report`` at the defaults, once per session
+    (about 20 s): the folder holding ``real.h5`` and ``id/`` (``real_modes.csv``,
+    ``real_report.html``, ``real_result.h5``); tests only read it."""
+    root = tmp_path_factory.mktemp("pyfrf")
+    h5 = root / "real.h5"
+    assert main(["frf", str(pyfrf_uff), "--out", str(h5), "--quiet"]) == 0
+    assert main(["identify", str(h5), "--out", str(root / "id"), "--report", "--quiet"]) == 0
+    return root
+
+
+@pytest.fixture(scope="session")
 def pyuff_dir() -> Path:
     """The folder of pyuff's test files in ../shared/data (skipped where absent)."""
     if not PYUFF_DIR.is_dir():

@@ -319,19 +319,13 @@ def test_simulate_format_follows_the_suffix(tmp_path, capsys, args, code, fmt):
         assert io.read_frf(out).H.shape == (2, 1, 8193)
 
 
-def test_one_channel_report_has_no_shapes_and_no_automac(tmp_path, pyfrf_uff):
+def test_one_channel_report_has_no_shapes_and_no_automac(pyfrf_identified):
     """pyFRF's real recording (one hammer, one accelerometer): ``frf`` then
-    ``identify --report``: the modes and the fit, no AutoMAC and no shape
-    figure, and a sentence saying why. In 700-1000 Hz (five modes, 810-906
-    Hz; 2 s): the default band (to the force's -20 dB point, 7 kHz: 35 modes,
-    orders to 480) took 30 s."""
-    h5 = tmp_path / "real.h5"
-    assert main(["frf", str(pyfrf_uff), "--out", str(h5), "--quiet"]) == 0
-    assert main(["identify", str(h5), "--out", str(tmp_path / "id"), "--report",
-                 "--band", "700", "1000", "--quiet"]) == 0
-    n_modes = len(pd.read_csv(tmp_path / "id" / "real_modes.csv"))
+    ``identify --report`` (the ``pyfrf_identified`` fixture): the modes and the
+    fit, no AutoMAC and no shape figure, and a sentence saying why."""
+    n_modes = len(pd.read_csv(pyfrf_identified / "id" / "real_modes.csv"))
     assert n_modes >= 2
-    page_path = tmp_path / "id" / "real_report.html"
+    page_path = pyfrf_identified / "id" / "real_report.html"
     page = _parse(page_path)
     assert page.sections == ["summary", "setup", "frf", "stabilization", "modes", "fit",
                              "provenance"]

@@ -30,12 +30,15 @@ module whose inputs and outputs are its arguments and its return value:
    tested together with the kept ones; when none passes, the previous fit
    stands (a failed candidate bends its neighbours' local fits: on the
    measured beam two model-error peaks beside 414.6 Hz cost that mode), else
-   the fit is repeated with those that pass.
+   the fit is repeated with those that pass. With fewer than three channels
+   a close pair of kept poles that the data do not prefer to one pole, and
+   whose peaks do not show apart, is one mode (:func:`merge_unsupported_pairs`).
 6. :func:`kept_modes`: the kept modes at their refined poles with covariance
    (``options.refine``) or at their start poles.
-7. :func:`finished`, :func:`with_band_support`, :func:`with_not_kept`: LSFD
-   and the result, which narrower searches hold each mode, the resonances
-   the FRFs show that no mode was kept for.
+7. :func:`finished`, :func:`with_band_support`, :func:`with_pair_flags`,
+   :func:`with_not_kept`: LSFD and the result, which narrower searches hold
+   each mode, which close pairs fewer than three channels cannot support,
+   the resonances the FRFs show that no mode was kept for.
 
 ``options.accept`` switches the final tests and searches of stage 5 (off:
 every selected candidate is kept, untested); ``options.refine`` decides
@@ -76,6 +79,8 @@ from ema_pipeline.identification.refinement.refine import (
     refine_poles,
 )
 from ema_pipeline.identification.result import (
+    PAIR_UNDER_ONE_PEAK,
+    SECOND_POLE_DROPPED,
     IdentificationResult,
     ResolvedSettings,
     found_by_code,
@@ -83,10 +88,13 @@ from ema_pipeline.identification.result import (
 from ema_pipeline.identification.selection.acceptance import (
     Candidates,
     add_found,
+    close_pairs,
     close_partners,
     decay_determined,
     final_tests,
+    peaks_apart,
     refit_kept,
+    unsupported_partners,
 )
 from ema_pipeline.identification.selection.not_kept import resonances_not_kept
 from ema_pipeline.identification.selection.residual_search import residual_peaks
@@ -125,6 +133,7 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     start = start_poles(frf, data, diagrams, options, map_)
     judged = options.accept and data.expect_hz is None
     retest = Retest(data, map_)
+    merged = np.zeros(0, dtype=complex)
     if start.sel.pole.size and (options.refine or judged):
         found, near = refine_candidates(data, start, map_)
         if judged:
@@ -132,6 +141,7 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
             found = try_alternates(found, diagrams.searched, retest)
             found = add_close_partners(found, retest)
             found = add_residual_peaks(found, retest)
+            found, merged = merge_unsupported_pairs(found, retest)
         kept = kept_modes(found, start.neighbours, near, data, refine=options.refine,
                           map_=map_)
     else:
@@ -139,6 +149,8 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     result = finished(data, diagrams, kept, options)
     result = with_band_support(result, start.auto, kept.sel.pole, diagrams.searched,
                                data.thresholds)
+    if judged:
+        result = with_pair_flags(result, data, kept.judged, merged)
     return with_not_kept(result, data, retest.rejected, kept.judged)
 
 
@@ -403,6 +415,31 @@ def add_residual_peaks(found: Candidates, retest: Retest) -> Candidates:
                      found_by="residual")
 
 
+def merge_unsupported_pairs(found: Candidates,
+                            retest: Retest) -> tuple[Candidates, np.ndarray]:
+    """Stage 5e, with fewer than ``min_shape_channels`` channels: of a close
+    pair of kept poles that one channel cannot support (not significant, its
+    peaks not apart:
+    :func:`~ema_pipeline.identification.selection.acceptance.unsupported_partners`),
+    the weaker is dropped and the rest refitted
+    (:func:`~ema_pipeline.identification.selection.acceptance.refit_kept`).
+    Returns the candidates and the poles of the partners that stayed (before
+    the refit), whose modes :func:`with_pair_flags` marks."""
+    d = retest.data
+    none = np.zeros(0, dtype=complex)
+    if d.Hc.shape[0] >= d.thresholds.min_shape_channels or not found.keep.any():
+        return found, none
+    drop, merged = unsupported_partners(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
+                                        thresholds=d.thresholds)
+    if not drop.any():
+        return found, none
+    kept_at = np.flatnonzero(found.keep)
+    keep = found.keep.copy()
+    keep[kept_at[drop]] = False
+    staying = found.kept_poles()[merged]
+    return refit_kept(replace(found, keep=keep), retest, d.thresholds.refit_rounds), staying
+
+
 # ------------------------------------------------------------------ 6. the kept modes
 @dataclass(frozen=True)
 class KeptModes:
@@ -523,9 +560,30 @@ def with_band_support(result: IdentificationResult, auto: IdentificationResult |
     return result
 
 
+def with_pair_flags(result: IdentificationResult, data: BandData, judged: np.ndarray,
+                    merged: np.ndarray) -> IdentificationResult:
+    """Stage 7c, with fewer than ``min_shape_channels`` channels: which kept
+    modes (refined poles ``judged``, result order) one channel cannot support
+    as two (``IdentificationResult.pair_flags``): a close pair
+    (:func:`~ema_pipeline.identification.selection.acceptance.close_pairs`) whose
+    peaks do not show apart (:data:`PAIR_UNDER_ONE_PEAK`), and the mode
+    nearest each pole of ``merged`` (:func:`merge_unsupported_pairs`: a
+    second pole beside it was dropped, :data:`SECOND_POLE_DROPPED`)."""
+    th = data.thresholds
+    if data.Hc.shape[0] >= th.min_shape_channels or judged.size == 0:
+        return result
+    flags = np.zeros(judged.size, dtype=int)
+    for i, j in close_pairs(judged, th):
+        if not peaks_apart(data.freq_hz, data.Hc, judged[i], judged[j], th):
+            flags[[i, j]] |= PAIR_UNDER_ONE_PEAK
+    for p in merged:
+        flags[int(np.argmin(np.abs(judged - p)))] |= SECOND_POLE_DROPPED
+    return replace(result, pair_flags=flags)
+
+
 def with_not_kept(result: IdentificationResult, data: BandData, rejected: list[np.ndarray],
                   kept: np.ndarray) -> IdentificationResult:
-    """Stage 7c: the resonances the FRFs show at the ``rejected`` poles away
+    """Stage 7d: the resonances the FRFs show at the ``rejected`` poles away
     from the ``kept`` ones (:func:`resonances_not_kept`); unchanged when the
     final tests did not run."""
     if not rejected:

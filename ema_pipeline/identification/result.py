@@ -215,6 +215,11 @@ class IdentificationResult:
         how many of those found a candidate there
         (:func:`~ema_pipeline.identification.diagram.narrower_searches.band_support`); no rows
         when there were no such searches' records (picks, the sdypy backend).
+    pair_flags : (n_modes,) int  with fewer than three channels, per mode, the
+        bits :data:`PAIR_UNDER_ONE_PEAK` (one of a close pair whose peaks do
+        not show apart) and :data:`SECOND_POLE_DROPPED` (a second pole beside
+        it was dropped: the data did not prefer two); empty when not judged
+        (three or more channels, picks, ``expect_hz``, the sdypy backend).
     """
 
     modes: ModalParameters
@@ -237,6 +242,7 @@ class IdentificationResult:
     not_kept_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
     not_kept_frfs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     band_support: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
+    pair_flags: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def __repr__(self) -> str:
         """Short: configuration, modes, band, method and order, mean fit error."""
@@ -347,9 +353,18 @@ def selection_names(result: IdentificationResult) -> list[str]:
             for name in found_by_names(result)]
 
 
+#: Bits of :attr:`IdentificationResult.pair_flags` (fewer than three channels,
+#: ``plscf_backend.with_pair_flags``): the mode is one of two close poles kept
+#: under one peak (two poles fit the data better than one beyond the noise,
+#: but no FRF shows two peaks and no shape tells them apart) ...
+PAIR_UNDER_ONE_PEAK = 1
+#: ... or a second pole beside it was dropped (the data did not prefer two).
+SECOND_POLE_DROPPED = 2
+
 #: The names of the rules of :func:`doubtful_reasons`, in the order they are listed.
 DOUBTFUL_RULES = ("few_stable_orders", "loose_damping", "complex_shape", "unresolved_damping",
-                  "found_only_in_some_bands")
+                  "found_only_in_some_bands", "pair_under_one_peak",
+                  "second_pole_not_significant")
 
 
 def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
@@ -364,7 +379,14 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
       ``min_bandwidth_lines`` line spacings;
     * ``found_only_in_some_bands``: at least ``min_band_searches`` of the
       band's narrower searches hold it and none found it
-      (``result.band_support``).
+      (``result.band_support``);
+    * ``pair_under_one_peak``: with fewer than three channels, one of two
+      close poles kept under one peak: the fit prefers two poles, but one or
+      two channels cannot tell them from one mode whose frequency varies
+      (``result.pair_flags``, :data:`PAIR_UNDER_ONE_PEAK`);
+    * ``second_pole_not_significant``: with fewer than three channels, a
+      second pole beside it was dropped, since the data did not prefer two
+      (:data:`SECOND_POLE_DROPPED`): it may be two close modes.
     """
     th = result.settings.thresholds
     m = result.modes
@@ -380,7 +402,11 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
     only_some = np.zeros(m.n_modes, bool)
     if support.shape[0] == m.n_modes:
         only_some = (support[:, 0] >= th.min_band_searches) & (support[:, 1] == 0)
-    flags = (few, loose, complex_shape, unresolved, only_some)
+    pair = np.asarray(result.pair_flags, dtype=int).reshape(-1)
+    if pair.size != m.n_modes:
+        pair = np.zeros(m.n_modes, dtype=int)
+    flags = (few, loose, complex_shape, unresolved, only_some,
+             (pair & PAIR_UNDER_ONE_PEAK) > 0, (pair & SECOND_POLE_DROPPED) > 0)
     return {name: np.asarray(f, dtype=bool) for name, f in zip(DOUBTFUL_RULES, flags, strict=True)}
 
 

@@ -107,8 +107,9 @@ COLUMN_TITLES = {
     "sigma_1_s": "decay rate sigma = zeta omega_n = -Re(lambda), 1/s",
     "mpc": "modal phase collinearity (1 = real mode)",
     "mpd_deg": "mean phase deviation, degrees (0 = real mode)",
-    "doubtful": "marked for a second look: few stable orders, loose damping, complex shape "
-    "or damping not resolved by the lines",
+    "doubtful": "marked for a second look: few stable orders, loose damping, complex shape, "
+    "damping not resolved by the lines, found only in some bands, or (one or two channels) "
+    "one of two poles under one peak or beside a second pole the data did not support",
     "doubtful_reason": "the rule that marked the mode doubtful",
     "found_by": "how the mode was found: in the band's stabilization diagram, in it at "
     "another order, in a narrower search's window, as the alternate of a failed candidate, "
