@@ -310,12 +310,23 @@ def close_partners(
         return np.zeros(0, complex)
     search = PartnerSearch(freq_hz, H, pole, quantity, window_tau_s, force_window_s,
                            residues, th)
-    found = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES)
-    if H.shape[0] < th.min_shape_channels and found:
+    splits = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES)
+    found = [(s.pole, s.significance) for s in splits]
+    if H.shape[0] < th.min_shape_channels and any(b is not None for b, _ in found):
         # significant against the noise, where the noise is what the split
         # fits see: most modes' splits not significant (their median below
         # partner_max_split_median), else model error makes every split
-        # significant and no test of one channel tells a hidden mode from it
+        # significant and no test of one channel tells a hidden mode from it.
+        # The significances of the splits that failed the other tests are
+        # only needed for that median, so only computed here, when some
+        # split passed them (the same numbers, without the F tests' fits
+        # when no mode has a partner).
+        todo = [k for k, s in enumerate(splits) if np.isnan(s.significance)
+                and s.split_poles is not None]
+        later = map_each(map_, search.significances_of, [splits[k].split_poles for k in todo],
+                         PARALLEL_MIN_MODES)
+        for k, sig in zip(todo, later, strict=True):
+            found[k] = (found[k][0], sig)
         sig = np.array([s for _, s in found])
         calibrated = bool(np.nanmedian(sig) < th.partner_max_split_median) if np.isfinite(
             sig).any() else False
@@ -338,38 +349,59 @@ class PartnerSearch:
     residues: np.ndarray
     thresholds: SelectionThresholds
 
-    def partner(self, r: int) -> tuple[complex | None, float]:
-        """The extra pole of mode ``r``'s split fit when it passes the tests
-        of :func:`close_partners` (else None), and with fewer than
-        ``min_shape_channels`` channels the split's significance
-        (:func:`pair_significance`, whether it passes or not; NaN with more
-        channels or without a split fit), which :func:`close_partners` then
-        asks of it."""
+    def partner(self, r: int) -> Split:
+        """Mode ``r``'s split fit: its extra pole when it passes the tests of
+        :func:`close_partners` (else None); with fewer than
+        ``min_shape_channels`` channels the poles with the split in place of
+        mode ``r`` and, for a split that passed those tests, its
+        significance (:meth:`significance`), which :func:`close_partners`
+        then asks of it (NaN otherwise: not computed, or no split fit)."""
         th, pole = self.thresholds, self.pole
         fit = split_fit(self.freq_hz, self.H, pole, r, quantity=self.quantity,
                         window_tau_s=self.window_tau_s, force_window_s=self.force_window_s,
                         residues=self.residues, thresholds=th)
         if fit is None:
-            return None, float("nan")
+            return Split(None, None, float("nan"))
         lam = np.concatenate([np.delete(pole, r), fit.pole])
         few = self.H.shape[0] < th.min_shape_channels
-        sig = float("nan")
-        if few:  # no shape: the fit must prefer two poles
-            sig = pair_significance(self.freq_hz, self.H, lam, lam.size - 2, lam.size - 1,
-                                    self.quantity, window_tau_s=self.window_tau_s,
-                                    thresholds=th)
-            sig = 0.0 if sig == np.inf else sig  # the extra pole left the band: no split
         a, b = fit.pole
         if fit.residual_ratio > th.partner_max_residual_ratio or abs(a.imag - b.imag) < 0.5 * (
                 abs(a.real) + abs(b.real)) or not np.all(decay_determined(fit.pole, fit.cov, th)):
-            return None, sig
-        if few or pair_is_real(self.freq_hz, self.H, lam, self.quantity, th):
-            return complex(b), sig
-        return None, sig
+            return Split(None, lam if few else None, float("nan"))
+        if few:  # no shape: the fit must prefer two poles
+            return Split(complex(b), lam, self.significance(lam))
+        if pair_is_real(self.freq_hz, self.H, lam, self.quantity, th):
+            return Split(complex(b), None, float("nan"))
+        return Split(None, None, float("nan"))
 
-    def partners_of(self, modes: list[int]) -> list[tuple[complex | None, float]]:
+    def significance(self, lam: np.ndarray) -> float:
+        """:func:`pair_significance` of the split, the last two poles of
+        ``lam``; 0 where the extra pole left the band (no split)."""
+        sig = pair_significance(self.freq_hz, self.H, lam, lam.size - 2, lam.size - 1,
+                                self.quantity, window_tau_s=self.window_tau_s,
+                                thresholds=self.thresholds)
+        return 0.0 if sig == np.inf else sig
+
+    def partners_of(self, modes: list[int]) -> list[Split]:
         """:meth:`partner` of each of ``modes`` (one worker's share)."""
         return [self.partner(r) for r in modes]
+
+    def significances_of(self, splits: list[np.ndarray]) -> list[float]:
+        """:meth:`significance` of each split (one worker's share)."""
+        return [self.significance(lam) for lam in splits]
+
+
+@dataclass(frozen=True)
+class Split:
+    """One kept mode's split fit as :meth:`PartnerSearch.partner` judged it:
+    ``pole`` the partner (None: none), ``split_poles`` all poles with the
+    split in the mode's place (kept with fewer than ``min_shape_channels``
+    channels), ``significance`` its :func:`pair_significance` (NaN: not
+    computed or no split fit)."""
+
+    pole: complex | None
+    split_poles: np.ndarray | None
+    significance: float
 
 
 def f_quantile(p: float, d1: float, d2: float) -> float:
