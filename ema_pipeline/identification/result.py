@@ -364,7 +364,7 @@ SECOND_POLE_DROPPED = 2
 #: The names of the rules of :func:`doubtful_reasons`, in the order they are listed.
 DOUBTFUL_RULES = ("few_stable_orders", "loose_damping", "complex_shape", "unresolved_damping",
                   "found_only_in_some_bands", "pair_under_one_peak",
-                  "second_pole_not_significant")
+                  "second_pole_not_significant", "refinement_failed")
 
 
 def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
@@ -386,7 +386,15 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
       (``result.pair_flags``, :data:`PAIR_UNDER_ONE_PEAK`);
     * ``second_pole_not_significant``: with fewer than three channels, a
       second pole beside it was dropped, since the data did not prefer two
-      (:data:`SECOND_POLE_DROPPED`): it may be two close modes.
+      (:data:`SECOND_POLE_DROPPED`): it may be two close modes;
+    * ``refinement_failed``: with refinement on, the mode's local fit
+      wandered off (further than ``refine_max_shift`` decay rates and a
+      line from its start), so its start pole -- a diagram's trajectory
+      or a residual peak -- is reported, with the standard deviations
+      evaluated there (its selected pole is its start pole, bit for bit).
+      On the measured beam in 5-790 Hz a change of the FRFs in their last
+      bits turns the 603.0 Hz mode into such a start pole at 601.2 Hz
+      (``docs/validation.md``).
     """
     th = result.settings.thresholds
     m = result.modes
@@ -405,8 +413,13 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
     pair = np.asarray(result.pair_flags, dtype=int).reshape(-1)
     if pair.size != m.n_modes:
         pair = np.zeros(m.n_modes, dtype=int)
+    not_refined = np.zeros(m.n_modes, bool)
+    start = np.asarray(result.stabilization.mode_pole)
+    if result.settings.refine and result.selected is not None and (
+            start.size == result.selected.pole.size == m.n_modes):
+        not_refined = result.selected.pole == start
     flags = (few, loose, complex_shape, unresolved, only_some,
-             (pair & PAIR_UNDER_ONE_PEAK) > 0, (pair & SECOND_POLE_DROPPED) > 0)
+             (pair & PAIR_UNDER_ONE_PEAK) > 0, (pair & SECOND_POLE_DROPPED) > 0, not_refined)
     return {name: np.asarray(f, dtype=bool) for name, f in zip(DOUBTFUL_RULES, flags, strict=True)}
 
 
