@@ -187,6 +187,45 @@ def can_fork() -> bool:
     return "fork" in multiprocessing.get_all_start_methods() and threading.active_count() == 1
 
 
+def forked_pool(workers: int) -> cf.ProcessPoolExecutor:
+    """``workers`` worker processes forked from this one (check
+    :func:`can_fork` first), each with one BLAS thread as this process and
+    no workers of its own (:func:`init_worker_process`): the one place the
+    package's per-command workers are made (``batch``'s, which must survive
+    a crashed or hung file, come from a fork server instead)."""
+    return cf.ProcessPoolExecutor(max_workers=workers,
+                                  mp_context=multiprocessing.get_context("fork"),
+                                  initializer=init_worker_process)
+
+
+def process_imap(func: Callable[[T], R], items: list[T],
+                 workers: int | None = None) -> Iterator[R]:
+    """``func(item)`` for each of ``items`` in :func:`worker_count` worker
+    processes (:func:`forked_pool`), yielded in the items' order as they are
+    done (a caller can report progress); serial in this process with one
+    worker or where it cannot fork. When the caller stops early (an error, a
+    Ctrl-C, a closed generator), no item starts after that.
+
+    Examples
+    --------
+    >>> list(process_imap(abs, [-1, 2, -3], workers=1))
+    [1, 2, 3]
+    """
+    n = worker_count(len(items), workers)
+    if n == 1 or not can_fork():
+        for item in items:
+            yield func(item)
+        return
+    with forked_pool(n) as pool:
+        futures = [pool.submit(func, item) for item in items]
+        try:
+            for future in futures:
+                yield future.result()
+        finally:
+            for future in futures:
+                future.cancel()
+
+
 class _LazyPool:
     """The :class:`Mapper` of :func:`process_map`: forks its workers at the
     first map of two or more items (a file with little work forks none)."""
@@ -200,9 +239,7 @@ class _LazyPool:
         if len(items) < 2:
             return [func(item) for item in items]
         if self.pool is None:
-            self.pool = cf.ProcessPoolExecutor(max_workers=self.workers,
-                                               mp_context=multiprocessing.get_context("fork"),
-                                               initializer=init_worker_process)
+            self.pool = forked_pool(self.workers)
         return list(self.pool.map(func, items))
 
     def close(self) -> None:

@@ -13,10 +13,9 @@ windows of a dense band are searched in the process that has the file).
 
 from __future__ import annotations
 
-import concurrent.futures as cf
-import multiprocessing
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 
 from ema_pipeline.data import ConfigError, Geometry
@@ -24,7 +23,7 @@ from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.picked import Picks
 from ema_pipeline.pipeline.reports import write_identify_report
 from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
-from ema_pipeline.threads import can_fork, init_worker_process, worker_count
+from ema_pipeline.threads import process_imap
 
 __all__ = ["FileJob", "identify_files"]
 
@@ -61,7 +60,8 @@ def identify_files(
     paths: list[Path], job: FileJob, workers: int | None = None,
 ) -> Iterator[tuple[FileOutcome, Path | None]]:
     """:func:`identify_one` for each file, in ``workers`` processes (default
-    :func:`ema_pipeline.threads.worker_count`), yielded in the files' order.
+    :func:`ema_pipeline.threads.worker_count`;
+    :func:`ema_pipeline.threads.process_imap`), yielded in the files' order.
 
     Raises
     ------
@@ -75,18 +75,4 @@ def identify_files(
             raise ConfigError(f"{by_output[key]} and {path} would write the same outputs "
                               f"({key.name}); identify them into different --out folders")
         by_output[key] = Path(path)
-    n = worker_count(len(paths), workers)
-    if n == 1 or not can_fork():
-        for path in paths:
-            yield identify_one(path, job)
-        return
-    context = multiprocessing.get_context("fork")
-    with cf.ProcessPoolExecutor(max_workers=n, mp_context=context,
-                                initializer=init_worker_process) as pool:
-        futures = [pool.submit(identify_one, path, job) for path in paths]
-        try:
-            for future in futures:
-                yield future.result()
-        finally:  # an error or Ctrl-C in the parent: no file starts after it
-            for future in futures:
-                future.cancel()
+    yield from process_imap(partial(identify_one, job=job), list(paths), workers)
