@@ -39,6 +39,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from statistics import NormalDist
+from typing import NamedTuple
 
 import numpy as np
 
@@ -262,6 +263,39 @@ def final_tests(
                                   thresholds=thresholds)
 
 
+class ClosePartners(NamedTuple):
+    """What :func:`close_partners` found: the partners' poles (rad/s,
+    ascending frequency) and, with fewer than ``min_shape_channels``
+    channels, whether the F test of :func:`pair_significance` is calibrated
+    on these data (:func:`f_test_calibrated` of the kept modes' split fits;
+    False with more channels, where the test is not asked)."""
+
+    pole: np.ndarray
+    calibrated: bool
+
+
+def f_test_calibrated(significance: np.ndarray,
+                      thresholds: SelectionThresholds | None = None) -> bool:
+    """Whether the F test of :func:`pair_significance` sees only the noise
+    on a file: the median of the ``significance`` of every kept mode's split
+    fit (a second pole beside each, NaN where none was fitted) is below
+    ``thresholds.partner_max_split_median`` (most modes have no hidden
+    partner, so most splits must not be significant; model error, e.g. the
+    leakage of short records, makes them significant beside most modes).
+    False when no split was judged.
+
+    Examples
+    --------
+    >>> f_test_calibrated(np.array([0.3, 0.5, 40.0])), f_test_calibrated(np.array([5.8, 0.4, 9.0]))
+    (True, False)
+    """
+    th = thresholds or SelectionThresholds()
+    sig = np.asarray(significance, dtype=float)
+    if not np.isfinite(sig).any():
+        return False
+    return bool(np.nanmedian(sig) < th.partner_max_split_median)
+
+
 def close_partners(
     freq_hz: np.ndarray,
     H: np.ndarray,
@@ -272,23 +306,24 @@ def close_partners(
     force_window_s: float | None = None,
     thresholds: SelectionThresholds | None = None,
     map_: Mapper | None = None,
-) -> np.ndarray:
+) -> ClosePartners:
     """Poles of close modes hidden in the resonances of the kept ``pole``: for
     each, the extra pole of :func:`~ema_pipeline.identification.refinement.local_fits.split_fit`
-    when it passes the tests of ``thresholds.partner_max_residual_ratio`` (rad/s,
-    ascending frequency; empty when there is none). ``H`` (n_ch, n_freq) on
-    the lines ``freq_hz``. With ``thresholds.min_shape_channels`` channels or
-    more the two shapes must be nearly real (:func:`pair_is_real`); with
-    fewer no shape tells two modes from one, and the pair must instead be
-    significant (:func:`pair_significance`: two poles fit better than one
-    beyond what the noise explains), and only where the median significance
-    of all the modes' split fits is below ``thresholds.partner_max_split_median``
-    (the model error of measured data makes a split significant beside most
-    modes, and one channel cannot tell a hidden mode from it). With
-    ``map_`` (worker processes, :func:`ema_pipeline.threads.map_each`) the
-    modes' split fits are shared out from
-    :data:`~ema_pipeline.identification.refinement.refine.PARALLEL_MIN_MODES` modes on;
-    the same numbers.
+    when it passes the tests of ``thresholds.partner_max_residual_ratio``
+    (``ClosePartners.pole``, rad/s, ascending frequency; empty when there is
+    none). ``H`` (n_ch, n_freq) on the lines ``freq_hz``. With
+    ``thresholds.min_shape_channels`` channels or more the two shapes must be
+    nearly real (:func:`pair_is_real`); with fewer no shape tells two modes
+    from one, and the pair must instead be significant
+    (:func:`pair_significance`: two poles fit better than one beyond what
+    the noise explains), and only where that F test is calibrated
+    (:func:`f_test_calibrated` of all the modes' split fits,
+    ``ClosePartners.calibrated``: the model error of measured data makes a
+    split significant beside most modes, and one channel cannot tell a
+    hidden mode from it). With ``map_`` (worker processes,
+    :func:`ema_pipeline.threads.map_each`) the modes' split fits are shared
+    out from :data:`~ema_pipeline.identification.refinement.refine.PARALLEL_MIN_MODES`
+    modes on; the same numbers.
 
     Examples
     --------
@@ -298,30 +333,30 @@ def close_partners(
     >>> terms = [1 / (jw - p) + 1 / (jw - p.conj()) for p in lam]
     >>> H = np.stack([terms[0] + s * terms[1] for s in (0.5, -0.5, 0.3)])
     >>> H = H + 1e-6 * np.random.default_rng(0).standard_normal(H.shape)
-    >>> (close_partners(f, H, lam[:1], "receptance").imag / (2 * np.pi)).round(2).tolist()
-    [100.6]
+    >>> found = close_partners(f, H, lam[:1], "receptance")
+    >>> (found.pole.imag / (2 * np.pi)).round(2).tolist(), found.calibrated
+    ([100.6], False)
     """
     th = thresholds or SelectionThresholds()
+    none = ClosePartners(np.zeros(0, complex), False)
     if pole.size == 0:
-        return np.zeros(0, complex)
+        return none
     try:
         residues = lsfd(freq_hz, H, pole, quantity).a
     except (np.linalg.LinAlgError, ValueError):
-        return np.zeros(0, complex)
+        return none
     search = PartnerSearch(freq_hz, H, pole, quantity, window_tau_s, force_window_s,
                            residues, th)
     found = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES)
+    calibrated = False
     if H.shape[0] < th.min_shape_channels and found:
         # significant against the noise, where the noise is what the split
-        # fits see: most modes' splits not significant (their median below
-        # partner_max_split_median), else model error makes every split
-        # significant and no test of one channel tells a hidden mode from it
-        sig = np.array([s for _, s in found])
-        calibrated = bool(np.nanmedian(sig) < th.partner_max_split_median) if np.isfinite(
-            sig).any() else False
+        # fits see, else model error makes every split significant and no
+        # test of one channel tells a hidden mode from it
+        calibrated = f_test_calibrated(np.array([s for _, s in found]), th)
         found = [(b, s) if calibrated and s >= 1.0 else (None, s) for b, s in found]
     out = np.array([b for b, _ in found if b is not None], dtype=complex)
-    return out[np.argsort(out.imag)]
+    return ClosePartners(out[np.argsort(out.imag)], calibrated)
 
 
 @dataclass(frozen=True)
