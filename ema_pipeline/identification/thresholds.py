@@ -300,7 +300,8 @@ class SelectionThresholds:
     #: ... a valley between the two maxima of at most this fraction of the
     #: lower one (2 dB); two poles under one peak with fewer channels are
     #: marked ``pair_under_one_peak`` (kept, doubtful: one channel cannot tell
-    #: them from one mode whose frequency varies, e.g. between hits) ...
+    #: them from one mode whose frequency varies, e.g. between hits; not
+    #: where the data show two modes clearly, ``pair_clear_significance``) ...
     pair_min_dip: float = 0.8
     #: ... and two kept poles are a close pair when they lie within this many
     #: times the sum of their half-power half-widths of each other (the
@@ -317,7 +318,9 @@ class SelectionThresholds:
     #: near gives 0.55 median, 1.68 at the 99th percentile, 3.49 at most (553
     #: splits); the 49 true pairs under one peak 2.65-3e6, all but one above
     #: 8.7 (impact_close-308 14.09/14.87 Hz, 2.65, stays marked). The pyFRF
-    #: recording is not calibrated (median 5.8): its pairs stay marked.
+    #: recording is not calibrated (median 5.8): its pairs stay marked, as
+    #: do the pairs of a simulated mode whose frequency varies by +-0.5 %
+    #: between hits (F test 500-820, but beside every mode).
     pair_clear_significance: float = 5.0
     #: The kept candidates are refined again without those that failed
     #: (``acceptance.refit_kept``) while some fail, at most this many times.
