@@ -15,7 +15,9 @@ distance), and for the matched modes the fraction with |err| <= 2 sigma and the
 counts as infinitely wrong), plus the mean time per file. The shapes of the
 matched modes are compared with the true shapes at the identified response
 DOFs (cases with at least 3 of them): the 10th percentile of the MAC and the fraction of
-matched modes with a MAC below 0.95 (columns "MAC p10", "<.95").
+matched modes with a MAC below 0.95 (columns "MAC p10", "<.95"). With one or
+two responses the column "1pk T/S" counts the modes marked doubtful
+``pair_under_one_peak`` (close poles kept under one peak), true and spurious.
 
 The single place that calls the identification is :func:`identify_case`; adapt
 it when the signature changes (``identify(frf, options)``).
@@ -51,14 +53,16 @@ REAL_UFF = ROOT.parent / "shared" / "data" / "ufsc-beam-hammer.uff"
 # --------------------------------------------------------------------------- the one call
 def identify_case(frf: FRFSet, band_hz: tuple[float, float] | None,
                   impl: str = "current") -> dict[str, np.ndarray]:
-    """Identify at DEFAULTS (only the band) and return fn_hz, zeta, fn_std_hz, zeta_std.
+    """Identify at DEFAULTS (only the band) and return fn_hz, zeta, fn_std_hz,
+    zeta_std, the shapes and their nodes, and ``pair_marked`` (bool, each mode:
+    doubtful ``pair_under_one_peak``).
 
     A roving set (1 response, several references) is transposed by reciprocity
     first, as the CLI does.
     """
     if frf.n_out == 1 and frf.n_in > 1:
         frf = frf.reciprocal()
-    from ema_pipeline.identification import identify
+    from ema_pipeline.identification import doubtful_reasons, identify
 
     # "no-window-search": the option that skips a dense band's window searches
     res = identify(frf, band_hz=band_hz, window_searches=impl != "no-window-search")
@@ -66,7 +70,9 @@ def identify_case(frf: FRFSet, band_hz: tuple[float, float] | None,
     return {"fn_hz": np.asarray(m.fn_hz), "zeta": np.asarray(m.zeta),
             "fn_std_hz": np.asarray(m.fn_std_hz), "zeta_std": np.asarray(m.zeta_std),
             "shapes": np.asarray(m.shapes),
-            "nodes": np.array([d.node for d in m.dofs], dtype=int)}
+            "nodes": np.array([d.node for d in m.dofs], dtype=int),
+            "pair_marked": np.array(["pair_under_one_peak" in r.split(";")
+                                     for r in doubtful_reasons(res)], dtype=bool)}
 
 
 def shape_macs(case: hardcases.HardCase, out: dict[str, np.ndarray],
@@ -110,6 +116,8 @@ def score_case(case: hardcases.HardCase, out: dict[str, np.ndarray]) -> dict:
         rz.append(abs(ez) / sz if np.isfinite(sz) and sz > 0 else np.inf)
     macs = shape_macs(case, out, pairs) if pairs else []
     matched_true = {i for i, _ in pairs}
+    matched_id = {j for _, j in pairs}
+    marked = np.asarray(out.get("pair_marked", np.zeros(out["fn_hz"].size, bool)), bool)
     return {
         "n_true": int(case.fn_hz.size),
         "missed": int(case.fn_hz.size - len(pairs)),
@@ -117,7 +125,10 @@ def score_case(case: hardcases.HardCase, out: dict[str, np.ndarray]) -> dict:
         "missed_hz": [float(case.fn_hz[i]) for i in range(case.fn_hz.size)
                       if i not in matched_true],
         "spurious_hz": [float(out["fn_hz"][j]) for j in range(out["fn_hz"].size)
-                        if j not in {jj for _, jj in pairs}],
+                        if j not in matched_id],
+        "marked_true_hz": [float(out["fn_hz"][j]) for j in sorted(matched_id) if marked[j]],
+        "marked_spurious_hz": [float(out["fn_hz"][j]) for j in range(out["fn_hz"].size)
+                               if j not in matched_id and marked[j]],
         "rf": rf,
         "rz": rz,
         "mac": macs,
@@ -160,6 +171,8 @@ def run_family(family: str, seeds: list[int], impl: str, verbose: bool = False,
         "true": sum(r["n_true"] for r in rows),
         "missed": sum(r["missed"] for r in rows),
         "spurious": sum(r["spurious"] for r in rows),
+        "marked_true": sum(len(r["marked_true_hz"]) for r in rows),
+        "marked_spurious": sum(len(r["marked_spurious_hz"]) for r in rows),
         "cov_f": cf, "p68_f": pf, "cov_z": cz, "p68_z": pz,
         "mac_p10": float(np.percentile(macs, 10)) if macs.size else np.nan,
         "mac_below_095": float(np.mean(macs < 0.95)) if macs.size else np.nan,
@@ -170,7 +183,7 @@ def run_family(family: str, seeds: list[int], impl: str, verbose: bool = False,
 def print_table(results: list[dict]) -> None:
     head = (f"{'family':<14}{'files':>6}{'true':>6}{'missed':>8}{'spur':>6}"
             f"{'f<=2s':>8}{'p68 f':>8}{'z<=2s':>8}{'p68 z':>8}{'MAC p10':>8}{'<.95':>6}"
-            f"{'s/file':>8}")
+            f"{'1pk T/S':>9}{'s/file':>8}")
     print(head)
     print("-" * len(head))
     tot = {"true": 0, "missed": 0, "spurious": 0}
@@ -180,6 +193,7 @@ def print_table(results: list[dict]) -> None:
         print(f"{r['family']:<14}{r['files']:>6}{r['true']:>6}{r['missed']:>8}{r['spurious']:>6}"
               f"{100 * r['cov_f']:>7.0f}%{r['p68_f']:>8.2f}{100 * r['cov_z']:>7.0f}%"
               f"{r['p68_z']:>8.2f}{r['mac_p10']:>8.3f}{100 * r['mac_below_095']:>5.0f}%"
+              f"{str(r['marked_true']) + '/' + str(r['marked_spurious']):>9}"
               f"{r['time_s']:>8.2f}")
         for e in r["errors"]:
             print(f"    ERROR {e}")

@@ -87,11 +87,13 @@ from ema_pipeline.identification.result import (
 )
 from ema_pipeline.identification.selection.acceptance import (
     Candidates,
+    SplitCalibration,
     add_found,
     close_pairs,
     close_partners,
     decay_determined,
     final_tests,
+    pair_significance,
     peaks_apart,
     refit_kept,
     unsupported_partners,
@@ -134,12 +136,13 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     judged = options.accept and data.expect_hz is None
     retest = Retest(data, map_)
     merged = np.zeros(0, dtype=complex)
+    calibration = None
     if start.sel.pole.size and (options.refine or judged):
         found, near = refine_candidates(data, start, map_)
         if judged:
             found = first_verdict(found, retest)
             found = try_alternates(found, diagrams.searched, retest)
-            found = add_close_partners(found, retest)
+            found, calibration = add_close_partners(found, retest)
             found = add_residual_peaks(found, retest)
             found, merged = merge_unsupported_pairs(found, retest)
         kept = kept_modes(found, start.neighbours, near, data, refine=options.refine,
@@ -150,7 +153,7 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     result = with_band_support(result, start.auto, kept.sel.pole, diagrams.searched,
                                data.thresholds)
     if judged:
-        result = with_pair_flags(result, data, kept.judged, merged)
+        result = with_pair_flags(result, data, kept.judged, merged, calibration)
     return with_not_kept(result, data, retest.rejected, kept.judged)
 
 
@@ -392,15 +395,22 @@ def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
                      retest=retest, found_by="alternate")
 
 
-def add_close_partners(found: Candidates, retest: Retest) -> Candidates:
+def add_close_partners(found: Candidates,
+                       retest: Retest) -> tuple[Candidates, SplitCalibration]:
     """Stage 5c: close modes hidden in a kept resonance
-    (:func:`~ema_pipeline.identification.selection.acceptance.close_partners`)."""
+    (:func:`~ema_pipeline.identification.selection.acceptance.close_partners`).
+    Returns the candidates and, with fewer than ``min_shape_channels``
+    channels, whether the two-poles-against-one F test is calibrated on the
+    band's data (``ClosePartners.calibration``, evaluated when
+    :func:`with_pair_flags` asks)."""
     d = retest.data
     partners = close_partners(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
                               window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
                               thresholds=d.thresholds, map_=retest.map_)
-    return add_found(found, partners, partner=True, strict=np.zeros(partners.size, bool),
-                     retest=retest, found_by="partner")
+    found = add_found(found, partners.pole, partner=True,
+                      strict=np.zeros(partners.pole.size, bool), retest=retest,
+                      found_by="partner")
+    return found, partners.calibration
 
 
 def add_residual_peaks(found: Candidates, retest: Retest) -> Candidates:
@@ -561,21 +571,31 @@ def with_band_support(result: IdentificationResult, auto: IdentificationResult |
 
 
 def with_pair_flags(result: IdentificationResult, data: BandData, judged: np.ndarray,
-                    merged: np.ndarray) -> IdentificationResult:
+                    merged: np.ndarray,
+                    calibration: SplitCalibration | None = None) -> IdentificationResult:
     """Stage 7c, with fewer than ``min_shape_channels`` channels: which kept
     modes (refined poles ``judged``, result order) one channel cannot support
     as two (``IdentificationResult.pair_flags``): a close pair
     (:func:`~ema_pipeline.identification.selection.acceptance.close_pairs`) whose
-    peaks do not show apart (:data:`PAIR_UNDER_ONE_PEAK`), and the mode
-    nearest each pole of ``merged`` (:func:`merge_unsupported_pairs`: a
-    second pole beside it was dropped, :data:`SECOND_POLE_DROPPED`)."""
+    peaks do not show apart (:data:`PAIR_UNDER_ONE_PEAK`), unless the F test
+    is calibrated on these data (``calibration``, :func:`add_close_partners`) and prefers
+    the two poles to one clearly
+    (:func:`~ema_pipeline.identification.selection.acceptance.pair_significance`
+    with the window's line correlation, at least ``pair_clear_significance``);
+    and the mode nearest each pole of ``merged`` (:func:`merge_unsupported_pairs`:
+    a second pole beside it was dropped, :data:`SECOND_POLE_DROPPED`)."""
     th = data.thresholds
     if data.Hc.shape[0] >= th.min_shape_channels or judged.size == 0:
         return result
     flags = np.zeros(judged.size, dtype=int)
     for i, j in close_pairs(judged, th):
-        if not peaks_apart(data.freq_hz, data.Hc, judged[i], judged[j], th):
-            flags[[i, j]] |= PAIR_UNDER_ONE_PEAK
+        if peaks_apart(data.freq_hz, data.Hc, judged[i], judged[j], th):
+            continue
+        if calibration is not None and calibration.calibrated and pair_significance(
+                data.freq_hz, data.Hc, judged, i, j, data.quantity,
+                window_tau_s=data.window_tau_s, thresholds=th) >= th.pair_clear_significance:
+            continue  # the data show two modes: the test that found partners says so
+        flags[[i, j]] |= PAIR_UNDER_ONE_PEAK
     for p in merged:
         flags[int(np.argmin(np.abs(judged - p)))] |= SECOND_POLE_DROPPED
     return replace(result, pair_flags=flags)

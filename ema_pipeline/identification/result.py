@@ -355,8 +355,9 @@ def selection_names(result: IdentificationResult) -> list[str]:
 
 #: Bits of :attr:`IdentificationResult.pair_flags` (fewer than three channels,
 #: ``plscf_backend.with_pair_flags``): the mode is one of two close poles kept
-#: under one peak (two poles fit the data better than one beyond the noise,
-#: but no FRF shows two peaks and no shape tells them apart) ...
+#: under one peak (two poles fit the data better than one, but no FRF shows
+#: two peaks, no shape tells them apart, and the F test is not calibrated on
+#: the file or does not prefer them by ``pair_clear_significance``) ...
 PAIR_UNDER_ONE_PEAK = 1
 #: ... or a second pole beside it was dropped (the data did not prefer two).
 SECOND_POLE_DROPPED = 2
@@ -383,7 +384,9 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
     * ``pair_under_one_peak``: with fewer than three channels, one of two
       close poles kept under one peak: the fit prefers two poles, but one or
       two channels cannot tell them from one mode whose frequency varies
-      (``result.pair_flags``, :data:`PAIR_UNDER_ONE_PEAK`);
+      (``result.pair_flags``, :data:`PAIR_UNDER_ONE_PEAK`; not marked where
+      the F test is calibrated on the file and prefers two poles by
+      ``pair_clear_significance``);
     * ``second_pole_not_significant``: with fewer than three channels, a
       second pole beside it was dropped, since the data did not prefer two
       (:data:`SECOND_POLE_DROPPED`): it may be two close modes;

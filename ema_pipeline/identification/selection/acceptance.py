@@ -262,6 +262,79 @@ def final_tests(
                                   thresholds=thresholds)
 
 
+@dataclass(frozen=True)
+class ClosePartners:
+    """What :func:`close_partners` found: the partners' poles (rad/s,
+    ascending frequency) and, with fewer than ``min_shape_channels``
+    channels, whether the F test of :func:`pair_significance` is calibrated
+    on these data (:attr:`calibrated`: :func:`f_test_calibrated` of the kept
+    modes' split fits; False with more channels, where the test is not
+    asked)."""
+
+    pole: np.ndarray
+    calibration: SplitCalibration
+
+    @property
+    def calibrated(self) -> bool:
+        return self.calibration.calibrated
+
+
+class SplitCalibration:
+    """The significances of the kept modes' split fits
+    (:meth:`PartnerSearch.partner`) and :func:`f_test_calibrated` of them,
+    computed when first asked: the F tests of splits that failed the
+    partner's other tests are needed only for that median (when some split
+    passed them, or a close pair is to be judged), so a file where nothing
+    asks does without their fits. ``search`` None: more channels, never
+    calibrated. Not shared between processes."""
+
+    def __init__(self, search: PartnerSearch | None, splits: tuple[Split, ...],
+                 map_: Mapper | None) -> None:
+        self.search, self.splits, self.map_ = search, splits, map_
+        self._sig: np.ndarray | None = None
+
+    def significances(self) -> np.ndarray:
+        """Each split's :func:`pair_significance` (NaN: no split fit)."""
+        if self._sig is None:
+            sig = np.array([s.significance for s in self.splits], dtype=float)
+            todo = [k for k, s in enumerate(self.splits)
+                    if np.isnan(s.significance) and s.split_poles is not None]
+            if todo and self.search is not None:
+                sig[todo] = map_each(self.map_, self.search.significances_of,
+                                     [self.splits[k].split_poles for k in todo],
+                                     PARALLEL_MIN_MODES)
+            self._sig = sig
+        return self._sig
+
+    @property
+    def calibrated(self) -> bool:
+        if self.search is None:
+            return False
+        return f_test_calibrated(self.significances(), self.search.thresholds)
+
+
+def f_test_calibrated(significance: np.ndarray,
+                      thresholds: SelectionThresholds | None = None) -> bool:
+    """Whether the F test of :func:`pair_significance` sees only the noise
+    on a file: the median of the ``significance`` of every kept mode's split
+    fit (a second pole beside each, NaN where none was fitted) is below
+    ``thresholds.partner_max_split_median`` (most modes have no hidden
+    partner, so most splits must not be significant; model error, e.g. the
+    leakage of short records, makes them significant beside most modes).
+    False when no split was judged.
+
+    Examples
+    --------
+    >>> f_test_calibrated(np.array([0.3, 0.5, 40.0])), f_test_calibrated(np.array([5.8, 0.4, 9.0]))
+    (True, False)
+    """
+    th = thresholds or SelectionThresholds()
+    sig = np.asarray(significance, dtype=float)
+    if not np.isfinite(sig).any():
+        return False
+    return bool(np.nanmedian(sig) < th.partner_max_split_median)
+
+
 def close_partners(
     freq_hz: np.ndarray,
     H: np.ndarray,
@@ -272,23 +345,24 @@ def close_partners(
     force_window_s: float | None = None,
     thresholds: SelectionThresholds | None = None,
     map_: Mapper | None = None,
-) -> np.ndarray:
+) -> ClosePartners:
     """Poles of close modes hidden in the resonances of the kept ``pole``: for
     each, the extra pole of :func:`~ema_pipeline.identification.refinement.local_fits.split_fit`
-    when it passes the tests of ``thresholds.partner_max_residual_ratio`` (rad/s,
-    ascending frequency; empty when there is none). ``H`` (n_ch, n_freq) on
-    the lines ``freq_hz``. With ``thresholds.min_shape_channels`` channels or
-    more the two shapes must be nearly real (:func:`pair_is_real`); with
-    fewer no shape tells two modes from one, and the pair must instead be
-    significant (:func:`pair_significance`: two poles fit better than one
-    beyond what the noise explains), and only where the median significance
-    of all the modes' split fits is below ``thresholds.partner_max_split_median``
-    (the model error of measured data makes a split significant beside most
-    modes, and one channel cannot tell a hidden mode from it). With
-    ``map_`` (worker processes, :func:`ema_pipeline.threads.map_each`) the
-    modes' split fits are shared out from
-    :data:`~ema_pipeline.identification.refinement.refine.PARALLEL_MIN_MODES` modes on;
-    the same numbers.
+    when it passes the tests of ``thresholds.partner_max_residual_ratio``
+    (``ClosePartners.pole``, rad/s, ascending frequency; empty when there is
+    none). ``H`` (n_ch, n_freq) on the lines ``freq_hz``. With
+    ``thresholds.min_shape_channels`` channels or more the two shapes must be
+    nearly real (:func:`pair_is_real`); with fewer no shape tells two modes
+    from one, and the pair must instead be significant
+    (:func:`pair_significance`: two poles fit better than one beyond what
+    the noise explains), and only where that F test is calibrated
+    (:func:`f_test_calibrated` of all the modes' split fits,
+    ``ClosePartners.calibrated``: the model error of measured data makes a
+    split significant beside most modes, and one channel cannot tell a
+    hidden mode from it). With ``map_`` (worker processes,
+    :func:`ema_pipeline.threads.map_each`) the modes' split fits are shared
+    out from :data:`~ema_pipeline.identification.refinement.refine.PARALLEL_MIN_MODES`
+    modes on; the same numbers.
 
     Examples
     --------
@@ -298,41 +372,33 @@ def close_partners(
     >>> terms = [1 / (jw - p) + 1 / (jw - p.conj()) for p in lam]
     >>> H = np.stack([terms[0] + s * terms[1] for s in (0.5, -0.5, 0.3)])
     >>> H = H + 1e-6 * np.random.default_rng(0).standard_normal(H.shape)
-    >>> (close_partners(f, H, lam[:1], "receptance").imag / (2 * np.pi)).round(2).tolist()
-    [100.6]
+    >>> found = close_partners(f, H, lam[:1], "receptance")
+    >>> (found.pole.imag / (2 * np.pi)).round(2).tolist(), found.calibrated
+    ([100.6], False)
     """
     th = thresholds or SelectionThresholds()
+    none = ClosePartners(np.zeros(0, complex), SplitCalibration(None, (), None))
     if pole.size == 0:
-        return np.zeros(0, complex)
+        return none
     try:
         residues = lsfd(freq_hz, H, pole, quantity).a
     except (np.linalg.LinAlgError, ValueError):
-        return np.zeros(0, complex)
+        return none
     search = PartnerSearch(freq_hz, H, pole, quantity, window_tau_s, force_window_s,
                            residues, th)
     splits = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES)
+    calibration = SplitCalibration(search, tuple(splits), map_) if (
+        H.shape[0] < th.min_shape_channels) else SplitCalibration(None, (), None)
     found = [(s.pole, s.significance) for s in splits]
-    if H.shape[0] < th.min_shape_channels and any(b is not None for b, _ in found):
+    if calibration.search is not None and any(b is not None for b, _ in found):
         # significant against the noise, where the noise is what the split
-        # fits see: most modes' splits not significant (their median below
-        # partner_max_split_median), else model error makes every split
-        # significant and no test of one channel tells a hidden mode from it.
-        # The significances of the splits that failed the other tests are
-        # only needed for that median, so only computed here, when some
-        # split passed them (the same numbers, without the F tests' fits
-        # when no mode has a partner).
-        todo = [k for k, s in enumerate(splits) if np.isnan(s.significance)
-                and s.split_poles is not None]
-        later = map_each(map_, search.significances_of, [splits[k].split_poles for k in todo],
-                         PARALLEL_MIN_MODES)
-        for k, sig in zip(todo, later, strict=True):
-            found[k] = (found[k][0], sig)
-        sig = np.array([s for _, s in found])
-        calibrated = bool(np.nanmedian(sig) < th.partner_max_split_median) if np.isfinite(
-            sig).any() else False
-        found = [(b, s) if calibrated and s >= 1.0 else (None, s) for b, s in found]
+        # fits see, else model error makes every split significant and no
+        # test of one channel tells a hidden mode from it
+        sig = calibration.significances()
+        found = [(b, s) if calibration.calibrated and s >= 1.0 else (None, s)
+                 for (b, _), s in zip(found, sig, strict=True)]
     out = np.array([b for b, _ in found if b is not None], dtype=complex)
-    return out[np.argsort(out.imag)]
+    return ClosePartners(out[np.argsort(out.imag)], calibration)
 
 
 @dataclass(frozen=True)
