@@ -297,12 +297,12 @@ class SplitCalibration:
         """Each split's :func:`pair_significance` (NaN: no split fit)."""
         if self._sig is None:
             sig = np.array([s.significance for s in self.splits], dtype=float)
-            todo = [k for k, s in enumerate(self.splits)
+            todo = [(k, s.split_poles) for k, s in enumerate(self.splits)
                     if np.isnan(s.significance) and s.split_poles is not None]
             if todo and self.search is not None:
-                sig[todo] = map_each(self.map_, self.search.significances_of,
-                                     [self.splits[k].split_poles for k in todo],
-                                     PARALLEL_MIN_MODES)
+                sig[[k for k, _ in todo]] = map_each(
+                    self.map_, self.search.significances_of, [lam for _, lam in todo],
+                    PARALLEL_MIN_MODES)
             self._sig = sig
         return self._sig
 
