@@ -1,8 +1,14 @@
 """Synthetic impact-test recordings with known truth, written WITHOUT the package's code.
 
-Only numpy, scipy, pyuff and npTDMS are used here, so that tests of the package's
-readers, hit detection, hit checks and FRF estimation compare against an
+Only numpy, scipy, pandas, pyuff and npTDMS are used here, so that tests of the
+package's readers, hit detection, hit checks and FRF estimation compare against an
 independent truth.
+
+Two generators: :func:`make_recording` (the random structures below) and the
+roving-hammer tests of a simply supported plate (:class:`Plate`,
+:class:`PlateTest`, :func:`write_plate_test`: one recording per hammer point in
+CSV, WAV or TDMS and their channel sheet), shared by tests/test_channel_sheet.py,
+tests/test_plate_holdout.py and tests/test_hit_choice_browser.py.
 
 The model
 ---------
@@ -453,3 +459,147 @@ def write_tdms(
     with TdmsWriter(str(path)) as writer:
         writer.write_segment(objects)
     return path
+
+
+# ----------------------------------------------------------- roving-hammer plate tests
+
+#: The plate tests' sampling rate, hit times and recording length (each hammer
+#: point one recording of four hits).
+PLATE_FS_HZ = 2048.0
+PLATE_HIT_TIMES_S = (0.5, 2.6, 4.7, 6.8)
+PLATE_DURATION_S = 9.0
+#: The header of a channel sheet (``frf --channels``).
+SHEET_HEADER = "file,channel,role,node,direction,scale,unit"
+
+
+@dataclass(frozen=True)
+class Plate:
+    """A simply supported rectangular Kirchhoff plate ``lx_m`` x ``ly_m``: mode
+    ``(m, n)`` has the shape ``sin(m pi x / lx) sin(n pi y / ly)`` (unit modal
+    mass), the natural frequency ``fn_hz`` and the damping ratio ``zeta``, in
+    the order of ``modes``."""
+
+    lx_m: float
+    ly_m: float
+    modes: tuple[tuple[int, int], ...]
+    fn_hz: np.ndarray
+    zeta: np.ndarray
+
+    def shape(self, x_m: float, y_m: float) -> np.ndarray:
+        """Every mode's displacement at (x, y)."""
+        return np.array([np.sin(m * np.pi * x_m / self.lx_m) * np.sin(n * np.pi * y_m / self.ly_m)
+                         for m, n in self.modes])
+
+
+@dataclass(frozen=True)
+class PlateTest:
+    """A roving-hammer test of ``plate``: hammer points ``points`` (nodes 1, 2, ...
+    in that order, hit in -Z), one accelerometer at ``sensor`` (node 100, +Z).
+    Point k is recorded with seed ``seed_base + k`` in ``formats[k - 1]`` ("csv",
+    "wav" or "tdms"): four half-sine hits of ``peak_n`` x U(0.8, 1.2) at
+    :data:`PLATE_HIT_TIMES_S`, each ``jitter``: shifted by U(0, 1) samples;
+    ``double_hit`` = (point, time s, peak N): a bounce of that point;
+    ``late_start`` = (point, s): that point's file starts that long before its
+    first hit."""
+
+    plate: Plate
+    points: tuple[tuple[float, float], ...]
+    sensor: tuple[float, float]
+    formats: tuple[str, ...]
+    peak_n: float
+    seed_base: int = 0
+    jitter: bool = False
+    double_hit: tuple[int, float, float] | None = None
+    late_start: tuple[int, float] | None = None
+
+
+def plate_hammer_signals(
+    plate: Plate,
+    point: tuple[float, float],
+    sensor: tuple[float, float],
+    seed: int,
+    *,
+    peak_n: float,
+    jitter: bool = False,
+    double_at: tuple[float, float] | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Force (N) and acceleration at ``sensor`` (m/s^2) of four half-sine hits
+    (2 ms) at ``point``, :data:`PLATE_DURATION_S` at :data:`PLATE_FS_HZ`: peaks
+    ``peak_n`` x U(0.8, 1.2), at :data:`PLATE_HIT_TIMES_S` (``jitter``: each
+    shifted by U(0, 1) samples); ``double_at`` = (time s, peak N) adds a bounce.
+    The response is exact in the frequency domain (zero-padded to twice the
+    length); white noise of 1e-4 of the acceleration's peak and of ``peak_n``."""
+    rng = np.random.default_rng(seed)
+    fs = PLATE_FS_HZ
+    n = int(PLATE_DURATION_S * fs)
+    t = np.arange(n) / fs
+    force = np.zeros(n)
+    width = 2e-3
+    pulses = [(t0 + (rng.uniform(0.0, 1.0) / fs if jitter else 0.0),
+               peak_n * rng.uniform(0.8, 1.2)) for t0 in PLATE_HIT_TIMES_S]
+    if double_at is not None:
+        pulses.append(double_at)
+    for t0, peak in pulses:
+        on = (t >= t0) & (t <= t0 + width)
+        force[on] += peak * np.sin(np.pi * (t[on] - t0) / width)
+    n_pad = 2 * n
+    w = 2 * np.pi * np.fft.rfftfreq(n_pad, 1 / fs)[:, None]
+    wr = 2 * np.pi * plate.fn_hz
+    residue = plate.shape(*sensor) * plate.shape(*point)
+    H = (-(w**2) * residue / (wr**2 - w**2 + 2j * plate.zeta * wr * w)).sum(axis=1)
+    acc = np.fft.irfft(H * np.fft.rfft(force, n_pad), n_pad)[:n]
+    acc += 1e-4 * np.abs(acc).max() * rng.standard_normal(n)
+    force += 1e-4 * peak_n * rng.standard_normal(n)
+    return force, acc
+
+
+def write_plate_recording(folder: Path, k: int, force: np.ndarray, acc: np.ndarray,
+                          fmt: str) -> list[str]:
+    """Hammer point ``k``'s recording in ``folder``: "csv" (``rec/pK.csv``, a time
+    column, ``Hammer [N]`` and ``acc [m/s^2]``), "wav" (``pK.wav``, float32, the
+    force in kN and the acceleration in g) or "tdms" (``pK.tdms``, channels
+    ``hammer`` in N and ``acc`` in m/s^2); its two channel-sheet rows."""
+    import pandas as pd
+
+    if fmt == "csv":
+        name = f"rec/p{k}.csv"
+        (folder / "rec").mkdir(exist_ok=True)
+        pd.DataFrame({"time_s": np.arange(force.size) / PLATE_FS_HZ, "Hammer [N]": force,
+                      "acc [m/s^2]": acc}).to_csv(folder / name, index=False)
+        return [f"{name},Hammer,force,{k},-Z,,", f"{name},acc,response,100,+Z,,"]
+    if fmt == "wav":
+        from scipy.io import wavfile
+
+        name = f"p{k}.wav"
+        data = np.column_stack([force / 1000.0, acc / STANDARD_GRAVITY]).astype(np.float32)
+        wavfile.write(folder / name, int(PLATE_FS_HZ), data)
+        return [f"{name},0,force,{k},-Z,1000,N", f"{name},1,response,100,+Z,,g"]
+    if fmt == "tdms":
+        from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
+
+        name = f"p{k}.tdms"
+        objects = [RootObject(), GroupObject("test")]
+        for ch, data, unit in (("hammer", force, "N"), ("acc", acc, "m/s^2")):
+            objects.append(ChannelObject("test", ch, data, properties={
+                "unit_string": unit, "wf_increment": 1 / PLATE_FS_HZ}))
+        with TdmsWriter(str(folder / name)) as writer:
+            writer.write_segment(objects)
+        return [f"{name},hammer,force,{k},-Z,,", f"{name},acc,response,100,+Z,,"]
+    raise ValueError(f"format must be csv, wav or tdms, got {fmt!r}")
+
+
+def write_plate_test(folder: Path, test: PlateTest) -> None:
+    """Every hammer point's recording of ``test`` in ``folder``
+    (:func:`write_plate_recording`) and their ``channels.csv``."""
+    rows = [SHEET_HEADER]
+    for k, point in enumerate(test.points, start=1):
+        double = test.double_hit
+        force, acc = plate_hammer_signals(
+            test.plate, point, test.sensor, test.seed_base + k, peak_n=test.peak_n,
+            jitter=test.jitter,
+            double_at=double[1:] if double is not None and double[0] == k else None)
+        if test.late_start is not None and test.late_start[0] == k:
+            start = int(round((PLATE_HIT_TIMES_S[0] - test.late_start[1]) * PLATE_FS_HZ))
+            force, acc = force[start:], acc[start:]
+        rows += write_plate_recording(folder, k, force, acc, test.formats[k - 1])
+    (folder / "channels.csv").write_text("\n".join(rows) + "\n")

@@ -4,8 +4,8 @@ A simply supported rectangular plate (Kirchhoff) has the modes
 ``phi_mn(x, y) = sin(m pi x / Lx) sin(n pi y / Ly)`` with
 ``f_mn proportional to (m / Lx)^2 + (n / Ly)^2``. It is hit at 12 points (a 4 x 3 grid)
 with one fixed accelerometer; each point is one recording (CSV, float WAV or TDMS,
-written here with numpy, scipy and npTDMS only), four clean half-sine hits each, the
-responses computed exactly in the frequency domain. Truth: the analytic
+written with numpy, scipy and npTDMS only by tests/impact_recordings.py), four clean
+half-sine hits each, the responses computed exactly in the frequency domain. Truth: the analytic
 frequencies, damping and shapes at the hammer points.
 """
 
@@ -16,9 +16,17 @@ import re
 import tomllib
 from pathlib import Path
 
+import impact_recordings
 import numpy as np
 import pandas as pd
 import pytest
+from impact_recordings import (
+    PLATE_FS_HZ,
+    PLATE_HIT_TIMES_S,
+    Plate,
+    PlateTest,
+    plate_hammer_signals,
+)
 
 from ema_pipeline import io
 from ema_pipeline.cli import main
@@ -31,74 +39,33 @@ LX, LY = 0.6, 0.4
 MODES = ((1, 1), (2, 1), (1, 2), (3, 1), (2, 2))  # by frequency
 FN_HZ = np.array([4.43 * ((m / LX) ** 2 + (n / LY) ** 2) for m, n in MODES])
 ZETA = np.array([0.010, 0.008, 0.010, 0.012, 0.009])
+PLATE = Plate(LX, LY, MODES, FN_HZ, ZETA)
 POINTS = [(x, y) for y in (0.1, 0.2, 0.3) for x in (0.12, 0.24, 0.36, 0.48)]
 SENSOR = (0.1, 0.07)  # on no nodal line of the five modes
-FS = 2048.0
-HIT_TIMES_S = (0.5, 2.6, 4.7, 6.8)
-DURATION_S = 9.0
+FS = PLATE_FS_HZ
+HIT_TIMES_S = PLATE_HIT_TIMES_S
+#: points 1-4 CSV, 5-8 float WAV in g (force in kN), 9-12 TDMS
+FORMATS = ("csv",) * 4 + ("wav",) * 4 + ("tdms",) * 4
+PEAK_N = 200.0
 
 
-def _shape(x: float, y: float) -> np.ndarray:
-    return np.array([np.sin(m * np.pi * x / LX) * np.sin(n * np.pi * y / LY) for m, n in MODES])
-
-
-def _signals(point: tuple[float, float], seed: int,
-             double_at: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+def _signals(point: tuple[float, float], seed: int) -> tuple[np.ndarray, np.ndarray]:
     """Force (N) and acceleration (m/s^2) at the sensor for four hits at ``point``."""
-    rng = np.random.default_rng(seed)
-    n = int(DURATION_S * FS)
-    t = np.arange(n) / FS
-    force = np.zeros(n)
-    width = 2e-3
-    pulses = [(t0, 200.0 * rng.uniform(0.8, 1.2)) for t0 in HIT_TIMES_S]
-    if double_at is not None:
-        pulses.append((double_at, 100.0))
-    for t0, peak in pulses:
-        on = (t >= t0) & (t <= t0 + width)
-        force[on] += peak * np.sin(np.pi * (t[on] - t0) / width)
-    n_pad = 2 * n
-    f = np.fft.rfftfreq(n_pad, 1 / FS)
-    w, wr = 2 * np.pi * f, 2 * np.pi * FN_HZ
-    residue = _shape(*SENSOR) * _shape(*point)  # unit modal masses
-    H = (-(w[:, None] ** 2) * residue / (wr**2 - w[:, None] ** 2
-                                         + 2j * ZETA * wr * w[:, None])).sum(axis=1)
-    acc = np.fft.irfft(H * np.fft.rfft(force, n_pad), n_pad)[:n]
-    acc += 1e-4 * np.abs(acc).max() * rng.standard_normal(n)
-    force += 1e-4 * 200.0 * rng.standard_normal(n)
-    return force, acc
+    return plate_hammer_signals(PLATE, point, SENSOR, seed, peak_n=PEAK_N)
 
 
-def write_plate_test(folder, double_hit_point: int | None = None) -> None:
+def plate_test(double_hit_point: int | None = None, plate: Plate = PLATE,
+               points: list[tuple[float, float]] = POINTS) -> PlateTest:
+    """This module's roving-hammer test (seeds 1-12; a bounce of 100 N at 2.65 s
+    at ``double_hit_point``)."""
+    return PlateTest(plate, tuple(points), SENSOR, FORMATS, PEAK_N, double_hit=(
+        None if double_hit_point is None else (double_hit_point, 2.65, 100.0)))
+
+
+def write_plate_test(folder: Path, double_hit_point: int | None = None) -> None:
     """One recording per hammer point (1-4 CSV, 5-8 float WAV in g, 9-12 TDMS) and
     ``channels.csv``; the sensor is node 100, +Z; the hammer hits in -Z."""
-    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
-    from scipy.io import wavfile
-
-    rows = ["file,channel,role,node,direction,scale,unit"]
-    for k, point in enumerate(POINTS, start=1):
-        force, acc = _signals(point, seed=k, double_at=2.65 if k == double_hit_point else None)
-        if k <= 4:
-            name = f"rec/p{k}.csv"
-            table = pd.DataFrame({"time_s": np.arange(force.size) / FS, "Hammer [N]": force,
-                                  "acc [m/s^2]": acc})
-            (folder / "rec").mkdir(exist_ok=True)
-            table.to_csv(folder / name, index=False)
-            rows += [f"{name},Hammer,force,{k},-Z,,", f"{name},acc,response,100,+Z,,"]
-        elif k <= 8:
-            name = f"p{k}.wav"
-            data = np.column_stack([force / 1000.0, acc / 9.80665]).astype(np.float32)
-            wavfile.write(folder / name, int(FS), data)  # force in kN, acceleration in g
-            rows += [f"{name},0,force,{k},-Z,1000,N", f"{name},1,response,100,+Z,,g"]
-        else:
-            name = f"p{k}.tdms"
-            objects = [RootObject(), GroupObject("test")]
-            for ch, data, unit in (("hammer", force, "N"), ("acc", acc, "m/s^2")):
-                objects.append(ChannelObject("test", ch, data, properties={
-                    "unit_string": unit, "wf_increment": 1 / FS}))
-            with TdmsWriter(str(folder / name)) as writer:
-                writer.write_segment(objects)
-            rows += [f"{name},hammer,force,{k},-Z,,", f"{name},acc,response,100,+Z,,"]
-    (folder / "channels.csv").write_text("\n".join(rows) + "\n")
+    impact_recordings.write_plate_test(folder, plate_test(double_hit_point))
 
 
 @pytest.fixture(scope="module")
@@ -162,7 +129,7 @@ def test_roving_hammer_plate_frf_and_modes(plate, tmp_path):
     np.testing.assert_allclose(np.sort(found.fn_hz), FN_HZ, rtol=0.005)
     order = np.argsort(found.fn_hz)
     np.testing.assert_allclose(found.zeta[order], ZETA, rtol=0.15)
-    truth = np.array([_shape(x, y) for x, y in POINTS])  # (12, n_modes)
+    truth = np.array([PLATE.shape(x, y) for x, y in POINTS])  # (12, n_modes)
     measured = np.real(result.shapes_real)[:, order]
     assert mac_pairs(measured, truth).min() > 0.99
 
@@ -506,32 +473,26 @@ def test_hits_chosen_by_hand(plate, tmp_path, capsys):
     assert int(hits["accepted"].sum()) == 48
 
 
-def test_close_pair_1_2_percent_apart(tmp_path, monkeypatch):
+def test_close_pair_1_2_percent_apart(tmp_path):
     """A nearly square plate (Ly = 0.594 m for Lx = 0.6 m): modes (2,1) and (1,2) lie
     1.2 % apart (61.78 and 62.53 Hz). Recorded and assembled as the plate above, both
     are found within 0.1 %, damping within 15 %, shapes MAC > 0.99 over the hammer
     points; nothing spurious."""
-    import sys
-
     from ema_pipeline.identification import identify
 
-    mod = sys.modules[__name__]
     modes = ((1, 1), (2, 1), (1, 2), (2, 2), (3, 1))
-    monkeypatch.setattr(mod, "LY", 0.594)
-    monkeypatch.setattr(mod, "MODES", modes)
     fn = np.array([4.43 * ((m / LX) ** 2 + (n / 0.594) ** 2) for m, n in modes])
-    monkeypatch.setattr(mod, "FN_HZ", fn)
-    monkeypatch.setattr(mod, "POINTS", [(x, y) for y in (0.15, 0.29, 0.43)
-                                        for x in (0.12, 0.24, 0.36, 0.48)])
+    square = Plate(LX, 0.594, modes, fn, ZETA)
+    points = [(x, y) for y in (0.15, 0.29, 0.43) for x in (0.12, 0.24, 0.36, 0.48)]
     assert 0.011 < fn[2] / fn[1] - 1 < 0.013
-    write_plate_test(tmp_path)
+    impact_recordings.write_plate_test(tmp_path, plate_test(plate=square, points=points))
     result = identify(sheet_frf(tmp_path / "channels.csv").frf, band_hz=(15.0, 150.0))
     found = result.modes
     assert found.fn_hz.size == fn.size
     order = np.argsort(found.fn_hz)
     np.testing.assert_allclose(found.fn_hz[order], fn, rtol=1e-3)
     np.testing.assert_allclose(found.zeta[order], ZETA, rtol=0.15)
-    truth = np.array([_shape(x, y) for x, y in mod.POINTS])
+    truth = np.array([square.shape(x, y) for x, y in points])
     assert mac_pairs(np.real(result.shapes_real)[:, order], truth).min() > 0.99
 
 

@@ -11,7 +11,8 @@ and (2,2), with (1,2) and (3,1) 1.7 % apart, and seven modes above the band in
 the recordings. It is hit at 12 points (a 4 x 3 grid) with one fixed
 accelerometer; each point is one recording, the formats mixed (CSV, float WAV
 with the force in kN and the acceleration in g, TDMS), four half-sine hits
-each, the responses computed exactly in the frequency domain with numpy only.
+each, the responses computed exactly in the frequency domain with numpy only
+(tests/impact_recordings.py, write_plate_test).
 Point 5 has a double hit (a bounce 50 ms after its second hit), point 7's file
 starts 3 ms before its first hit. Truth: the analytic frequencies, damping and
 shapes at the hammer points. Seeds 7301-7312 (no other test uses them).
@@ -25,6 +26,7 @@ import re
 import numpy as np
 import pandas as pd
 import pytest
+from impact_recordings import PLATE_HIT_TIMES_S, Plate, PlateTest, write_plate_test
 
 from ema_pipeline import io
 from ema_pipeline.cli import main
@@ -42,82 +44,25 @@ IN_BAND = np.flatnonzero((FN_ALL > BAND_HZ[0]) & (FN_ALL < BAND_HZ[1]))[np.argso
     FN_ALL[(FN_ALL > BAND_HZ[0]) & (FN_ALL < BAND_HZ[1])])]
 ZETA_ALL = np.full(FN_ALL.size, 0.012)
 ZETA_ALL[IN_BAND] = [0.010, 0.009, 0.011, 0.008, 0.012]
+PLATE = Plate(LX, LY, tuple(ALL_MODES), FN_ALL, ZETA_ALL)
 POINTS = [(fx * LX, fy * LY) for fy in (0.2, 0.45, 0.75) for fx in (0.15, 0.38, 0.6, 0.83)]
 SENSOR = (0.22 * LX, 0.13 * LY)  # node 100, on no nodal line of the band's modes
-FS = 2048.0
-HIT_TIMES_S = (0.5, 2.6, 4.7, 6.8)
-DURATION_S = 9.0
 DOUBLE_HIT_POINT, LATE_START_POINT = 5, 7
-
-
-def _shape(x: float, y: float) -> np.ndarray:
-    """Every simulated mode's displacement at (x, y) (unit modal masses)."""
-    return np.array([np.sin(m * np.pi * x / LX) * np.sin(n * np.pi * y / LY)
-                     for m, n in ALL_MODES])
-
-
-def _signals(point: tuple[float, float], seed: int,
-             double_at: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Force (N) and acceleration (m/s^2) at the sensor for four hits at ``point``."""
-    rng = np.random.default_rng(seed)
-    n = int(DURATION_S * FS)
-    t = np.arange(n) / FS
-    force = np.zeros(n)
-    width = 2e-3
-    pulses = [(t0 + rng.uniform(0.0, 1.0) / FS, 150.0 * rng.uniform(0.8, 1.2))
-              for t0 in HIT_TIMES_S]
-    if double_at is not None:
-        pulses.append((double_at, 80.0))
-    for t0, peak in pulses:
-        on = (t >= t0) & (t <= t0 + width)
-        force[on] += peak * np.sin(np.pi * (t[on] - t0) / width)
-    n_pad = 2 * n
-    w = 2 * np.pi * np.fft.rfftfreq(n_pad, 1 / FS)[:, None]
-    wr = 2 * np.pi * FN_ALL
-    residue = _shape(*SENSOR) * _shape(*point)
-    H = (-(w**2) * residue / (wr**2 - w**2 + 2j * ZETA_ALL * wr * w)).sum(axis=1)
-    acc = np.fft.irfft(H * np.fft.rfft(force, n_pad), n_pad)[:n]
-    acc += 1e-4 * np.abs(acc).max() * rng.standard_normal(n)
-    force += 1e-4 * 150.0 * rng.standard_normal(n)
-    return force, acc
+#: points 1, 4, 7, 10 CSV (in rec/), 2, 5, 8, 11 float WAV (force in kN, scaled by
+#: 1000 in the sheet; acceleration in g), 3, 6, 9, 12 TDMS; seeds 7301-7312, 150 N
+#: hits each shifted by up to a sample, a bounce of 80 N 50 ms after point 5's
+#: second hit, point 7's file starting 3 ms before its first hit
+TEST = PlateTest(PLATE, tuple(POINTS), SENSOR, ("csv", "wav", "tdms") * 4, peak_n=150.0,
+                 seed_base=7300, jitter=True,
+                 double_hit=(DOUBLE_HIT_POINT, PLATE_HIT_TIMES_S[1] + 0.05, 80.0),
+                 late_start=(LATE_START_POINT, 0.003))
 
 
 def _write_test(folder) -> None:
-    """One recording per hammer point: points 1, 4, 7, 10 CSV (in rec/), 2, 5, 8,
-    11 float WAV (force in kN, scaled by 1000 in the sheet; acceleration in g),
-    3, 6, 9, 12 TDMS; ``channels.csv``; ``plate.uff`` (nodes 1-12 and the
-    sensor's node 100, the grid's lines). The hammer hits in -Z, the sensor is +Z."""
-    from nptdms import ChannelObject, GroupObject, RootObject, TdmsWriter
-    from scipy.io import wavfile
-
-    rows = ["file,channel,role,node,direction,scale,unit"]
-    for k, point in enumerate(POINTS, start=1):
-        force, acc = _signals(point, seed=7300 + k, double_at=(
-            HIT_TIMES_S[1] + 0.05 if k == DOUBLE_HIT_POINT else None))
-        if k == LATE_START_POINT:  # the file starts 3 ms before the first hit
-            start = int(round((HIT_TIMES_S[0] - 0.003) * FS))
-            force, acc = force[start:], acc[start:]
-        if k % 3 == 1:
-            name = f"rec/p{k}.csv"
-            (folder / "rec").mkdir(exist_ok=True)
-            pd.DataFrame({"time_s": np.arange(force.size) / FS, "Hammer [N]": force,
-                          "acc [m/s^2]": acc}).to_csv(folder / name, index=False)
-            rows += [f"{name},Hammer,force,{k},-Z,,", f"{name},acc,response,100,+Z,,"]
-        elif k % 3 == 2:
-            name = f"p{k}.wav"
-            data = np.column_stack([force / 1000.0, acc / 9.80665]).astype(np.float32)
-            wavfile.write(folder / name, int(FS), data)
-            rows += [f"{name},0,force,{k},-Z,1000,N", f"{name},1,response,100,+Z,,g"]
-        else:
-            name = f"p{k}.tdms"
-            objects = [RootObject(), GroupObject("test")]
-            for ch, data, unit in (("hammer", force, "N"), ("acc", acc, "m/s^2")):
-                objects.append(ChannelObject("test", ch, data, properties={
-                    "unit_string": unit, "wf_increment": 1 / FS}))
-            with TdmsWriter(str(folder / name)) as writer:
-                writer.write_segment(objects)
-            rows += [f"{name},hammer,force,{k},-Z,,", f"{name},acc,response,100,+Z,,"]
-    (folder / "channels.csv").write_text("\n".join(rows) + "\n")
+    """The recordings and ``channels.csv`` of :data:`TEST`
+    (tests/impact_recordings.py); ``plate.uff`` (nodes 1-12 and the sensor's
+    node 100, the grid's lines). The hammer hits in -Z, the sensor is +Z."""
+    write_plate_test(folder, TEST)
     xyz = np.array([[x, y, 0.0] for x, y in POINTS] + [[*SENSOR, 0.0]])
     grid = np.arange(1, 13).reshape(3, 4)
     lines = tuple(tuple(int(v) for v in row) for row in grid) + tuple(
@@ -159,7 +104,7 @@ def test_held_out_plate_from_recordings_to_shapes_on_the_geometry(tmp_path, monk
     exported = sorted((s for s in sets if int(s["type"]) == 55), key=lambda s: s["freq"])
     assert len(exported) == fn.size
     np.testing.assert_allclose([s["freq"] for s in exported], f_found, rtol=1e-5)
-    truth = np.array([_shape(x, y)[IN_BAND] for x, y in POINTS])  # (12, 5)
+    truth = np.array([PLATE.shape(x, y)[IN_BAND] for x, y in POINTS])  # (12, 5)
     measured = np.empty((12, fn.size))
     for k, s in enumerate(exported):
         nodes = [int(v) for v in s["node_nums"]]
