@@ -28,7 +28,9 @@ files in ``raw_frf/`` (seeded ``random.Random``, no stored corpus):
                    (``RLIMIT_FSIZE``: writes fail with EFBIG like on a full disk).
 
 :func:`run_cases` runs them through ``python -m ema_pipeline`` in subprocesses
-(under ``RLIMIT_AS`` so that a runaway allocation fails instead of swapping),
+(forked from the runner with the package already imported where the runner
+has one thread, as in the test suite's background run: :func:`run_cli`;
+under ``RLIMIT_AS`` so that a runaway allocation fails instead of swapping),
 many file cases per ``identify`` process; a process that crashes, hangs or
 prints a traceback is re-run one case at a time to find the culprit.
 :func:`save_verdicts` does both and stores the verdicts as JSON (the test
