@@ -432,6 +432,11 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | 
     return ModuleScheduling(config, log)
 
 
+def _uses_fixture(items: list[pytest.Item], name: str) -> bool:
+    """Whether a collected test uses the fixture ``name``."""
+    return any(name in getattr(item, "fixturenames", ()) for item in items)
+
+
 def pytest_collection_finish(session: pytest.Session) -> None:
     """Start the background jobs whose tests were collected (and not deselected),
     once per run (with xdist every worker collects the same tests; the first
@@ -441,17 +446,16 @@ def pytest_collection_finish(session: pytest.Session) -> None:
         item.name == "test_mypy_clean" for item in session.items
     ):
         _start_mypy(config)
-    if any("fuzz" in getattr(item, "fixturenames", ()) for item in session.items):
+    if _uses_fixture(session.items, "fuzz"):
         _start_fuzz(config)
     needed = _background_needed(session.items)
     if needed:
         config.stash[_BG_JOBS_KEY] = needed
         _start_background(config)
-    if REAL_UFF.is_file() and BEAM_GEOMETRY.is_file() and any(
-        "beam_report" in getattr(item, "fixturenames", ()) for item in session.items
-    ):
+    if REAL_UFF.is_file() and BEAM_GEOMETRY.is_file() and _uses_fixture(session.items,
+                                                                          "beam_report"):
         _start_beam_report(config)
-    if any("docs_site" in getattr(item, "fixturenames", ()) for item in session.items):
+    if _uses_fixture(session.items, "docs_site"):
         _start_docs(config)
     readme = _readme_needed(session.items)
     if readme:
