@@ -84,6 +84,7 @@ if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checke
         StabilizationData,
         doubtful_reasons,
         found_by_names,
+        modes_columns,
         modes_table,
     )
     from ema_pipeline.identification.selection.trajectories import select_trajectories, track_poles
@@ -108,6 +109,7 @@ __all__ = [
     "frac",
     "identify",
     "modal_std",
+    "modes_columns",
     "modes_table",
     "mpc",
     "normalised_error",
@@ -144,6 +146,7 @@ EXPORTS: dict[str, str] = {
     "doubtful_reasons": "result",
     "found_by_names": "result",
     "FOUND_BY": "result",
+    "modes_columns": "result",
     "modes_table": "result",
     "select_trajectories": "selection.trajectories",
     "track_poles": "selection.trajectories",

@@ -11,13 +11,16 @@ the identification (``tests/test_style.py``).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
-from ema_pipeline.data import ModalParameters, notebook_table_html
+from ema_pipeline.data import ModalParameters, Table, notebook_table_html
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mpd
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: Bits of :attr:`StabilizationData.flags`.
 STABLE_FREQ = 1
@@ -262,7 +265,7 @@ class IdentificationResult:
         """The modal table (notebooks): :func:`modes_table` as plain HTML (the
         report's formatted one is :func:`ema_pipeline.report.mode_table_html`)."""
         m = self.modes
-        return notebook_table_html(modes_table(self).to_dict(orient="list"),
+        return notebook_table_html(modes_columns(self).columns,
                                    caption=f"{m.configuration or 'modes'}: {m.n_modes} modes")
 
     @property
@@ -458,6 +461,27 @@ def doubtful_reasons(result: IdentificationResult) -> list[str]:
 
 
 def modes_table(result: IdentificationResult) -> pd.DataFrame:
+    """:func:`modes_columns` as a ``pandas.DataFrame``.
+
+    Examples
+    --------
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import FRFSet
+    >>> from ema_pipeline.identification import identify
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> modes_table(identify(FRFSet(freq_hz=f, H=H)))[["mode", "fn_hz", "zeta_pct"]].round(4)
+       mode  fn_hz  zeta_pct
+    0     1   30.0       1.0
+    1     2   70.0       2.0
+    """
+    import pandas as pd  # here: the commands that only write tables do without it
+
+    return pd.DataFrame(modes_columns(result).columns)
+
+
+def modes_columns(result: IdentificationResult) -> Table:
     """One row per mode, ascending frequency: ``mode, fn_hz, fd_hz, zeta_pct,
     fn_std_hz, zeta_std_pct`` (zeta in percent) and the quality columns ``mpc``
     (modal phase collinearity, 1 = real), ``mpd_deg`` (mean phase deviation,
@@ -465,12 +489,26 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
     :func:`stable_orders`), ``found_by`` (how it was found,
     :func:`found_by_names`), ``selection`` (``auto``, ``picked`` or
     ``expected``, :func:`selection_names`), ``doubtful`` (see :func:`doubtful_modes`) and
-    ``doubtful_reason`` (the rules that fire, :func:`doubtful_reasons`)."""
+    ``doubtful_reason`` (the rules that fire, :func:`doubtful_reasons`).
+    :func:`modes_table` is the same as a ``pandas.DataFrame``.
+
+    Examples
+    --------
+    >>> from ema_pipeline.acquisition import modal_frf
+    >>> from ema_pipeline.data import FRFSet
+    >>> from ema_pipeline.identification import identify
+    >>> f = np.linspace(0.0, 100.0, 401)
+    >>> truth = ModalParameters(fn_hz=[30.0, 70.0], zeta=[0.01, 0.02])
+    >>> H = modal_frf(f, truth, np.array([[1.0, 0.5], [0.3, -1.0]]), np.array([[1.0, -0.8]]))
+    >>> table = modes_columns(identify(FRFSet(freq_hz=f, H=H)))
+    >>> table.columns["fn_hz"].round(4).tolist(), table.columns["found_by"].tolist()
+    ([30.0, 70.0], ['diagram', 'diagram'])
+    """
     m = result.modes
     order = np.argsort(m.fn_hz)
     first, _, count = stable_orders(result)
     mpd_deg = mpd(m.shapes) if m.shapes is not None else np.full(m.n_modes, np.nan)
-    return pd.DataFrame(
+    return Table(
         {
             "mode": np.arange(1, m.n_modes + 1),
             "fn_hz": m.fn_hz[order],

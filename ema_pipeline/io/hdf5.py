@@ -88,11 +88,10 @@ import time
 from collections.abc import Callable, Mapping
 from dataclasses import MISSING, fields, is_dataclass, replace
 from pathlib import Path
-from typing import Any, Literal, overload
+from typing import TYPE_CHECKING, Any, Literal, overload
 
 import h5py
 import numpy as np
-import pandas as pd
 
 from ema_pipeline import __version__
 from ema_pipeline.data import (
@@ -103,6 +102,7 @@ from ema_pipeline.data import (
     FRFSet,
     ModalParameters,
     Provenance,
+    Table,
 )
 from ema_pipeline.identification.result import (
     IdentificationResult,
@@ -112,6 +112,9 @@ from ema_pipeline.identification.result import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.io.files import atomic_path, check_readable, open_regular, sha256_file
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 SCHEMA_FRF = "ema-pipeline/frf"
 SCHEMA_RESULTS = "ema-pipeline/results"
@@ -698,6 +701,22 @@ def _with_provenance(frf: FRFSet, path: Path) -> FRFSet:
 # --------------------------------------------------------------------------
 
 
+def _is_dataframe(value: Any) -> bool:
+    """Whether ``value`` is a ``pandas.DataFrame`` (pandas not imported: it is not)."""
+    pd = sys.modules.get("pandas")
+    return pd is not None and isinstance(value, pd.DataFrame)
+
+
+def _dataframe_table(frame: Any) -> Table:
+    """A DataFrame's columns as a :class:`~ema_pipeline.data.Table`; a
+    string-typed column (pandas' own string dtype) as Python objects."""
+    import pandas as pd  # imported already: frame is a DataFrame
+
+    return Table({str(c): (frame[c].to_numpy(dtype=object)
+                           if pd.api.types.is_string_dtype(frame[c]) else frame[c].to_numpy())
+                  for c in frame.columns})
+
+
 def _store(group: h5py.Group, name: str, value: Any) -> None:
     """Store ``value`` under ``name``: arrays as datasets, scalars and strings as
     attributes, dataclasses and dicts as sub-groups, DataFrames column by column."""
@@ -710,15 +729,15 @@ def _store(group: h5py.Group, name: str, value: Any) -> None:
         )
     if isinstance(value, FRFSet):
         write_frf_group(group.create_group(name), value)
-    elif isinstance(value, pd.DataFrame):
+    elif isinstance(value, Table) or _is_dataframe(value):
+        table = value if isinstance(value, Table) else _dataframe_table(value)
         sub = group.create_group(name)
         sub.attrs["kind"] = "table"
-        sub.attrs["columns"] = np.array([str(c) for c in value.columns], dtype=object)
-        for col in value.columns:
-            data = value[col].to_numpy()
-            if data.dtype == object or pd.api.types.is_string_dtype(value[col]):
+        sub.attrs["columns"] = np.array(table.names, dtype=object)
+        for col, data in table.columns.items():
+            if data.dtype == object or data.dtype.kind in "US":
                 data = np.array([str(v) for v in data], dtype=h5py.string_dtype())
-            sub.create_dataset(str(col), data=data, track_times=False)
+            sub.create_dataset(col, data=data, track_times=False)
     elif is_dataclass(value) and not isinstance(value, type):
         sub = group.create_group(name)
         sub.attrs["kind"] = type(value).__name__
@@ -885,6 +904,8 @@ def result_details(path: str | os.PathLike[str]) -> dict[str, Any]:
 
 def table_from_results(tree: Mapping[str, Any]) -> pd.DataFrame:
     """A DataFrame stored by :func:`write_results_h5`, from the loaded tree."""
+    import pandas as pd  # here: the commands that only write tables do without it
+
     columns = list(tree.get("columns", []))
     return pd.DataFrame({c: tree[c] for c in columns})
 

@@ -17,10 +17,9 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 
 from ema_pipeline import acquisition, io
 from ema_pipeline.acquisition import hits as hitlib
@@ -33,11 +32,16 @@ from ema_pipeline.data import (
     Provenance,
     Quantity,
     Recording,
+    Table,
     TimeRecords,
 )
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
-from ema_pipeline.report.hits_page import HitsPageInput, HitView, render_hits_html
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from ema_pipeline.report.hits_page import HitsPageInput, HitView
 
 __all__ = [
     "AUTO_FORCE_WINDOW_S",
@@ -145,8 +149,16 @@ class ImpactFRF:
         return sum(h.accepted for h in self.hits)
 
     def hits_table(self) -> pd.DataFrame:
-        """One row per hit: ``hit,time_s,force_peak_n,accepted,reasons``."""
-        return pd.DataFrame(hitlib.hits_columns(self.hits))
+        """:meth:`hit_columns` as a ``pandas.DataFrame``."""
+        import pandas as pd  # here: the frf command writes its table without it
+
+        return pd.DataFrame(self.hit_columns().columns)
+
+    def hit_columns(self) -> Table:
+        """One row per hit: ``hit,time_s,force_peak_n,accepted,reasons,note``
+        (:func:`ema_pipeline.acquisition.hits.hits_columns`)."""
+        columns = hitlib.hits_columns(self.hits)
+        return Table({name: np.asarray(col) for name, col in columns.items()})
 
 
 def _force_index(recording: Recording, force_channel: str | None, where: str) -> int:
@@ -358,7 +370,7 @@ def hits_csv_path(out: str | os.PathLike[str]) -> Path:
     return out.with_name(f"{out.stem}_hits.csv")
 
 
-def write_frf_outputs(frf: FRFSet, hits: pd.DataFrame, page: str | None,
+def write_frf_outputs(frf: FRFSet, hits: pd.DataFrame | Table, page: str | None,
                       out: str | os.PathLike[str], fmt: str) -> None:
     """The outputs of one ``frf`` command, replaced together or not at all
     (:func:`ema_pipeline.io.replace_together`): the hit table
@@ -386,6 +398,8 @@ def hits_report_path(out: str | os.PathLike[str]) -> Path:
 def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
     """The record of one hit (as far as the data go) with its windows, force spectrum
     and end level, for the hit page."""
+    from ema_pipeline.report.hits_page import HitView  # the page (pandas): --report
+
     rec = result.recording
     assert rec is not None
     fs, n = rec.sample_rate_hz, result.n_samples
@@ -432,6 +446,7 @@ def hits_page_input(result: ImpactFRF) -> HitsPageInput:
     recording must be kept: :func:`frf_from_recording` does)."""
     from ema_pipeline import __version__
     from ema_pipeline.pipeline.reports import report_date
+    from ema_pipeline.report.hits_page import HitsPageInput  # the page (pandas): --report
 
     if result.recording is None:
         raise DataError("no recording kept with the FRFs: cannot draw the hit page")
@@ -595,8 +610,12 @@ def frf_from_files(
     fmt = check_output(out, paths, report=report)
     result = impact_frf(paths, settings, force_channel=force_channel, scale=scale,
                         units=units, configuration=configuration, chosen=chosen)
-    page = render_hits_html(hits_page_input(result)) if report else None
-    write_frf_outputs(result.frf, result.hits_table(), page, out, fmt)
+    page = None
+    if report:  # the page (and pandas) imported only when drawn
+        from ema_pipeline.report.hits_page import render_hits_html
+
+        page = render_hits_html(hits_page_input(result))
+    write_frf_outputs(result.frf, result.hit_columns(), page, out, fmt)
     return result
 
 
@@ -631,7 +650,7 @@ def identify_recording(
         result = (impact_frf([path], configuration=path.stem) if make_frf is None
                   else make_frf(path))
         with io.replace_together():
-            io.write_csv(result.hits_table(), hits_csv_path(frf_path))
+            io.write_csv(result.hit_columns(), hits_csv_path(frf_path))
             io.write_frf(result.frf, frf_path, "h5")
     except EMAError as exc:
         return FileOutcome(path=path, status="failed", reason=str(exc),

@@ -13,7 +13,6 @@ from pathlib import Path
 from urllib.parse import quote
 
 import numpy as np
-import pandas as pd
 
 from ema_pipeline import __version__, io
 from ema_pipeline.data import DataError, FRFSet, Geometry
@@ -186,6 +185,8 @@ def write_batch_report(
     identification), its modes animated on ``geometry`` (``--geometry``), else on
     the file's own (:func:`file_geometry`). Why a page is missing or drawn without
     some shape values is appended to ``warnings``."""
+    import pandas as pd  # here: identify without --report does without it
+
     from ema_pipeline.report import BatchReportInput, render_batch_html
 
     out = Path(out)

@@ -25,6 +25,7 @@ from ema_pipeline.identification import (
     IdentificationOptions,
     IdentificationResult,
     identify,
+    modes_columns,
     modes_table,
 )
 from ema_pipeline.identification.common import ends_at_usable_top, single_reference
@@ -163,7 +164,7 @@ def identify_file(
         result = identify(frf, options, picks=picks)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
-        table = modes_table(result)  # its found_by column: diagram, ..., expected, picked
+        table = modes_columns(result)  # its found_by column: diagram, ..., expected, picked
         if picks is not None and picks.source:
             outcome.picks_path = picks.source
             outcome.picks_sha256 = io.sha256_file(picks.source)
@@ -182,7 +183,7 @@ def identify_file(
         if note:
             outcome.warnings.append(f"{path}: {note}")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
-            table = with_expected_rows(table, options.expect_hz)
+            table = with_expected_rows(modes_table(result), options.expect_hz)
             for column in ("found_by", "selection"):  # a guess not found: empty
                 table[column] = table[column].fillna("")
             message = not_found_message(options.expect_hz, match_expected(

@@ -9,16 +9,20 @@ and a row with empty values in the modes table), never answered by a distant
 mode. Each mode answers at most one guess; guesses and modes are paired
 nearest first.
 
-This module imports only numpy and pandas, so that the selection, the
-backends and the pipeline can all use it without an import cycle.
+This module imports only numpy (pandas where a table is made), so that the
+selection, the backends and the pipeline can all use it without an import
+cycle.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: Default tolerance of a guess, percent of the guessed frequency.
 EXPECT_TOL_PCT: float = 5.0
@@ -108,6 +112,7 @@ def with_expected_rows(
 
     Examples
     --------
+    >>> import pandas as pd
     >>> table = pd.DataFrame({"mode": [1, 2], "fn_hz": [18.1, 112.0], "zeta_pct": [0.5, 0.7]})
     >>> with_expected_rows(table, [18.0, 60.0, 112.5])
        mode  fn_hz  zeta_pct  expect_hz
@@ -115,6 +120,8 @@ def with_expected_rows(
     1  <NA>    NaN       NaN       60.0
     2     2  112.0       0.7      112.5
     """
+    import pandas as pd  # here: only --expect needs it (pandas costs 0.4-0.5 s to import)
+
     guess = np.asarray(expect_hz, dtype=float).ravel()
     out = table.copy()
     match = match_expected(out["fn_hz"].to_numpy(), guess, tol_pct)
