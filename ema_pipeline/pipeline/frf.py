@@ -650,7 +650,7 @@ def identify_recording(
         result = (impact_frf([path], configuration=path.stem) if make_frf is None
                   else make_frf(path))
         with io.replace_together():
-            io.write_csv(result.hit_columns(), hits_csv_path(frf_path))
+            io.write_csv(result.hits_table(), hits_csv_path(frf_path))
             io.write_frf(result.frf, frf_path, "h5")
     except EMAError as exc:
         return FileOutcome(path=path, status="failed", reason=str(exc),
