@@ -222,7 +222,7 @@ class Table:
     >>> Table({"a": np.zeros(2), "b": np.zeros(3)})
     Traceback (most recent call last):
     ...
-    ValueError: table columns of unequal length: a 2, b 3
+    ValueError: table columns must be 1-D and of equal length: a (2,), b (3,)
     """
 
     columns: dict[str, np.ndarray]
@@ -231,8 +231,8 @@ class Table:
         arrays = {str(name): np.asarray(col) for name, col in self.columns.items()}
         sizes = {name: col.shape[0] if col.ndim == 1 else -1 for name, col in arrays.items()}
         if any(size < 0 for size in sizes.values()) or len(set(sizes.values())) > 1:
-            raise ValueError("table columns of unequal length: "
-                             + ", ".join(f"{name} {arrays[name].size}" for name in arrays))
+            raise ValueError("table columns must be 1-D and of equal length: "
+                             + ", ".join(f"{name} {arrays[name].shape}" for name in arrays))
         object.__setattr__(self, "columns", arrays)
 
     @property
