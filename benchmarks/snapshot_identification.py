@@ -14,7 +14,9 @@ the change (from a clean checkout of the old commit) and one after, then compare
 
 The comparison reports, per case, a changed mode count and the largest relative
 change of fn, zeta, fn_std and zeta_std; the tolerances are the ones a refactor
-must meet (fn 1e-6 relative, zeta 1e-4 relative, sigma 1 %).
+must meet (fn 1e-6 relative, zeta 1e-4 relative, sigma 1 %). The resonances
+listed as not kept (``not_kept_hz``) must be the same too, where both
+snapshots hold them.
 """
 
 from __future__ import annotations
@@ -54,8 +56,11 @@ def take(out: Path, seeds: list[int], families: list[str] | None, real: bool,
             frf = frf.reciprocal()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            m = identify(frf, band_hz=band_hz).modes
-        return {k: np.asarray(getattr(m, k), dtype=float).tolist() for k in TOLERANCES}
+            res = identify(frf, band_hz=band_hz)
+        out = {k: np.asarray(getattr(res.modes, k), dtype=float).tolist() for k in TOLERANCES}
+        # the resonances the FRFs show with no mode kept (the warning's list)
+        out["not_kept_hz"] = np.asarray(res.not_kept_hz, dtype=float).tolist()
+        return out
 
     snap: dict[str, dict] = {}
     for family in families or list(hardcases.FAMILIES):
@@ -96,6 +101,11 @@ def compare(a_path: Path, b_path: Path) -> int:
             if worst[col] > tol:
                 bad += 1
         flag = "CHANGED" if any(worst[c] > t for c, t in TOLERANCES.items()) else "ok"
+        nk_a, nk_b = a[key].get("not_kept_hz"), b[key].get("not_kept_hz")
+        if nk_a is not None and nk_b is not None and (
+                len(nk_a) != len(nk_b) or not np.allclose(nk_a, nk_b, rtol=TOLERANCES["fn_hz"])):
+            flag += f" not_kept {np.round(nk_a, 2).tolist()} -> {np.round(nk_b, 2).tolist()}"
+            bad += 1
         print(f"{key}: {flag} " + " ".join(f"{c}={v:.1e}" for c, v in worst.items()))
     print(f"{len(set(a) | set(b))} cases, {bad} outside tolerance {TOLERANCES}")
     return 1 if bad else 0

@@ -164,3 +164,54 @@ def test_mean_of_three_lines_is_scipy_uniform_filter() -> None:
     for x in (10 ** rng.uniform(-5, 5, 4097), np.array([2.0]), np.array([1.0, 7.0])):
         np.testing.assert_allclose(mean_of_three_lines(x),
                                    uniform_filter1d(x, 3, mode="nearest"), rtol=1e-12)
+
+
+def test_refining_some_modes_gives_them_the_numbers_of_refining_all() -> None:
+    """``refine_poles(..., modes=...)``: each mode's local fit is its own, so
+    the modes refined alone have the numbers of the full refinement to the
+    last bit; the others keep their start poles with a NaN covariance."""
+    from ema_pipeline.identification.refinement.refine import refine_poles
+
+    rng = np.random.default_rng(3)
+    f = np.linspace(50.0, 150.0, 801)
+    fn, zeta = np.array([70.0, 100.0, 125.0]), np.array([0.01, 0.008, 0.012])
+    H, lam = _modes(rng, f, fn, zeta, n_ch=3, snr_db=40.0)
+    start = lam * (1 + 0.002)
+    every = refine_poles(f, H, start)
+    some = refine_poles(f, H, start, modes=[1])
+    assert some.pole[1] == every.pole[1] and np.array_equal(some.cov[1], every.cov[1])
+    assert np.array_equal(some.noise_std[1], every.noise_std[1])
+    assert some.pole[0] == start[0] and np.isnan(some.cov[[0, 2]]).all()
+    assert abs(every.pole[1] - lam[1]) < abs(start[1] - lam[1])  # it did refine
+
+
+def test_a_residual_peak_that_cannot_pass_costs_no_refit_of_every_mode(monkeypatch) -> None:
+    """A simulated paper file (genuine, seed 0): its noise leaves a residual
+    peak whose decay rate the data do not determine. ``Retest.could_pass``
+    (its own local fit, the one the joint refinement would give it) shows it
+    cannot pass, so the refit of every mode with it is skipped: one refit
+    fewer, and the result of the full path to the last bit (screen off:
+    every candidate may pass)."""
+    from ema_pipeline.identification import plscf_backend
+    from ema_pipeline.pipeline.simulate import simulate_paper_test
+
+    frf = simulate_paper_test("genuine", seed=0)
+    calls = []
+    real_call = plscf_backend.Retest.__call__
+
+    def counted(self, candidates, partner, strict):
+        calls.append(candidates.pole.size)
+        return real_call(self, candidates, partner, strict)
+
+    monkeypatch.setattr(plscf_backend.Retest, "__call__", counted)
+    screened = identify(frf)
+    n_screened = len(calls)
+    calls.clear()
+    monkeypatch.setattr(plscf_backend.Retest, "could_pass",
+                        lambda self, candidates, indices: np.ones(len(indices), bool))
+    full = identify(frf)
+    assert n_screened < len(calls), (n_screened, calls)
+    np.testing.assert_array_equal(screened.selected.pole, full.selected.pole)
+    np.testing.assert_array_equal(screened.modes.fn_std_hz, full.modes.fn_std_hz)
+    np.testing.assert_array_equal(screened.not_kept_hz, full.not_kept_hz)
+    assert screened.fn_hz.size == 4

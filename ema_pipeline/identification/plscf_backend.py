@@ -93,6 +93,7 @@ from ema_pipeline.identification.selection.acceptance import (
     close_partners,
     decay_determined,
     final_tests,
+    inside_band,
     pair_significance,
     peaks_apart,
     refit_kept,
@@ -366,6 +367,25 @@ class Retest:
         self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, th)])
         return ok
 
+    def could_pass(self, candidates: SelectedPoles, indices: np.ndarray) -> np.ndarray:
+        """Whether each candidate at ``indices`` can pass :meth:`verdict` when
+        all ``candidates`` are refined together: its own local fit among them
+        (the fit that refinement would give it: each mode's local fit is its
+        own, :func:`refine_poles` with ``modes``) has a determined decay rate
+        and lies inside the band, which every pole that passes has. Where
+        none can, the caller skips that refinement: those with a determined
+        decay rate go to ``rejected`` as its verdict would send them."""
+        d, th = self.data, self.data.thresholds
+        ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
+                           window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
+                           thresholds=th, map_=self.map_, modes=indices)
+        pole, cov = ref.pole[indices], ref.cov[indices]
+        determined = decay_determined(pole, cov, th)
+        ok = determined & inside_band(d.freq_hz, pole, th)
+        if not ok.any():
+            self.rejected.append(pole[determined])
+        return ok
+
     def __call__(self, candidates: SelectedPoles, partner: np.ndarray,
                  strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
         d = self.data
@@ -392,7 +412,7 @@ def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
     alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
     alt = alt[shown_by_the_frfs(d.freq_hz, d.Hc, alt, d.thresholds)]
     return add_found(found, alt, partner=False, strict=np.zeros(alt.size, bool),
-                     retest=retest, found_by="alternate")
+                     retest=retest, found_by="alternate", screen=retest.could_pass)
 
 
 def add_close_partners(found: Candidates,
@@ -409,7 +429,7 @@ def add_close_partners(found: Candidates,
                               thresholds=d.thresholds, map_=retest.map_)
     found = add_found(found, partners.pole, partner=True,
                       strict=np.zeros(partners.pole.size, bool), retest=retest,
-                      found_by="partner")
+                      found_by="partner", screen=retest.could_pass)
     return found, partners.calibration
 
 
@@ -422,7 +442,7 @@ def add_residual_peaks(found: Candidates, retest: Retest) -> Candidates:
     peaks, from_edge = residual_peaks(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
                                       thresholds=d.thresholds)
     return add_found(found, peaks, partner=False, strict=from_edge, retest=retest,
-                     found_by="residual")
+                     found_by="residual", screen=retest.could_pass)
 
 
 def merge_unsupported_pairs(found: Candidates,

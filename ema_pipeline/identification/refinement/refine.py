@@ -25,6 +25,7 @@ damping schedule are the package's one Levenberg-Marquardt
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -327,6 +328,7 @@ def refine_poles(
     force_window_s: float | None = None,
     thresholds: SelectionThresholds | None = None,
     map_: Mapper | None = None,
+    modes: Sequence[int] | None = None,
 ) -> RefinedPoles:
     """Local nonlinear least-squares refinement of each pole, with its covariance.
 
@@ -360,11 +362,15 @@ def refine_poles(
     map_ : a :class:`~ema_pipeline.threads.Mapper` of worker processes: the
         modes' local fits (independent of each other) shared out among them
         from :data:`PARALLEL_MIN_MODES` modes on; the same numbers.
+    modes : the indices of the poles to refine (default all); the others keep
+        their start pole with a NaN covariance. Each mode's local fit is its
+        own (the other poles are its start values), so a refined mode has the
+        numbers it has when all are refined.
     """
     th = thresholds or SelectionThresholds()
     half_width = th.local_half_width if half_width is None else half_width
     return _refine(freq_hz, H, poles, half_width, max_iter, quantity, window_tau_s,
-                   force_window_s, th, covariance=True, map_=map_)
+                   force_window_s, th, covariance=True, map_=map_, modes=modes)
 
 
 #: Refinements of this many modes or more share their local fits out among
@@ -428,6 +434,7 @@ def _refine(
     th: SelectionThresholds,
     covariance: bool,
     map_: Mapper | None = None,
+    modes: Sequence[int] | None = None,
 ) -> RefinedPoles:
     """:func:`refine_poles`; without ``covariance`` the poles only (cov NaN):
     :func:`band_sensitivity` needs no covariance of its narrower fits, which
@@ -445,8 +452,9 @@ def _refine(
     iters = np.zeros(m, dtype=int)
     fits = LocalFits(freq_hz, H, poles, global_residues(freq_hz, H, poles, quantity),
                      half_width, max_iter, window_tau_s, force_window_s, th, covariance)
-    results = map_each(map_, fits.fit_all, list(range(m)), PARALLEL_MIN_MODES)
-    for r, res in enumerate(results):
+    todo = list(range(m)) if modes is None else [int(r) for r in modes]
+    results = map_each(map_, fits.fit_all, todo, PARALLEL_MIN_MODES)
+    for r, res in zip(todo, results, strict=True):
         if res is not None:
             out[r], cov[r], noise[r], bands[r], iters[r] = res
     return RefinedPoles(pole=out, cov=cov, noise_std=noise, band_hz=bands, n_iter=iters)
