@@ -328,7 +328,7 @@ def refine_poles(
     force_window_s: float | None = None,
     thresholds: SelectionThresholds | None = None,
     map_: Mapper | None = None,
-    modes: Sequence[int] | None = None,
+    modes: Sequence[int] | np.ndarray | None = None,
 ) -> RefinedPoles:
     """Local nonlinear least-squares refinement of each pole, with its covariance.
 
@@ -434,7 +434,7 @@ def _refine(
     th: SelectionThresholds,
     covariance: bool,
     map_: Mapper | None = None,
-    modes: Sequence[int] | None = None,
+    modes: Sequence[int] | np.ndarray | None = None,
 ) -> RefinedPoles:
     """:func:`refine_poles`; without ``covariance`` the poles only (cov NaN):
     :func:`band_sensitivity` needs no covariance of its narrower fits, which
