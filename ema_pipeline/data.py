@@ -12,12 +12,15 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from html import escape
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 import numpy.typing as npt
 
 from ema_pipeline import paper
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 Quantity = Literal["accelerance", "mobility", "receptance"]
 
@@ -217,8 +220,8 @@ class Table:
     Examples
     --------
     >>> t = Table({"mode": np.array([1, 2]), "fn_hz": np.array([18.1, 112.0])})
-    >>> t.names, t.n_rows
-    (['mode', 'fn_hz'], 2)
+    >>> t.names, t.to_frame().shape
+    (['mode', 'fn_hz'], (2, 2))
     >>> Table({"a": np.zeros(2), "b": np.zeros(3)})
     Traceback (most recent call last):
     ...
@@ -229,10 +232,10 @@ class Table:
 
     def __post_init__(self) -> None:
         arrays = {str(name): np.asarray(col) for name, col in self.columns.items()}
-        sizes = {name: col.shape[0] if col.ndim == 1 else -1 for name, col in arrays.items()}
-        if any(size < 0 for size in sizes.values()) or len(set(sizes.values())) > 1:
+        shapes = {col.shape for col in arrays.values()}
+        if len(shapes) > 1 or any(len(shape) != 1 for shape in shapes):
             raise ValueError("table columns must be 1-D and of equal length: "
-                             + ", ".join(f"{name} {arrays[name].shape}" for name in arrays))
+                             + ", ".join(f"{name} {col.shape}" for name, col in arrays.items()))
         object.__setattr__(self, "columns", arrays)
 
     @property
@@ -240,10 +243,21 @@ class Table:
         """The column names, in order."""
         return list(self.columns)
 
-    @property
-    def n_rows(self) -> int:
-        """The number of rows (0 without columns)."""
-        return next((col.shape[0] for col in self.columns.values()), 0)
+    def to_frame(self) -> pd.DataFrame:
+        """The same columns as a ``pandas.DataFrame`` (pandas imported here)."""
+        import pandas as pd
+
+        return pd.DataFrame(self.columns)
+
+    @classmethod
+    def from_frame(cls, frame: pd.DataFrame) -> Table:
+        """A ``pandas.DataFrame``'s columns, names as strings; a column of
+        pandas' own string dtype as Python objects."""
+        import pandas as pd  # imported already: frame is a DataFrame
+
+        return cls({str(c): (frame[c].to_numpy(dtype=object)
+                             if pd.api.types.is_string_dtype(frame[c]) else frame[c].to_numpy())
+                    for c in frame.columns})
 
 
 @dataclass(frozen=True)

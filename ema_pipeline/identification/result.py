@@ -476,9 +476,7 @@ def modes_table(result: IdentificationResult) -> pd.DataFrame:
     0     1   30.0       1.0
     1     2   70.0       2.0
     """
-    import pandas as pd  # here: the commands that only write tables do without it
-
-    return pd.DataFrame(modes_columns(result).columns)
+    return modes_columns(result).to_frame()
 
 
 def modes_columns(result: IdentificationResult) -> Table:

@@ -707,16 +707,6 @@ def _is_dataframe(value: Any) -> bool:
     return pd is not None and isinstance(value, pd.DataFrame)
 
 
-def _dataframe_table(frame: Any) -> Table:
-    """A DataFrame's columns as a :class:`~ema_pipeline.data.Table`; a
-    string-typed column (pandas' own string dtype) as Python objects."""
-    import pandas as pd  # imported already: frame is a DataFrame
-
-    return Table({str(c): (frame[c].to_numpy(dtype=object)
-                           if pd.api.types.is_string_dtype(frame[c]) else frame[c].to_numpy())
-                  for c in frame.columns})
-
-
 def _store(group: h5py.Group, name: str, value: Any) -> None:
     """Store ``value`` under ``name``: arrays as datasets, scalars and strings as
     attributes, dataclasses and dicts as sub-groups, DataFrames column by column."""
@@ -730,7 +720,7 @@ def _store(group: h5py.Group, name: str, value: Any) -> None:
     if isinstance(value, FRFSet):
         write_frf_group(group.create_group(name), value)
     elif isinstance(value, Table) or _is_dataframe(value):
-        table = value if isinstance(value, Table) else _dataframe_table(value)
+        table = value if isinstance(value, Table) else Table.from_frame(value)
         sub = group.create_group(name)
         sub.attrs["kind"] = "table"
         sub.attrs["columns"] = np.array(table.names, dtype=object)

@@ -149,10 +149,10 @@ class ImpactFRF:
         return sum(h.accepted for h in self.hits)
 
     def hits_table(self) -> pd.DataFrame:
-        """:meth:`hit_columns` as a ``pandas.DataFrame``."""
+        """One row per hit (:meth:`hit_columns`) as a ``pandas.DataFrame``."""
         import pandas as pd  # here: the frf command writes its table without it
 
-        return pd.DataFrame(self.hit_columns().columns)
+        return pd.DataFrame(hitlib.hits_columns(self.hits))
 
     def hit_columns(self) -> Table:
         """One row per hit: ``hit,time_s,force_peak_n,accepted,reasons,note``

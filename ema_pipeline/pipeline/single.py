@@ -26,7 +26,6 @@ from ema_pipeline.identification import (
     IdentificationResult,
     identify,
     modes_columns,
-    modes_table,
 )
 from ema_pipeline.identification.common import ends_at_usable_top, single_reference
 from ema_pipeline.identification.diagram.narrower_searches import searches_turned_off
@@ -183,7 +182,7 @@ def identify_file(
         if note:
             outcome.warnings.append(f"{path}: {note}")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
-            table = with_expected_rows(modes_table(result), options.expect_hz)
+            table = with_expected_rows(table.to_frame(), options.expect_hz)
             for column in ("found_by", "selection"):  # a guess not found: empty
                 table[column] = table[column].fillna("")
             message = not_found_message(options.expect_hz, match_expected(
