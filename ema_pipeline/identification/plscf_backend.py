@@ -374,7 +374,11 @@ class Retest:
         own, :func:`refine_poles` with ``modes``) has a determined decay rate
         and lies inside the band, which every pole that passes has. Where
         none can, the caller skips that refinement: those with a determined
-        decay rate go to ``rejected`` as its verdict would send them."""
+        decay rate go to ``rejected`` as its verdict would send them. (A kept
+        pole that the joint fit bent until it failed would have gone there
+        too; unrefitted, none does. On the snapshot cases, the measured beam
+        in five bands and the pyFRF recording the not-kept lists are the
+        same.)"""
         d, th = self.data, self.data.thresholds
         ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
                            window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
