@@ -1,7 +1,7 @@
-"""``python -m ema_pipeline ...``: the command-line interface (:func:`ema_pipeline.cli.main`)."""
+"""``python -m ema_pipeline ...``: the command-line interface (:func:`ema_pipeline.cli.run`)."""
 
 import sys
 
-from ema_pipeline.cli import main
+from ema_pipeline.cli import run
 
-sys.exit(main())
+sys.exit(run())
