@@ -220,3 +220,47 @@ def test_same_modes_whatever_the_last_bits():
     rng = np.random.default_rng(1)
     H = case.frf.H * (1 + 1e-12 * rng.standard_normal(case.frf.H.shape))
     _same_modes(base, identify(replace(case.frf, H=H), band_hz=case.band_hz))
+
+
+def test_windows_go_to_the_workers_longest_first_and_come_back_in_order(monkeypatch):
+    """``add_window_modes`` hands the windows' searches to the workers'
+    map longest first (more lines: a higher order cap, more work; a long
+    search started last would leave the other workers idle) and folds what
+    each found in in the windows' own order, so the result is the serial
+    loop's."""
+    from ema_pipeline.identification.diagram import order_search
+    from ema_pipeline.identification.result import SelectedPoles
+    from ema_pipeline.threads import SerialMap
+
+    fn = np.geomspace(20.0, 900.0, 18)  # ever wider windows up the band
+    lam = -0.01 * 2 * np.pi * fn + 2j * np.pi * fn
+    sel = SelectedPoles(lam, np.arange(18), np.full(18, 10), np.zeros(18), np.zeros(18),
+                         np.ones(18, int), np.zeros(18, int))
+    freq = np.arange(5.0, 1000.0, 0.5)
+
+    def one_pole_at_the_middle(search, freq_hz, Hn, window_hz):
+        mid = 2j * np.pi * float(np.mean(window_hz)) - 1.0
+        return SelectedPoles(np.array([mid]), np.array([0]), np.array([10]), np.zeros(1),
+                             np.zeros(1), np.ones(1, int), np.zeros(1, int))
+
+    class Recorded(SerialMap):
+        workers = 2
+        seen: list = []
+
+        def __call__(self, func, items):
+            items = list(items)
+            self.seen.extend(items)
+            return [func(item) for item in items]
+
+    monkeypatch.setattr(order_search, "search_window", one_pole_at_the_middle)
+    search = order_search.OrderSearch(None, 0.0, 0.05, 0.3, expect=False, map_=Recorded())
+    _, searched = order_search.add_window_modes(sel, search, freq, np.ones((1, 1, freq.size)),
+                                                (5.0, 1000.0))
+    windows = order_search.mode_windows(np.imag(lam) / (2 * np.pi), (5.0, 1000.0))
+    assert len(windows) >= 3
+    widths = [hi - lo for lo, hi in Recorded.seen]
+    assert sorted(Recorded.seen) == sorted(windows)
+    assert widths == sorted(widths, reverse=True) and widths != [hi - lo for lo, hi in windows]
+    assert [w for w, _, _ in searched] == windows  # back in the windows' order
+    for window, found, _ in searched:
+        np.testing.assert_allclose(found.pole.imag / (2 * np.pi), np.mean(window))

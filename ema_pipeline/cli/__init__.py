@@ -9,7 +9,8 @@ failed files). Every error is one line on stderr; warnings of the libraries
 
 Modules: :mod:`~ema_pipeline.cli.parser` (the argparse declarations),
 :mod:`~ema_pipeline.cli.commands` (one handler per subcommand),
-:mod:`~ema_pipeline.cli.entry` (:func:`main` and its error handling, :func:`run` the process's entry point) and
+:mod:`~ema_pipeline.cli.entry` (:func:`main` and its error handling, :func:`run`
+the process's entry point) and
 :mod:`~ema_pipeline.cli.support` (exit statuses, warnings and logging set-up).
 ``python -m ema_pipeline.cli``, ``python -m ema_pipeline`` and the ``ema-pipeline``
 script run :func:`run`.

@@ -458,7 +458,15 @@ def add_window_modes(
     # loop would
     local = replace(search, map_=None)  # a worker's search runs in the worker
     map_ = search.map_ if search.map_ is not None else SerialMap()
-    found = map_(partial(search_window, local, freq, Hn), windows)
+    # handed out longest first (a window's lines set its order cap, hence its
+    # cost), so that a long search does not start last while the other
+    # workers idle; the results are put back in the windows' order
+    lines = [int(np.sum((freq >= lo) & (freq <= hi))) for lo, hi in windows]
+    longest_first = sorted(range(len(windows)), key=lambda k: -lines[k])
+    done = map_(partial(search_window, local, freq, Hn), [windows[k] for k in longest_first])
+    found: list[SelectedPoles | None] = [None] * len(windows)
+    for k, wsel in zip(longest_first, done, strict=True):
+        found[k] = wsel
     searched: list[SearchedBand] = []
     for window, wsel in zip(windows, found, strict=True):
         searched.append((window, wsel, covered_candidates(sel, wsel)))
