@@ -264,3 +264,32 @@ def test_windows_go_to_the_workers_longest_first_and_come_back_in_order(monkeypa
     assert [w for w, _, _ in searched] == windows  # back in the windows' order
     for window, found, _ in searched:
         np.testing.assert_allclose(found.pole.imag / (2 * np.pi), np.mean(window))
+
+
+def test_diagram_orders_in_workers_give_the_serial_poles():
+    """A diagram large enough to share out (``plscf.PARALLEL_MIN_SIZE3``):
+    its orders' companion eigenvalues, one order per task, largest first,
+    in two worker processes give the poles of the serial loop bit for bit,
+    in the orders' order."""
+    from ema_pipeline import threads
+    from ema_pipeline.acquisition import modal_frf
+    from ema_pipeline.identification.diagram import plscf
+
+    if not threads.can_fork():
+        pytest.skip("this process cannot fork workers (another thread is running)")
+    modes = ModalParameters(fn_hz=[50.0, 120.0, 260.0, 410.0], zeta=[0.01] * 4)
+    f = np.linspace(5.0, 500.0, 991)
+    phi = np.random.default_rng(3).standard_normal((2, 4))
+    H = modal_frf(f, modes, phi, phi[:1], quantity="receptance")
+    orders = np.arange(2, 201, 6)
+    assert sum(float(n) ** 3 for n in orders) >= plscf.PARALLEL_MIN_SIZE3
+    serial = plscf.plscf(f, H, max_order=200, orders=orders)
+    with threads.process_map(len(orders), workers=2) as map_:
+        assert map_.workers == 2
+        shared = plscf.plscf(f, H, max_order=200, orders=orders, map_=map_)
+        assert map_.pool is not None  # it did run in the pool
+    np.testing.assert_array_equal(shared.order, serial.order)
+    np.testing.assert_array_equal(shared.pole, serial.pole)
+    np.testing.assert_array_equal(shared.participation, serial.participation)
+    fn = np.abs(serial.pole[serial.order == orders[-1]]) / (2 * np.pi)
+    assert np.all([np.min(np.abs(fn - f0)) < 0.5 for f0 in modes.fn_hz])

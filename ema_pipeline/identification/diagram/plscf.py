@@ -43,7 +43,6 @@ participation vector ``l_r`` of pole ``z_r`` is the null vector of
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
@@ -51,7 +50,7 @@ import numpy as np
 from scipy import linalg
 
 from ema_pipeline.data import DataError
-from ema_pipeline.threads import Mapper, split
+from ema_pipeline.threads import Mapper
 
 
 @dataclass(frozen=True)
@@ -251,13 +250,6 @@ def _order_poles(alpha: np.ndarray, dt: float, f_top: float) -> tuple[np.ndarray
     return lam[keep], participation_vectors(alpha, z[keep])
 
 
-def _orders_poles(
-    alphas: list[np.ndarray], solve: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]]
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """:func:`_order_poles` of several orders (one worker's share)."""
-    return [solve(alpha) for alpha in alphas]
-
-
 def participation_vectors(alpha: np.ndarray, z: np.ndarray) -> np.ndarray:
     """Unit participation vectors l_r with l_r^T A(z_r) = 0 (null vector of A^T)."""
     n_in = alpha.shape[1]
@@ -308,12 +300,14 @@ def plscf(
     work = sum(float(a.shape[0] * n_in) ** 3 for a in alphas)
     if map_ is None or map_.workers < 2 or work < PARALLEL_MIN_SIZE3:
         per_order = [solve(alpha) for alpha in alphas]
-    else:  # round-robin shares of the orders, put back in their order
-        shares = split(list(range(len(alphas))), map_.workers)
-        solved = map_(partial(_orders_poles, solve=solve),
-                      [[alphas[i] for i in share] for share in shares])
-        by_index = {i: r for share, rs in zip(shares, solved, strict=True)
-                    for i, r in zip(share, rs, strict=True)}
+    else:
+        # one order per task, the largest first: the pool hands them out as
+        # workers free up (an order costs its size cubed; fixed shares left
+        # one worker 36 % more of the order-480 diagram than the other), and
+        # they are put back in the orders' order
+        largest_first = sorted(range(len(alphas)), key=lambda i: -alphas[i].shape[0])
+        solved = map_(solve, [alphas[i] for i in largest_first])
+        by_index = dict(zip(largest_first, solved, strict=True))
         per_order = [by_index[i] for i in range(len(alphas))]
     o_list, l_list, p_list = [], [], []
     for n, (lam, part) in zip(orders, per_order, strict=True):
