@@ -31,7 +31,7 @@ import multiprocessing
 import os
 import signal
 import threading
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from typing import Protocol, TypeVar
 
 from ema_pipeline.data import ConfigError
@@ -44,6 +44,7 @@ __all__ = [
     "blas_threads",
     "can_fork",
     "init_worker_process",
+    "map_costliest_first",
     "owned_blas_threads",
     "Mapper",
     "SerialMap",
@@ -303,6 +304,26 @@ def split(items: list[T], n: int) -> list[list[T]]:
     [[1, 3, 5], [2, 4]]
     """
     return [items[k::n] for k in range(min(n, len(items)))]
+
+
+def map_costliest_first(map_: Mapper, func: Callable[[T], R], items: Sequence[T],
+                         cost: Sequence[float]) -> list[R]:
+    """``map_(func, items)``, the items handed out in descending ``cost``
+    (a pool gives each to the next worker that is free, so no long task
+    starts last while the others idle), the results in the items' order:
+    the serial loop's.
+
+    Examples
+    --------
+    >>> map_costliest_first(SerialMap(), abs, [-1, 2, -3], cost=[1.0, 9.0, 4.0])
+    [1, 2, 3]
+    """
+    order = sorted(range(len(items)), key=lambda k: -cost[k])  # stable on ties
+    done = map_(func, [items[k] for k in order])
+    out: list[R] = [None] * len(items)  # type: ignore[list-item]
+    for k, result in zip(order, done, strict=True):
+        out[k] = result
+    return out
 
 
 def map_each(map_: Mapper | None, func_all: Callable[[list[T]], list[R]], items: list[T],

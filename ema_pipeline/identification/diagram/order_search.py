@@ -66,7 +66,7 @@ from ema_pipeline.identification.selection.trajectories import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, poles_overlap
-from ema_pipeline.threads import Mapper, SerialMap
+from ema_pipeline.threads import Mapper, SerialMap, map_costliest_first
 
 
 def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarray:
@@ -458,15 +458,9 @@ def add_window_modes(
     # loop would
     local = replace(search, map_=None)  # a worker's search runs in the worker
     map_ = search.map_ if search.map_ is not None else SerialMap()
-    # handed out longest first (a window's lines set its order cap, hence its
-    # cost), so that a long search does not start last while the other
-    # workers idle; the results are put back in the windows' order
-    lines = [int(np.sum((freq >= lo) & (freq <= hi))) for lo, hi in windows]
-    longest_first = sorted(range(len(windows)), key=lambda k: -lines[k])
-    done = map_(partial(search_window, local, freq, Hn), [windows[k] for k in longest_first])
-    found: list[SelectedPoles | None] = [None] * len(windows)
-    for k, wsel in zip(longest_first, done, strict=True):
-        found[k] = wsel
+    # the longest first: a window's lines set its order cap, hence its cost
+    lines = [float(np.sum((freq >= lo) & (freq <= hi))) for lo, hi in windows]
+    found = map_costliest_first(map_, partial(search_window, local, freq, Hn), windows, lines)
     searched: list[SearchedBand] = []
     for window, wsel in zip(windows, found, strict=True):
         searched.append((window, wsel, covered_candidates(sel, wsel)))

@@ -50,7 +50,7 @@ import numpy as np
 from scipy import linalg
 
 from ema_pipeline.data import DataError
-from ema_pipeline.threads import Mapper
+from ema_pipeline.threads import Mapper, map_costliest_first
 
 
 @dataclass(frozen=True)
@@ -300,15 +300,10 @@ def plscf(
     work = sum(float(a.shape[0] * n_in) ** 3 for a in alphas)
     if map_ is None or map_.workers < 2 or work < PARALLEL_MIN_SIZE3:
         per_order = [solve(alpha) for alpha in alphas]
-    else:
-        # one order per task, the largest first: the pool hands them out as
-        # workers free up (an order costs its size cubed; fixed shares left
-        # one worker 36 % more of the order-480 diagram than the other), and
-        # they are put back in the orders' order
-        largest_first = sorted(range(len(alphas)), key=lambda i: -alphas[i].shape[0])
-        solved = map_(solve, [alphas[i] for i in largest_first])
-        by_index = dict(zip(largest_first, solved, strict=True))
-        per_order = [by_index[i] for i in range(len(alphas))]
+    else:  # one order per task, the largest first (fixed shares left one worker
+        # 36 % more of an order-480 diagram than the other)
+        per_order = map_costliest_first(map_, solve, alphas,
+                                        [float(a.shape[0] * n_in) ** 3 for a in alphas])
     o_list, l_list, p_list = [], [], []
     for n, (lam, part) in zip(orders, per_order, strict=True):
         o_list.append(np.full(lam.size, n))

@@ -400,14 +400,14 @@ def close_partners(
                            residues, th)
     splits = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES)
     calibration = SplitCalibration(search, tuple(splits), map_) if (
-        H.shape[0] < th.min_shape_channels) else SplitCalibration(None, (), None)
+        H.shape[0] < th.min_shape_channels) else none.calibration
     found = [(s.pole, s.significance) for s in splits]
     if calibration.search is not None and any(b is not None for b, _ in found):
         # significant against the noise, where the noise is what the split
         # fits see, else model error makes every split significant and no
         # test of one channel tells a hidden mode from it
-        sig = calibration.significances()
-        found = [(b, s) if calibration.calibrated and s >= 1.0 else (None, s)
+        sig, calibrated = calibration.significances(), calibration.calibrated
+        found = [(b, s) if calibrated and s >= 1.0 else (None, s)
                  for (b, _), s in zip(found, sig, strict=True)]
     out = np.array([b for b, _ in found if b is not None], dtype=complex)
     return ClosePartners(out[np.argsort(out.imag)], calibration)
