@@ -102,6 +102,7 @@ __all__ = [
     "cut_records",
     "find_hits",
     "force_band",
+    "hit_note",
     "hits_columns",
     "pulse_end_s",
 ]
@@ -812,12 +813,18 @@ def hits_columns(hits: tuple[Hit, ...] | list[Hit]) -> dict[str, list]:
         "force_peak_n": [h.force_peak_n for h in hits],
         "accepted": [h.accepted for h in hits],
         "reasons": [";".join(h.reasons) for h in hits],
-        "note": [_pad_note(h) for h in hits],
+        "note": [hit_note(h) for h in hits],
     }
 
 
-def _pad_note(hit: Hit) -> str:
-    """The hit table's note of a hit whose record is padded at the front."""
+def hit_note(hit: Hit) -> str:
+    """The hit table's note of a hit: its record padded at the front, else ``""``.
+
+    Examples
+    --------
+    >>> hit_note(Hit(1, 0.003, 90.0, True, (), 0, padded=13))
+    'near the data start: its record padded with 13 samples before the data'
+    """
     if not hit.padded or hit.record_start < 0:
         return ""
     return f"near the data start: its record padded with {hit.padded} samples before the data"
