@@ -91,6 +91,7 @@ from ema_pipeline.data import MIN_DF_HZ, DataError, Recording, TimeRecords
 
 __all__ = [
     "AUTO_TAU_LEVEL",
+    "LEFT_OUT_BY_HAND",
     "MAX_EXP_WINDOW_TAU_S",
     "MAX_PRETRIGGER_S",
     "MAX_RECORD_LENGTH_S",
@@ -168,6 +169,8 @@ def force_warnings(hits: tuple[Hit, ...] | list[Hit], force_name: str) -> list[s
 
 
 #: The fixed vocabulary of rejection reasons, in the order they are reported.
+#: Why a hit that passed every check is not averaged (a choice by hand).
+LEFT_OUT_BY_HAND = "left out by hand (--hits)"
 REASONS = ("past_end", "double_hit", "overload", "not_decayed", "low_force", "outlier")
 
 
@@ -199,7 +202,11 @@ class Hit:
         --------
         >>> Hit(3, 2.5, 900.0, False, ("double_hit", "overload"), 10, ("force",)).reasons_text()
         "double_hit, overload ('force')"
+        >>> Hit(4, 4.5, 90.0, False, (), 10).reasons_text()
+        'left out by hand (--hits)'
         """
+        if not self.accepted and not self.reasons:  # only a choice by hand leaves one out
+            return LEFT_OUT_BY_HAND
         return ", ".join(
             f"{r} ({', '.join(repr(c) for c in self.overloaded)})"
             if r == "overload" and self.overloaded else r for r in self.reasons)

@@ -2,13 +2,16 @@
 and the averaged FRF.
 
 Presentation only: :class:`HitsPageInput` holds what the page shows, already
-computed (:func:`ema_pipeline.pipeline.frf.hits_page_input` gathers it); the
+computed (:func:`ema_pipeline.pipeline.hit_page.hits_page_input` gathers it); the
 page is self-contained HTML with inline SVG figures (:mod:`.svg` reduces every
 curve to its per-pixel envelope, so a 16384-sample record costs a few hundred
-points). Sections: summary (record length, windows, estimator, the usable band),
-the hit table, one section per hit (its verdict with the reasons spelled out,
-the force pulse zoomed, the force spectrum, the response with its decay and the
-windows), the averaged FRF with coherence and the usable band, provenance.
+points). Sections: summary (hits found and averaged, the averages per point,
+record length, windows, estimator, the usable band), the hit table (with the
+notes), the choice by hand per point (:mod:`.hit_choice_view`), one section per
+hit (its verdict with the reasons spelled out, its notes, the force pulse zoomed,
+the force spectrum, the first response with its decay and the windows used, the
+other responses), the averaged FRF with coherence and the usable band,
+provenance (every input with its sha256).
 """
 
 from __future__ import annotations
@@ -19,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ema_pipeline.acquisition.hits import NOT_DECAYED_LEVEL, Hit
+from ema_pipeline.acquisition.hits import LEFT_OUT_BY_HAND, NOT_DECAYED_LEVEL, Hit
 from ema_pipeline.data import FRFSet
 from ema_pipeline.report.figures import COLORS, figure_frf_coherence
 from ema_pipeline.report.htmlparts import Page, esc, kv_table, provenance
@@ -119,7 +122,7 @@ class HitsPageInput:
 
 
 #: The verdict's reason for a hit that passed the checks but was left out by hand.
-LEFT_OUT_TEXT = "left out by hand (--hits)"
+LEFT_OUT_TEXT = LEFT_OUT_BY_HAND
 
 
 def verdict_text(hit: Hit, keep_all: bool = False, by_hand: bool = False) -> str:
