@@ -119,7 +119,8 @@ def hit_choice_html(hits: Sequence[Any], freq_hz: np.ndarray, band_hz: tuple[flo
             entries.append(entry)
             state = " checked" if v.hit.accepted and v.spectra is not None else ""
             off = "" if v.spectra is not None else " disabled"
-            boxes.append(f'<label style="margin-right:1em"><input type="checkbox" '
+            boxes.append(f'<label style="margin-right:1em;white-space:nowrap"><input '
+                         'type="checkbox" '
                          f'class="hit-pick" data-k="{k}"{state}{off}> hit '
                          f"{entry['number']}</label>")
         data["points"].append({"file": file, "hits": entries})
@@ -133,13 +134,15 @@ def hit_choice_html(hits: Sequence[Any], freq_hz: np.ndarray, band_hz: tuple[flo
             f'{title}<p>{"".join(boxes)}<br><span class="hit-count"></span> {esc(response)}'
             '</p><div class="hit-plot"></div></div>')
     text = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
-    each = "each point's" if len(points) > 1 else "the"
+    intro = ("per point (recording file), each ticked hit's FRF (grey) over the point's "
+             "H1 average (black) and its coherence (blue), redrawn as you toggle the "
+             "point's hits; then download the choice of the whole test"
+             if len(points) > 1 else
+             "each ticked hit's FRF (grey) over their H1 average (black) and its coherence "
+             "(blue), redrawn as you toggle the hits; then download the choice")
     return (
-        '<div class="hit-choice"><p>Tick the hits to average: per point (recording '
-        "file), each ticked hit's FRF (grey) over the point's H1 average (black) and "
-        f"its coherence (blue), redrawn as you toggle {each} hits; then download the "
-        "choice of the whole test and run <code>ema-pipeline frf ... --hits "
-        "hits.toml</code>, which reproduces it.</p>"
+        f'<div class="hit-choice"><p>Tick the hits to average: {intro} and run '
+        "<code>ema-pipeline frf ... --hits hits.toml</code>, which reproduces it.</p>"
         + "".join(groups)
         + '<p><button type="button" class="hit-download">Download hits.toml</button></p>'
         '<pre class="hit-toml"></pre>'

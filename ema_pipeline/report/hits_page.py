@@ -264,7 +264,7 @@ def _hit_table(hits: Sequence[HitView]) -> pd.DataFrame:
         "force peak / N": [f"{v.hit.force_peak_n:.4g}" for v in hits],
         "accepted": ["yes" if v.hit.accepted else "no" for v in hits],
         "reasons": [_reasons(v) for v in hits],
-        "note": [v.note for v in hits],
+        **({"note": [v.note for v in hits]} if any(v.note for v in hits) else {}),
         "end level / % of peak": [f"{100 * v.end_level:.2g}" if np.isfinite(v.end_level)
                                   else "" for v in hits],
     })
