@@ -78,7 +78,7 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit, by_dof: bool) -> HitView:
         response_name=names[0], force_window=w_force, exp_window=w_exp,
         freq_hz=np.fft.rfftfreq(n, 1.0 / fs), force_db=db, end_level=float(end[0].max()),
         spectra=spectra,
-        others=tuple((f"{names[i]} [{units[i]}]", responses[i])
+        others=tuple((f"{names[i]} [{units[i]}]" if units[i] else names[i], responses[i])
                      for i in range(1, responses.shape[0])),
         response_unit=units[0],
         end_levels=tuple(zip(names, (float(v) for v in end[0]), strict=True)),
