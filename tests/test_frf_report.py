@@ -61,7 +61,7 @@ def test_no_page_without_report(tmp_path):
     assert np.isfinite(float(re.search(r"-10 dB at ([0-9.e+]+) Hz", page).group(1)))
 
 
-def test_single_recording_page_hits_left_out_by_hand_and_windows(tmp_path):
+def test_single_recording_page_hits_left_out_by_hand_and_windows(tmp_path, capsys):
     """A plain recording is one point of the choice by hand; a hit left out with
     --hits says so (never an empty reason); the captions name the exponential window
     only when one was used."""
@@ -71,8 +71,11 @@ def test_single_recording_page_hits_left_out_by_hand_and_windows(tmp_path):
     rec = make_recording(1, n_hits=5, n_resp=1, last_hit_short=False)
     path = write_tdms(rec, tmp_path / "r.tdms")
     write_hit_choice({"": [1, 3, 4, 5]}, tmp_path / "hits.toml")
-    assert main(["frf", str(path), "--out", str(tmp_path / "a.h5"), "--quiet", "--report",
+    assert main(["frf", str(path), "--out", str(tmp_path / "a.h5"), "--report",
                  "--hits", str(tmp_path / "hits.toml"), "--exp-window-tau", "0.2"]) == 0
+    said = capsys.readouterr().out
+    assert re.search(r"hit 2 at [0-9.]+ s: rejected: left out by hand \(--hits\)\n", said)
+    assert "5 hits found, 4 averaged" in said
     page = (tmp_path / "a_hits.html").read_text()
     assert re.findall(r'data-hit-choice-point="([^"]*)"', page) == [""]
     found = sections(page)
