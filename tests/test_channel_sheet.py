@@ -383,6 +383,24 @@ def test_sheet_hit_page(plate, tmp_path):
     assert len(titles) == 8  # 4 hits in each file (p6.wav's hit 2 bounces 50 ms later)
     assert titles[0] == f"{rel}/p5.wav, hit 1" and titles[-1] == f"{rel}/p6.wav, hit 4"
     assert "2 files" in page and "double hit" in page
+    # hits chosen per point: one group per file, each headed with its hammer point
+    assert re.findall(r'data-hit-choice-point="([^"]*)"', page) == [
+        f"{rel}/p5.wav", f"{rel}/p6.wav"]
+    assert f"{rel}/p5.wav, hammer at 5-Z" in page and f"{rel}/p6.wav, hammer at 6-Z" in page
+    # channels named by the sheet's DOFs (the WAV's channel 1 is the sensor 100+Z), in SI
+    assert page.count(">100+Z [m/s^2]<") == 8 and "1 [m/s^2]" not in page
+    assert "<th>averages</th><td>3-4 per point</td>" in page  # p6.wav: 3 of 4
+    # the sheet and every recording hashed
+    for name in ("p5.wav", "p6.wav"):
+        assert (f'<td class="path">{rel}/{name}</td><td class="hash">'
+                f"{io.sha256_file(plate / name)}</td>") in page
+    assert f'<td class="hash">{io.sha256_file(sheet)}</td>' in page
+    # no exponential window was used (the records decay): no caption draws one
+    tau = io.read_frf(out).acquisition.exp_window_tau_s
+    captions = re.findall(r"<figcaption>Force pulse.*?</figcaption>", page)
+    assert tau is None and len(captions) == 8
+    assert not any("exponential" in c for c in captions)
+    assert all("the force window (green dotted)" in c for c in captions)
 
 
 CORPUS = Path(__file__).resolve().parents[1].parent / "shared" / "corpus" / "impact2"
@@ -467,10 +485,13 @@ def test_hits_chosen_by_hand(plate, tmp_path, capsys):
     write_hit_choice({"p6.wav": [1, 2, 3, 4]}, tmp_path / "p6.toml")
     out = tmp_path / "sheet.h5"
     assert main(["frf", "--channels", str(plate / "channels.csv"), "--out", str(out),
-                 "--hits", str(tmp_path / "p6.toml"), "--quiet"]) == 0
+                 "--hits", str(tmp_path / "p6.toml"), "--quiet", "--report"]) == 0
     hits = pd.read_csv(tmp_path / "sheet_hits.csv")
     assert hits[hits["file"] == "p6.wav"]["accepted"].all()
     assert int(hits["accepted"].sum()) == 48
+    page = (tmp_path / "sheet_hits.html").read_text(encoding="utf-8")
+    assert page.count("kept by hand (--hits) despite: double hit") == 1  # p6.wav's hit 2
+    assert "kept (--keep-all)" not in page
 
 
 def test_close_pair_1_2_percent_apart(tmp_path):

@@ -59,3 +59,37 @@ def test_no_page_without_report(tmp_path):
     page = (tmp_path / "b_hits.html").read_text()
     assert len(sections(page)) == 5
     assert np.isfinite(float(re.search(r"-10 dB at ([0-9.e+]+) Hz", page).group(1)))
+
+
+def test_single_recording_page_hits_left_out_by_hand_and_windows(tmp_path, capsys):
+    """A plain recording is one point of the choice by hand; a hit left out with
+    --hits says so (never an empty reason); the captions name the exponential window
+    only when one was used."""
+    from ema_pipeline.io.hit_choice import write_hit_choice
+    from ema_pipeline.report.hits_page import LEFT_OUT_TEXT
+
+    rec = make_recording(1, n_hits=5, n_resp=1, last_hit_short=False)
+    path = write_tdms(rec, tmp_path / "r.tdms")
+    write_hit_choice({"": [1, 3, 4, 5]}, tmp_path / "hits.toml")
+    assert main(["frf", str(path), "--out", str(tmp_path / "a.h5"), "--report",
+                 "--hits", str(tmp_path / "hits.toml"), "--exp-window-tau", "0.2"]) == 0
+    said = capsys.readouterr().out
+    assert re.search(r"hit 2 at [0-9.]+ s: rejected: left out by hand \(--hits\)\n", said)
+    assert "5 hits found, 4 averaged" in said
+    page = (tmp_path / "a_hits.html").read_text()
+    assert re.findall(r'data-hit-choice-point="([^"]*)"', page) == [""]
+    found = sections(page)
+    assert f"rejected: {LEFT_OUT_TEXT}; it passed every check" in found[2]
+    assert "rejected: <" not in page and "rejected: </" not in page
+    assert [ACCEPTED_TEXT in found[k] for k in range(1, 6)] == [True, False, True, True, True]
+    table = pd.read_csv(tmp_path / "a_hits.csv", keep_default_na=False)
+    assert table["accepted"].tolist() == [True, False, True, True, True]
+    assert "<th>averages</th><td>4</td>" in page and "(chosen by hand: --hits)" in page
+    captions = re.findall(r"<figcaption>Force pulse.*?</figcaption>", page)
+    assert len(captions) == 5
+    assert all("the exponential window scaled to its peak" in c for c in captions)
+    assert main(["frf", str(path), "--out", str(tmp_path / "b.h5"), "--quiet", "--report",
+                 "--exp-window-tau", "none"]) == 0
+    page = (tmp_path / "b_hits.html").read_text()
+    captions = re.findall(r"<figcaption>Force pulse.*?</figcaption>", page)
+    assert len(captions) == 5 and not any("exponential" in c for c in captions)

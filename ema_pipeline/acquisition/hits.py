@@ -91,6 +91,7 @@ from ema_pipeline.data import MIN_DF_HZ, DataError, Recording, TimeRecords
 
 __all__ = [
     "AUTO_TAU_LEVEL",
+    "LEFT_OUT_BY_HAND",
     "MAX_EXP_WINDOW_TAU_S",
     "MAX_PRETRIGGER_S",
     "MAX_RECORD_LENGTH_S",
@@ -102,6 +103,7 @@ __all__ = [
     "cut_records",
     "find_hits",
     "force_band",
+    "hit_note",
     "hits_columns",
     "pulse_end_s",
 ]
@@ -167,6 +169,8 @@ def force_warnings(hits: tuple[Hit, ...] | list[Hit], force_name: str) -> list[s
 
 
 #: The fixed vocabulary of rejection reasons, in the order they are reported.
+#: Why a hit that passed every check is not averaged (a choice by hand).
+LEFT_OUT_BY_HAND = "left out by hand (--hits)"
 REASONS = ("past_end", "double_hit", "overload", "not_decayed", "low_force", "outlier")
 
 
@@ -198,7 +202,11 @@ class Hit:
         --------
         >>> Hit(3, 2.5, 900.0, False, ("double_hit", "overload"), 10, ("force",)).reasons_text()
         "double_hit, overload ('force')"
+        >>> Hit(4, 4.5, 90.0, False, (), 10).reasons_text()
+        'left out by hand (--hits)'
         """
+        if not self.accepted and not self.reasons:  # only a choice by hand leaves one out
+            return LEFT_OUT_BY_HAND
         return ", ".join(
             f"{r} ({', '.join(repr(c) for c in self.overloaded)})"
             if r == "overload" and self.overloaded else r for r in self.reasons)
@@ -812,12 +820,18 @@ def hits_columns(hits: tuple[Hit, ...] | list[Hit]) -> dict[str, list]:
         "force_peak_n": [h.force_peak_n for h in hits],
         "accepted": [h.accepted for h in hits],
         "reasons": [";".join(h.reasons) for h in hits],
-        "note": [_pad_note(h) for h in hits],
+        "note": [hit_note(h) for h in hits],
     }
 
 
-def _pad_note(hit: Hit) -> str:
-    """The hit table's note of a hit whose record is padded at the front."""
+def hit_note(hit: Hit) -> str:
+    """The hit table's note of a hit: its record padded at the front, else ``""``.
+
+    Examples
+    --------
+    >>> hit_note(Hit(1, 0.003, 90.0, True, (), 0, padded=13))
+    'near the data start: its record padded with 13 samples before the data'
+    """
     if not hit.padded or hit.record_start < 0:
         return ""
     return f"near the data start: its record padded with {hit.padded} samples before the data"

@@ -65,14 +65,16 @@ def add_frf_parser(sub: Any) -> None:
     p = sub.add_parser(
         "frf",
         help="raw impact recordings to checked, averaged FRFs (hits found and checked)",
-        description="Read impact recordings (UFF-58 time records, TDMS, WAV, CSV; several "
-        "files are segments of one test), find the hits on the force channel, check them "
+        description="Read impact recordings (UFF-58 time records, TDMS, WAV, CSV, LabVIEW "
+        ".lvm, MATLAB v5 .mat; several files are segments of one test), find the hits on "
+        "the force channel, check them "
         "(double_hit, overload, not_decayed, low_force, outlier, past_end), average the "
         "accepted ones into FRFs with coherence and write FILE (.h5 or .uff) and "
         "<stem>_hits.csv beside it.",
     )
     p.add_argument("inputs", nargs="*", type=Path, metavar="INPUT",
-                   help="recordings (segments of one test); or give --channels")
+                   help="recordings (.uff/.unv, .tdms, .wav, .csv, .lvm, .mat; segments of "
+                   "one test); or give --channels")
     p.add_argument("--channels", type=Path, default=None, metavar="SHEET.csv",
                    help="channel sheet (file,channel,role,node,direction,scale,unit; one "
                    "row per channel per file): every file it names is one point of a "
@@ -105,7 +107,9 @@ def add_frf_parser(sub: Any) -> None:
     p.add_argument("--report", action="store_true",
                    help="also write the hit page <stem>_hits.html: every hit with its force "
                    "pulse, force spectrum, response and windows, and why it was kept or not; "
-                   "the averaged FRF with coherence and the usable band")
+                   "the hits to choose by hand per point (file), each point's average and "
+                   "coherence, and a hits.toml for --hits; the averaged FRF with coherence "
+                   "and the usable band")
     p.add_argument("--hits", type=Path, default=None, metavar="HITS.toml",
                    help="average exactly the hits chosen by hand ([[recording]] tables "
                    "with file and accepted hit numbers), whatever the checks say")
@@ -169,8 +173,9 @@ def cmd_frf(args: argparse.Namespace) -> int:
         rejected = [h for h in result.hits if not h.accepted or h.reasons]
         print(f"{len(result.hits)} hits found, {result.n_accepted} averaged; records of "
               f"{result.n_samples} samples ({result.record_length_s:.4g} s)")
+        kept = "kept by hand (--hits)" if result.chosen_by_hand else "kept (--keep-all)"
         for h in rejected:
-            state = "kept (--keep-all)" if h.accepted else "rejected"
+            state = kept if h.accepted else "rejected"
             print(f"  hit {h.index} at {h.time_s:.3f} s: {state}: {h.reasons_text()}")
         tau = result.exp_window_tau_s
         fw = result.force_window_s
@@ -195,12 +200,15 @@ def _frf_from_sheet(args: argparse.Namespace, settings: Any, choice: Any = None)
             print(f"warning: {name}: {warning}", file=sys.stderr)
     if not args.quiet:
         frf = result.frf
-        print(f"{len(result.points)} files, {result.n_accepted} hits averaged; records of "
-              f"{result.n_samples} samples ({result.record_length_s:.4g} s)")
+        counts = sorted({p.n_accepted for p in result.points})
+        each = f"{counts[0]}" + (f"-{counts[-1]}" if len(counts) > 1 else "")
+        print(f"{len(result.points)} files, {result.n_accepted} hits averaged ({each} per "
+              f"point); records of {result.n_samples} samples ({result.record_length_s:.4g} s)")
         for name, point in zip(result.files, result.points, strict=True):
+            kept = "kept by hand (--hits)" if point.chosen_by_hand else "kept (--keep-all)"
             for h in point.hits:
                 if not h.accepted or h.reasons:
-                    state = "kept (--keep-all)" if h.accepted else "rejected"
+                    state = kept if h.accepted else "rejected"
                     print(f"  {name} hit {h.index} at {h.time_s:.3f} s: {state}: "
                           f"{h.reasons_text()}")
         tau, fw = result.exp_window_tau_s, result.force_window_s

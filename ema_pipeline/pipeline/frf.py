@@ -41,8 +41,6 @@ from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_path
 if TYPE_CHECKING:
     import pandas as pd
 
-    from ema_pipeline.report.hits_page import HitsPageInput, HitView
-
 __all__ = [
     "AUTO_FORCE_WINDOW_S",
     "DEFAULT_PRETRIGGER_S",
@@ -53,7 +51,6 @@ __all__ = [
     "frf_from_recording",
     "hits_csv_path",
     "configuration_frf",
-    "hits_page_input",
     "hits_report_path",
     "frf_output_paths",
     "identify_recording",
@@ -143,6 +140,8 @@ class ImpactFRF:
     settings: FRFSettings | None = None
     #: Warnings about the force channel (:func:`ema_pipeline.acquisition.hits.force_warnings`).
     warnings: list[str] = field(default_factory=list)
+    #: The hits averaged were chosen by hand (``chosen``, ``--hits``), not by the checks.
+    chosen_by_hand: bool = False
 
     @property
     def n_accepted(self) -> int:
@@ -291,6 +290,7 @@ def frf_from_recording(
         recording=rec,
         settings=settings,
         warnings=warnings,
+        chosen_by_hand=chosen is not None,
     )
 
 
@@ -393,83 +393,6 @@ def hits_report_path(out: str | os.PathLike[str]) -> Path:
     """
     out = Path(out)
     return out.with_name(f"{out.stem}_hits.html")
-
-
-def _hit_view(result: ImpactFRF, hit: hitlib.Hit) -> HitView:
-    """The record of one hit (as far as the data go) with its windows, force spectrum
-    and end level, for the hit page."""
-    from ema_pipeline.report.hits_page import HitView  # the page (pandas): --report
-
-    rec = result.recording
-    assert rec is not None
-    fs, n = rec.sample_rate_hz, result.n_samples
-    n_pre = int(round(result.records.trigger_s * fs))
-    if hit.record_start >= 0:  # a padded front repeats the first sample of the data
-        a, b = hit.record_start - hit.padded, hit.record_start + n - hit.padded
-    else:  # past_end: what the data hold of the record, within the hit's segment
-        cross = int(np.ceil(hit.time_s * fs))
-        seg_starts = np.array(rec.segment_starts + (rec.n_samples,))
-        k = int(np.searchsorted(seg_starts, cross, side="right")) - 1
-        a = max(cross - n_pre, int(seg_starts[k]))
-        b = min(cross - n_pre + n, int(seg_starts[k + 1]))
-    m = b - a
-    tau, fw = result.exp_window_tau_s, result.force_window_s
-    w_exp = (np.ones(m) if tau is None
-             else acquisition.exponential_window(m, fs, tau, result.records.trigger_s))
-    w_force = np.ones(m) if not fw else acquisition.force_window(m, fs, fw)
-    idx = np.maximum(np.arange(a, b), a + (hit.padded if hit.record_start >= 0 else 0))
-    force = rec.signals[0, idx]
-    responses = rec.signals[1:, idx]
-    end, _ = hitlib.tail_level(responses[None], min(n_pre, m - 1))
-    j = int(np.argmax(end[0]))
-    spectra = None
-    if hit.record_start >= 0 and m == n:  # the averaged record: its spectra, to choose by hand
-        f_spec = np.fft.rfft(force * w_force * w_exp, n)
-        x_spec = np.fft.rfft(responses[0] * w_exp, n)
-        spectra = (np.abs(f_spec) ** 2, np.conj(f_spec) * x_spec, np.abs(x_spec) ** 2)
-    spec = np.abs(np.fft.rfft(force * w_force * w_exp, n))
-    db = 20 * np.log10(np.maximum(spec, np.finfo(float).tiny) / max(spec.max(), 1e-300))
-    return HitView(
-        hit=hit, time_s=np.arange(a, b) / fs, force_n=force, response=responses[j],
-        response_name=f"{rec.channels[1 + j].name} [{rec.channels[1 + j].unit}]",
-        force_window=w_force, exp_window=w_exp,
-        freq_hz=np.fft.rfftfreq(n, 1.0 / fs), force_db=db, end_level=float(end[0, j]),
-        spectra=spectra,
-        others=tuple((f"{rec.channels[1 + i].name} [{rec.channels[1 + i].unit}]", responses[i])
-                     for i in range(responses.shape[0]) if i != j),
-        response_unit=rec.channels[1 + j].unit,
-    )
-
-
-def hits_page_input(result: ImpactFRF) -> HitsPageInput:
-    """What the hit page of ``frf --report`` shows, gathered from ``result`` (the
-    recording must be kept: :func:`frf_from_recording` does)."""
-    from ema_pipeline import __version__
-    from ema_pipeline.pipeline.reports import report_date
-    from ema_pipeline.report.hits_page import HitsPageInput  # the page (pandas): --report
-
-    if result.recording is None:
-        raise DataError("no recording kept with the FRFs: cannot draw the hit page")
-    settings = result.settings or FRFSettings()
-    source = result.frf.source.path or result.recording.source.path
-    return HitsPageInput(
-        title=f"Impact hits: {source}",
-        source=source,
-        sha256=result.frf.source.sha256,
-        frf=result.frf,
-        hits=[_hit_view(result, h) for h in result.hits],
-        n_samples=result.n_samples,
-        record_length_s=result.record_length_s,
-        pretrigger_s=result.records.trigger_s,
-        force_window_s=result.force_window_s,
-        exp_window_tau_s=result.exp_window_tau_s,
-        estimator=result.frf.acquisition.estimator,
-        force_band_hz=result.force_band_hz,
-        keep_all=settings.keep_all,
-        settings={f"frf.{k}": str(v) for k, v in vars(settings).items()},
-        version=__version__,
-        generated=report_date(),
-    )
 
 
 def frf_output_paths(out: str | os.PathLike[str], report: bool = False) -> dict[str, Path]:
@@ -612,6 +535,7 @@ def frf_from_files(
                         units=units, configuration=configuration, chosen=chosen)
     page = None
     if report:  # the page (and pandas) imported only when drawn
+        from ema_pipeline.pipeline.hit_page import hits_page_input
         from ema_pipeline.report.hits_page import render_hits_html
 
         page = render_hits_html(hits_page_input(result))

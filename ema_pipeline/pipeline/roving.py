@@ -43,7 +43,6 @@ from ema_pipeline.pipeline.frf import (
     ImpactFRF,
     check_output,
     frf_from_recording,
-    hits_page_input,
     identify_recording,
     write_frf_outputs,
 )
@@ -262,20 +261,30 @@ def sheet_frf(sheet: ChannelSheet | str | os.PathLike[str], settings: FRFSetting
 
 def sheet_hits_page(result: SheetFRF) -> str:
     """The hit page of a channel sheet's test: every file's hits (numbered through
-    the test, each with its file and its number in the file) and the assembled FRFs
+    the test, each with its file and its number in the file, its channels named by
+    the sheet's DOFs), the hits chosen per point (file), the assembled FRFs, and the
+    sheet and every recording with its sha256 in the provenance
     (:func:`ema_pipeline.report.hits_page.render_hits_html`)."""
+    from ema_pipeline.pipeline.hit_page import hits_page_input
     from ema_pipeline.report.hits_page import HitView, render_hits_html
 
     views: list[HitView] = []
+    recordings = []
     for name, point in zip(result.files, result.points, strict=True):
-        for view in hits_page_input(point).hits:
+        rec = point.recording
+        assert rec is not None
+        force = rec.channels[0].dof
+        where = f"hammer at {force.label()}" if force is not None else ""
+        recordings.append(("recording", name, rec.source.sha256))
+        for view in hits_page_input(point, by_dof=True).hits:
             views.append(replace(view, hit=replace(view.hit, index=len(views) + 1),
-                                 file=name, number=view.hit.index))
-    page = hits_page_input(result.points[0])
+                                 file=name, number=view.hit.index, point=where))
+    page = hits_page_input(result.points[0], by_dof=True)
     page = replace(page, title=f"Impact hits: {result.frf.source.path} ({result.layout}, "
                    f"{len(result.points)} files)", source=result.frf.source.path,
                    sha256=result.frf.source.sha256, frf=result.frf, hits=views,
-                   force_band_hz=result.force_band_hz)
+                   force_band_hz=result.force_band_hz, source_role="channel sheet",
+                   inputs=tuple(recordings))
     return render_hits_html(page)
 
 

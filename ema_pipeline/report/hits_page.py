@@ -2,13 +2,16 @@
 and the averaged FRF.
 
 Presentation only: :class:`HitsPageInput` holds what the page shows, already
-computed (:func:`ema_pipeline.pipeline.frf.hits_page_input` gathers it); the
+computed (:func:`ema_pipeline.pipeline.hit_page.hits_page_input` gathers it); the
 page is self-contained HTML with inline SVG figures (:mod:`.svg` reduces every
 curve to its per-pixel envelope, so a 16384-sample record costs a few hundred
-points). Sections: summary (record length, windows, estimator, the usable band),
-the hit table, one section per hit (its verdict with the reasons spelled out,
-the force pulse zoomed, the force spectrum, the response with its decay and the
-windows), the averaged FRF with coherence and the usable band, provenance.
+points). Sections: summary (hits found and averaged, the averages per point,
+record length, windows, estimator, the usable band), the hit table (with the
+notes), the choice by hand per point (:mod:`.hit_choice_view`), one section per
+hit (its verdict with the reasons spelled out, its notes, the force pulse zoomed,
+the force spectrum, the first response with its decay and the windows used, the
+other responses), the averaged FRF with coherence and the usable band,
+provenance (every input with its sha256).
 """
 
 from __future__ import annotations
@@ -19,14 +22,15 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ema_pipeline.acquisition.hits import NOT_DECAYED_LEVEL, Hit
+from ema_pipeline.acquisition.hits import LEFT_OUT_BY_HAND, NOT_DECAYED_LEVEL, Hit
 from ema_pipeline.data import FRFSet
 from ema_pipeline.report.figures import COLORS, figure_frf_coherence
 from ema_pipeline.report.htmlparts import Page, esc, kv_table, provenance
 from ema_pipeline.report.svg import Canvas
 from ema_pipeline.report.tables import html_table
 
-__all__ = ["ACCEPTED_TEXT", "REASON_TEXT", "HitView", "HitsPageInput", "render_hits_html"]
+__all__ = ["ACCEPTED_TEXT", "LEFT_OUT_TEXT", "REASON_TEXT", "HitView", "HitsPageInput",
+           "averages_text", "render_hits_html", "verdict_text"]
 
 #: What each rejection reason means, as the page says it (rules:
 #: :mod:`ema_pipeline.acquisition.hits`).
@@ -55,8 +59,8 @@ _PANEL_W, _PANEL_H = 170, 150
 class HitView:
     """One hit as the page draws it: the :class:`~ema_pipeline.acquisition.hits.Hit`,
     the data of its record (``time_s`` from the recording start; ``force_n``;
-    ``response`` (n_out, n) of the response ``response_name``; shorter when the
-    record runs past the data), the force window and exponential window over those
+    ``response`` (n,) of the first response, ``response_name`` in ``response_unit``;
+    shorter when the record runs past the data), the force window and exponential window over those
     samples (ones: none), the force spectrum (``freq_hz``, ``force_db`` re its
     largest line) and the response level at the record end relative to its peak
     (``end_level``); ``file``: the recording it is in (a channel sheet's test; ``""``:
@@ -81,6 +85,14 @@ class HitView:
     #: The other response channels over the same samples: (name with its unit, data).
     others: tuple[tuple[str, np.ndarray], ...] = ()
     response_unit: str = ""
+    #: Every response's level at the record end relative to its peak: (name, level).
+    end_levels: tuple[tuple[str, float], ...] = ()
+    #: The hits of its file were chosen by hand (``--hits``), not by the checks.
+    by_hand: bool = False
+    #: What else to know about the hit (its record padded at the front, ...).
+    note: str = ""
+    #: Its point of the test, as the choice by hand heads it (e.g. ``hammer at 5-Z``).
+    point: str = ""
 
 
 @dataclass
@@ -101,21 +113,38 @@ class HitsPageInput:
     force_band_hz: tuple[float, float]
     keep_all: bool = False
     settings: Mapping[str, str] = field(default_factory=dict)
+    #: More input files for the provenance: (role, path, sha256), e.g. a sheet's recordings.
+    inputs: tuple[tuple[str, str, str], ...] = ()
+    #: What ``source`` is, as the provenance says it.
+    source_role: str = "recording"
     version: str = ""
     generated: str = ""
 
 
-def verdict_text(hit: Hit, keep_all: bool = False) -> str:
-    """``accepted``, ``accepted (--keep-all)`` or ``rejected``, then the reasons.
+#: The verdict's reason for a hit that passed the checks but was left out by hand.
+LEFT_OUT_TEXT = LEFT_OUT_BY_HAND
+
+
+def verdict_text(hit: Hit, keep_all: bool = False, by_hand: bool = False) -> str:
+    """``accepted``, ``kept (--keep-all) despite``, ``kept by hand (--hits)
+    despite`` or ``rejected``, then the reasons (a hit that passed every check but
+    is not averaged was left out by hand).
 
     Examples
     --------
     >>> verdict_text(Hit(2, 1.5, 80.0, False, ("double_hit",)))
     'rejected: double hit: a second force pulse in the record (or ripple in the force spectrum)'
+    >>> verdict_text(Hit(3, 2.5, 80.0, False), by_hand=True)
+    'rejected: left out by hand (--hits); it passed every check'
     """
     if hit.accepted and not hit.reasons:
         return ACCEPTED_TEXT
-    state = "kept (--keep-all) despite" if hit.accepted else "rejected"
+    if not hit.accepted and not hit.reasons:
+        return f"rejected: {LEFT_OUT_TEXT}; it passed every check"
+    if hit.accepted:
+        state = "kept by hand (--hits) despite" if by_hand else "kept (--keep-all) despite"
+    else:
+        state = "rejected"
 
     def text(reason: str) -> str:
         said = REASON_TEXT.get(reason, reason)
@@ -124,6 +153,27 @@ def verdict_text(hit: Hit, keep_all: bool = False) -> str:
         return said
 
     return f"{state}: " + "; ".join(text(r) for r in hit.reasons)
+
+
+def averages_text(hits: Sequence[HitView]) -> str:
+    """How many hits each point (file) averages: one number, or the range over the
+    points (``3-4 per point``) when they differ.
+
+    Examples
+    --------
+    >>> t = np.zeros(4)
+    >>> views = [HitView(Hit(k, 0.0, 1.0, k != 2), t, t, t, "a", t, t, t, t, 0.0, file=f)
+    ...          for f in ("p1.csv", "p2.csv") for k in (1, 2, 3)]
+    >>> averages_text(views[:3]), averages_text(views[:2] + views[3:])
+    ('2', '1-2 per point')
+    """
+    counts: dict[str, int] = {}
+    for v in hits:
+        counts[v.file] = counts.get(v.file, 0) + int(v.hit.accepted)
+    lo, hi = min(counts.values(), default=0), max(counts.values(), default=0)
+    if len(counts) < 2:
+        return f"{hi}"
+    return f"{lo} per point" if lo == hi else f"{lo}-{hi} per point"
 
 
 def _pulse_panel(c: Canvas, left: float, view: HitView) -> None:
@@ -174,7 +224,7 @@ def _response_panel(c: Canvas, left: float, view: HitView) -> None:
                 dash="6 4")
     if np.any(view.force_window != 1.0):
         ax.line(t, peak * view.force_window, COLORS[2], width=1.0, dash="2 3")
-    unit = f" / {view.response_unit}" if view.response_unit else ""
+    unit = f" [{view.response_unit}]" if view.response_unit else ""
     ax.frame(xlabel="time in record / s", ylabel=view.response_name[:24 - len(unit)] + unit,
              title="response and windows")
 
@@ -198,6 +248,13 @@ def hit_figure(view: HitView, band: tuple[float, float]) -> str:
     return c.to_svg()
 
 
+def _reasons(view: HitView) -> str:
+    """The hit table's reasons: the checks', or that the hit was left out by hand."""
+    if not view.hit.accepted and not view.hit.reasons:
+        return LEFT_OUT_TEXT
+    return "; ".join(r.replace("_", " ") for r in view.hit.reasons)
+
+
 def _hit_table(hits: Sequence[HitView]) -> pd.DataFrame:
     files = {"file": [v.file for v in hits]} if any(v.file for v in hits) else {}
     return pd.DataFrame({
@@ -206,10 +263,35 @@ def _hit_table(hits: Sequence[HitView]) -> pd.DataFrame:
         "time / s": [f"{v.hit.time_s:.4f}" for v in hits],
         "force peak / N": [f"{v.hit.force_peak_n:.4g}" for v in hits],
         "accepted": ["yes" if v.hit.accepted else "no" for v in hits],
-        "reasons": ["; ".join(r.replace("_", " ") for r in v.hit.reasons) for v in hits],
+        "reasons": [_reasons(v) for v in hits],
+        **({"note": [v.note for v in hits]} if any(v.note for v in hits) else {}),
         "end level / % of peak": [f"{100 * v.end_level:.2g}" if np.isfinite(v.end_level)
                                   else "" for v in hits],
     })
+
+
+def _caption(p: HitsPageInput) -> str:
+    """The caption of a hit's figure, naming only the windows used."""
+    windows = []
+    if p.exp_window_tau_s is not None:
+        windows.append("the exponential window scaled to its peak (red dashed)")
+    if p.force_window_s:
+        windows.append("the force window (green dotted)")
+    response = ("response with " + " and ".join(windows) if windows
+                else "response (no window)")
+    return ("Force pulse (dashed: the hit time), force spectrum (dashed: -10 dB green, "
+            f"-20 dB red), {response}")
+
+
+def _decay_text(v: HitView) -> str:
+    """Every response's level at the record end, and the limit without an
+    exponential window."""
+    levels = v.end_levels or ((v.response_name, v.end_level),)
+    shown = [f"{name} {100 * level:.2g} %" for name, level in levels if np.isfinite(level)]
+    if not shown:
+        return ""
+    return (f"Level at the record end, of the response's peak: {', '.join(shown)} (limit "
+            f"without exponential window {100 * NOT_DECAYED_LEVEL:g} %).")
 
 
 def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
@@ -233,11 +315,16 @@ def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
     f10, f20 = p.force_band_hz
     band_text = f"-10 dB at {f10:.5g} Hz, -20 dB at {f20:.5g} Hz"
     n_acc = sum(v.hit.accepted for v in p.hits)
+    n_points = len({v.file for v in p.hits})
     page = Page(p.title)
+    by_hand = any(v.by_hand for v in p.hits)
     summary = {
-        "recording": p.source,
+        p.source_role: p.source,
         "hits": f"{len(p.hits)} found, {n_acc} averaged"
-                + (" (--keep-all: rejected hits kept)" if p.keep_all else ""),
+                + (f" over {n_points} points" if n_points > 1 else "")
+                + (" (--keep-all: rejected hits kept)" if p.keep_all else "")
+                + (" (chosen by hand: --hits)" if by_hand else ""),
+        "averages": averages_text(p.hits),
         "records": f"{p.n_samples} samples ({p.record_length_s:.4g} s), pretrigger "
                    f"{p.pretrigger_s:.4g} s",
         "force window": "none" if not p.force_window_s else f"{p.force_window_s:.4g} s "
@@ -258,17 +345,16 @@ def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
             page.section("choose", "Choose the hits").append(choice)
     for v in p.hits:
         cls = "ok" if v.hit.accepted and not v.hit.reasons else "bad"
-        body = [f'<p class="status {cls}">{esc(verdict_text(v.hit, p.keep_all))}</p>']
-        decay = (f"Response {v.response_name}: level at the record end "
-                 f"{100 * v.end_level:.2g} % of its peak (limit without exponential window "
-                 f"{100 * NOT_DECAYED_LEVEL:g} %)." if np.isfinite(v.end_level) else "")
+        body = [f'<p class="status {cls}">{esc(verdict_text(v.hit, p.keep_all, v.by_hand))}'
+                "</p>"]
+        if v.note:
+            body.append('<p class="status" style="background:#fff8e6;border-left:5px solid '
+                        f'#d08a00">note: {esc(v.note)}</p>')
+        decay = _decay_text(v)
         body.append(f"<p>{esc(decay)}</p>" if decay else "")
         if figures:
-            body.append(f"<figure>{hit_figure(v, p.force_band_hz)}<figcaption>Force pulse "
-                        "(dashed: the hit time), force spectrum (dashed: -10 dB green, "
-                        "-20 dB red), response with the exponential window scaled to its "
-                        "peak (red dashed) and the force window (green dotted)"
-                        "</figcaption></figure>")
+            body.append(f"<figure>{hit_figure(v, p.force_band_hz)}<figcaption>"
+                        f"{esc(_caption(p))}</figcaption></figure>")
         where = f"{v.file}, hit {v.number or v.hit.index}" if v.file else f"Hit {v.hit.index}"
         sec = page.section(f"hit-{v.hit.index}", f"{where} at {v.hit.time_s:.3f} s")
         sec.append(f'<div class="hit" id="hit-body-{v.hit.index}">{"".join(body)}</div>')
@@ -280,7 +366,7 @@ def render_hits_html(page_input: HitsPageInput, *, figures: bool = True) -> str:
                           "(-10 dB, -20 dB)</figcaption></figure>")
     page.section("frf", "Averaged FRF and coherence").append("".join(frf_part))
     page.section("provenance", "Provenance").append(
-        provenance([("recording", p.source, p.sha256)], dict(p.settings), p.version,
-                   p.generated)
+        provenance([(p.source_role, p.source, p.sha256), *p.inputs], dict(p.settings),
+                   p.version, p.generated)
     )
     return page.html()
