@@ -57,14 +57,17 @@ def shown(value: Any) -> str:
 
     Examples
     --------
-    >>> shown((300, 100.0)), shown(np.float64(0.5)), shown("x")
+    >>> shown((300, np.float64(100.0))), shown(np.float64(0.5)), shown("x")
     ('[300, 100.0]', '0.5', "'x'")
     """
+    return repr(_plain(value))
+
+
+def _plain(value: Any) -> Any:
+    """Sequences as lists, numpy scalars as Python numbers (at every depth)."""
     if isinstance(value, tuple | list | np.ndarray):
-        return repr(np.asarray(value, dtype=object).tolist())
-    if isinstance(value, np.generic):
-        return repr(value.item())
-    return repr(value)
+        return [_plain(x) for x in value]
+    return value.item() if isinstance(value, np.generic) else value
 
 
 def refusal(name: str, rule: str, value: Any) -> OptionError:
