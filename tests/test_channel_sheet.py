@@ -86,8 +86,9 @@ def test_sheet_rows_and_errors(tmp_path):
     cases = {
         "a.csv,0,force,3,+W,,\na.csv,1,response,4,+Z,,\n": "row 2: direction must be",
         "a.csv,0,hammer,3,+Z,,\n": "row 2: role must be force or response",
-        "a.csv,0,force,0,+Z,,\n": "row 2: node must be >= 1",
-        "a.csv,0,force,1,+Z,0,\na.csv,1,response,4,+Z,,\n": "row 2: scale must be finite",
+        "a.csv,0,force,0,+Z,,\n": "row 2: node must be an integer >= 1, got 0",
+        "a.csv,0,force,1,+Z,0,\na.csv,1,response,4,+Z,,\n": "row 2: scale must be a finite "
+                                                           "non-zero number, got 0.0",
         "a.csv,0,force,1,+Z,,\na.csv,1,response,1,+Z,,\n": "row 3: DOF 1+Z of a.csv is named "
                                                            "twice (also",
         "a.csv,0,response,1,+Z,,\na.csv,1,response,2,+Z,,\n": "a.csv has no force row",

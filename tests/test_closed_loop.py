@@ -149,7 +149,7 @@ def test_run_checks_itself_against_the_truth(tmp_path):
 
 @pytest.mark.parametrize("entry, message", [
     ('name = "x"\nadded_mass = {11 = 0.3}', "element 11 does not exist"),
-    ('name = "x"\nadded_mass = {10 = -1.5}', "number > -1"),
+    ('name = "x"\nadded_mass = {10 = -1.5}', r"must be a number in \(-1, 1000\], got -1.5"),
     ('name = "x"\nadded_mass = {10 = 0.3}\nfile = "x.uff"', "either 'file' or 'added_mass'"),
     ('name = "x"\nadded_mass = 0.3', "must be a table"),
     ('name = "x"', "needs 'name' and 'file'"),

@@ -388,28 +388,33 @@ def test_sample_rate_limits_hold_at_the_boundary(tmp_path):
 
 
 @pytest.mark.parametrize("option, value, expected", [
-    ("--record-length-s", "1e16", "record_length_s (--record-length-s) must be > 0 and at "
-                                  "most 10000 s, got 1e+16"),
+    ("--record-length-s", "1e16", "record_length_s (--record-length-s) must be a number of "
+                                  "seconds in (0, 10000], got 1e+16"),
     ("--record-length-s", "100", "rec.csv: record length (record_length_s / "
                                  "--record-length-s) 100 s is longer than the recording"),
     ("--record-length-s", "0.005", "leaves no samples after the pretrigger (--pretrigger-s)"),
-    ("--pretrigger-s", "1e300", "pretrigger_s (--pretrigger-s) must be 0 to 1000 s, got "
-                                "1e+300"),
+    ("--pretrigger-s", "1e300", "pretrigger_s (--pretrigger-s) must be a number of seconds "
+                                "in [0, 1000], got 1e+300"),
     ("--pretrigger-s", "3", "rec.csv: the pretrigger (--pretrigger-s) 3 s is not shorter than "
                             "the records, 1 s (2048 samples"),
     ("--pretrigger-s", "9", "rec.csv: pretrigger (pretrigger_s / --pretrigger-s) 9 s is not "
                             "shorter than the recording"),
-    ("--pretrigger-s", "nan", "pretrigger_s (--pretrigger-s) must be 0 to 1000 s, got nan"),
+    ("--pretrigger-s", "nan", "pretrigger_s (--pretrigger-s) must be a number of seconds in "
+                              "[0, 1000], got nan"),
     ("--force-window-s", "0.005", "rec.csv: --force-window-s 0.005 s ends before the force "
                                   "pulse does"),
     ("--force-window-s", "1e-9", "rec.csv: --force-window-s 1e-09 s ends before the force "
                                  "pulse does"),
-    ("--force-window-s", "1e300", "force_window_s (--force-window-s) must be 0 (none) to "
-                                  "10000 s"),
+    ("--force-window-s", "1e300", "force_window_s (--force-window-s) must be a number of "
+                                  "seconds in [0, 10000]"),
     ("--exp-window-tau", "1e-5", "rec.csv: exponential window time constant (exp_window_tau "
                                  "/ --exp-window-tau) 1e-05 s is too short for records of 1 s"),
-    ("--exp-window-tau", "1e302", "exp_window_tau (--exp-window-tau) must be auto, none or a "
-                                  "time constant > 0 and at most 10000 s, got 1e+302"),
+    ("--exp-window-tau", "1e302", "exp_window_tau (--exp-window-tau) must be 'auto', 'none' "
+                                  "or a number of seconds in (0, 10000], got 1e+302"),
+    ("--exp-window-tau", "-1", "exp_window_tau (--exp-window-tau) must be 'auto', 'none' "
+                               "or a number of seconds in (0, 10000], got -1.0"),
+    ("--exp-window-tau", "Auto3", "exp_window_tau (--exp-window-tau) must be 'auto', 'none' "
+                                  "or a number of seconds in (0, 10000], got 'auto3'"),
     ("--scale", "force=1e308", "rec.csv: channel 'force': scale 1e+308 (x 1 to SI) overflows "
                                "its samples to inf"),
     ("--scale", "acc=-1e307", "rec.csv: channel 'acc': scale -1e+307"),

@@ -274,7 +274,7 @@ def test_bad_experiment_files(tmp_path):
     with pytest.raises(DataError, match="at least one"):
         io.read_experiment(bad)
     bad.write_text('[beam]\nlength_m = -1.0\n[[configurations]]\nname="a"\nfile="a.uff"\n')
-    with pytest.raises(DataError, match=r"\[beam\] length_m: must be > 0"):
+    with pytest.raises(DataError, match=r"\[beam\] length_m: must be a number in \(0, 1000\]"):
         io.read_experiment(bad)
     bad.write_text('[experiment]\ngenuine="air"\n[[configurations]]\nname="a"\nfile="a.uff"\n')
     with pytest.raises(DataError, match="genuine configuration 'air' is not among"):

@@ -9,13 +9,13 @@ record length, the windows and the usable band.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from pathlib import Path
 from typing import Any
 
 from ema_pipeline.cli.support import EXIT_OK
 from ema_pipeline.data import ConfigError
+from ema_pipeline.validation import nonzero
 
 __all__ = ["add_frf_parser", "cmd_frf"]
 
@@ -32,26 +32,20 @@ def _pairs(values: list[str] | None, option: str, number: bool) -> dict:
                 factor = float(value)
             except ValueError:
                 raise ConfigError(f"{option} {item!r}: {value!r} is not a number") from None
-            if not (math.isfinite(factor) and factor != 0):
-                raise ConfigError(f"{option} {item!r}: the factor must be finite and non-zero")
-            out[name] = factor
+            out[name] = nonzero(f"{option} {item!r}: the factor", factor)
         else:
             out[name] = value
     return out
 
 
-def _tau(text: str) -> str | float | None:
-    """The argparse type of ``--exp-window-tau``: auto, none or seconds > 0."""
-    low = text.strip().lower()
-    if low in ("auto", "none"):
-        return "auto" if low == "auto" else None
+def _tau(text: str) -> str | float:
+    """The argparse type of ``--exp-window-tau``: a number of seconds as a float,
+    else the word in lower case (``auto``, ``none``); FRFSettings checks the
+    value (:func:`ema_pipeline.acquisition.frf_settings.exp_window_tau`)."""
     try:
-        tau = float(text)
+        return float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected auto, none or seconds, got {text!r}") from None
-    if not (math.isfinite(tau) and tau > 0):
-        raise argparse.ArgumentTypeError(f"the time constant must be > 0 s, got {text!r}")
-    return tau
+        return text.strip().lower()
 
 
 def _estimator(text: str) -> str:

@@ -9,23 +9,34 @@ and what :func:`ema_pipeline.identification.identify` takes whole. Its
 (:func:`check_option`, one rule per field); the command line and the
 experiment file call the same rules and take their choices from here
 (:data:`METHOD_NAMES`, :data:`WEIGHTING_NAMES`, from the ``Literal`` types).
-This module imports only from :mod:`ema_pipeline.data` and
+The rules are those of :mod:`ema_pipeline.validation`. This module imports
+only from :mod:`ema_pipeline.data`, :mod:`ema_pipeline.validation` and
 :mod:`~ema_pipeline.identification.thresholds`, so the data containers can refer
 to it without an import cycle, and importing it loads no numerics.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
-from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
+from functools import partial
 from typing import Any, Literal, get_args
 
 import numpy as np
 
 from ema_pipeline.data import FRFSet, OptionError
 from ema_pipeline.identification.thresholds import SelectionThresholds
+from ema_pipeline.validation import (
+    Rule,
+    choice,
+    flag,
+    integer,
+    number,
+    optional,
+    pair,
+    refusal,
+    seconds,
+    sequence,
+)
 
 Method = Literal["plscf", "sdypy-lscf"]
 Weighting = Literal["none", "coherence"]
@@ -43,105 +54,38 @@ MIN_ORDER: dict[str, int] = {"plscf": 12, "sdypy-lscf": 10}
 MAX_ORDER = 1000
 
 
-def _real(name: str, value: Any, rule: str, ok: Callable[[float], bool]) -> float:
-    """``value`` as a float when it is a finite real number (not a bool) that
-    ``ok`` accepts, else an OptionError ``"<name> must be <rule>, got <value>"``."""
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real) or not (
-        math.isfinite(float(value)) and ok(float(value))
-    ):
-        raise OptionError(name, f"must be {rule}, got {value!r}")
-    return float(value)
-
-
-def _optional(check: Callable[[str, Any], Any]) -> Callable[[str, Any], Any]:
-    return lambda name, value: None if value is None else check(name, value)
-
-
-def _fraction(hi: float) -> Callable[[str, Any], float]:
-    return lambda name, value: _real(name, value, f"a number in (0, {hi:g}]",
-                                     lambda x: 0 < x <= hi)
-
-
-def _positive(name: str, value: Any) -> float:
-    return _real(name, value, "a finite number > 0", lambda x: x > 0)
-
-
-def _flag(name: str, value: Any) -> bool:
-    if not isinstance(value, bool | np.bool_):
-        raise OptionError(name, f"must be a boolean (true or false), got {value!r}")
-    return bool(value)
-
-
-def _choice(names: tuple[str, ...]) -> Callable[[str, Any], str]:
-    def check(name: str, value: Any) -> str:
-        if not isinstance(value, str) or value not in names:
-            raise OptionError(name, f"must be one of {', '.join(map(repr, names))}, "
-                                    f"got {value!r}")
-        return value
-
-    return check
-
-
-def _band(name: str, value: Any) -> tuple[float, float]:
-    rule = "(low, high) in Hz with 0 <= low < high, both finite"
-    try:
-        if isinstance(value, str) or len(value) != 2:
-            raise TypeError
-        lo = _real(name, value[0], rule, lambda x: x >= 0)
-        hi = _real(name, value[1], rule, lambda x: x > lo)
-    except (TypeError, OptionError):
-        raise OptionError(name, f"must be {rule}, got {_shown(value)}") from None
-    return lo, hi
-
-
-def _max_order(name: str, value: Any) -> int:
-    # the lower bound depends on the method: IdentificationOptions.__post_init__
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral) or (
-        int(value) > MAX_ORDER
-    ):
-        raise OptionError(name, f"must be an integer of at most {MAX_ORDER}, got {value!r}")
-    return int(value)
-
-
 def _frequencies(name: str, value: Any) -> tuple[float, ...]:
+    # one frequency or a sequence of them (any array-like); None: none
+    if value is None:
+        return ()
     items = np.atleast_1d(np.asarray(value, dtype=object)).tolist()
-    rule = "frequencies in Hz, finite and > 0"
-    try:
-        return tuple(_real(name, item, rule, lambda x: x > 0) for item in items)
-    except OptionError:
-        raise OptionError(name, f"must be {rule}, got {_shown(value)}") from None
-
-
-def _shown(value: Any) -> str:
-    """A sequence as a list of its items (``[-5.0, 20.0]``), anything else by repr."""
-    if isinstance(value, tuple | list | np.ndarray):
-        return repr(np.asarray(value, dtype=object).tolist())
-    return repr(value)
+    return sequence(name, items, item=partial(number, above=0.0))
 
 
 def _thresholds(name: str, value: Any) -> SelectionThresholds:
     if not isinstance(value, SelectionThresholds):
-        raise OptionError(name, f"must be a SelectionThresholds, got {value!r}")
+        raise refusal(name, "a SelectionThresholds", value)
     return value
 
 
 #: The rule of each field of :class:`IdentificationOptions` (see its attributes).
-_RULES: dict[str, Callable[[str, Any], Any]] = {
-    "band_hz": _optional(_band),
-    "max_order": _optional(_max_order),
-    "method": _choice(METHOD_NAMES),
-    "expect_hz": lambda name, value: () if value is None else _frequencies(name, value),
-    "exp_window_tau_s": _optional(_positive),
-    "weighting": _choice(WEIGHTING_NAMES),
-    "tol_freq": _optional(_fraction(1.0)),
-    "tol_zeta": _optional(_fraction(10.0)),
-    "tol_mac": _optional(_fraction(1.0)),
-    "min_fraction": _fraction(1.0),
-    "refine": _flag,
-    "accept": _flag,
-    "lower_residual": _flag,
-    "upper_residual": _flag,
-    "window_searches": _flag,
+_RULES: dict[str, Rule] = {
+    "band_hz": optional(partial(pair, at_least=0.0, unit="Hz")),
+    # the lower bound depends on the method: IdentificationOptions.__post_init__
+    "max_order": optional(partial(integer, at_most=MAX_ORDER)),
+    "method": partial(choice, names=METHOD_NAMES),
+    "expect_hz": _frequencies,
+    "exp_window_tau_s": optional(seconds),
+    "weighting": partial(choice, names=WEIGHTING_NAMES),
+    "tol_freq": optional(partial(number, above=0.0, at_most=1.0)),
+    "tol_zeta": optional(partial(number, above=0.0, at_most=10.0)),
+    "tol_mac": optional(partial(number, above=0.0, at_most=1.0)),
+    "min_fraction": partial(number, above=0.0, at_most=1.0),
+    "refine": flag,
+    "accept": flag,
+    "lower_residual": flag,
+    "upper_residual": flag,
+    "window_searches": flag,
     "thresholds": _thresholds,
 }
 

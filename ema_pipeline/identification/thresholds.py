@@ -17,16 +17,16 @@ The result keeps the record it was made with
 made (:meth:`SelectionThresholds.__post_init__`: numbers, not NaN, not
 negative; tolerances and widths above zero; MAC and MPC levels and shares at
 most 1): an impossible value is an :class:`~ema_pipeline.data.OptionError`
-naming the field. This module imports only that error from the package.
+naming the field (the rules of :mod:`ema_pipeline.validation`, the only
+module of the package this one imports).
 """
 
 from __future__ import annotations
 
-import math
-import numbers
 from dataclasses import dataclass, fields
+from functools import partial
 
-from ema_pipeline.data import OptionError
+from ema_pipeline.validation import integer, number, sequence
 
 #: Fields that must be above zero (tolerances, widths and divisors; counts of at least one).
 _ABOVE_ZERO = frozenset({
@@ -43,6 +43,8 @@ _AT_MOST_ONE = frozenset({
     "duplicate_min_mac", "split_max_mpc", "split_mpc_gap", "min_mpc", "pair_significance_level",
     "pair_min_dip",
 })
+#: The rule of each of the two fractions of ``band_edge``.
+_BAND_EDGE = partial(number, at_least=0.0, below=0.5)
 
 
 @dataclass(frozen=True)
@@ -70,22 +72,14 @@ class SelectionThresholds:
         for f in fields(self):
             value = getattr(self, f.name)
             if f.name == "band_edge":
-                if not (isinstance(value, tuple | list) and len(value) == 2 and all(
-                        _real(x) and 0 <= x < 0.5 for x in value)):
-                    raise OptionError(f.name, f"must be two fractions in [0, 0.5), got {value!r}")
-                object.__setattr__(self, f.name, (float(value[0]), float(value[1])))
-                continue
-            integer = f.type == "int"
-            ok = (isinstance(value, numbers.Integral) if integer else _real(value)) and (
-                not isinstance(value, bool) and not math.isnan(value) and value >= 0)
-            ok = ok and (value > 0 or f.name not in _ABOVE_ZERO) and (
-                value <= 1 or f.name not in _AT_MOST_ONE)
-            if not ok:
-                what = "an integer" if integer else "a number"
-                bounds = ("> 0" if f.name in _ABOVE_ZERO else ">= 0") + (
-                    " and <= 1" if f.name in _AT_MOST_ONE else "")
-                raise OptionError(f.name, f"must be {what} {bounds}, got {value!r}")
-            object.__setattr__(self, f.name, int(value) if integer else float(value))
+                value = sequence(f.name, value, item=_BAND_EDGE, min_len=2, max_len=2)
+            else:
+                above, at_least = (0, None) if f.name in _ABOVE_ZERO else (None, 0)
+                value = (integer(f.name, value, above=above, at_least=at_least)
+                         if f.type == "int" else
+                         number(f.name, value, above=above, at_least=at_least,
+                                at_most=1.0 if f.name in _AT_MOST_ONE else None, finite=False))
+            object.__setattr__(self, f.name, value)
 
     def __str__(self) -> str:
         """The fields that differ from the tuned defaults, or ``"tuned defaults"``."""
@@ -407,7 +401,3 @@ class SelectionThresholds:
     #: fraction of its frequency.
     band_support_margin: float = 0.03
 
-
-def _real(value: object) -> bool:
-    """A real number (an int, a float or a numpy scalar), not a bool."""
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)

@@ -32,6 +32,7 @@ from pathlib import Path
 
 from ema_pipeline.data import DOF, DataError
 from ema_pipeline.io.files import check_readable, open_regular, write_text
+from ema_pipeline.validation import integer, nonzero
 
 __all__ = ["SHEET_COLUMNS", "ChannelRow", "ChannelSheet", "channel_sheet_from_rows",
            "is_channel_sheet", "read_channel_sheet", "write_channel_sheet"]
@@ -111,16 +112,14 @@ def _row(values: Mapping[str, object], folder: Path, line: int, where: str) -> C
                 raise ValueError
         except (ValueError, OverflowError):
             raise ValueError(f"node must be a whole number, got {node_text!r}") from None
-        if node < 1:
-            raise ValueError(f"node must be >= 1, got {node}")
+        integer("node", node, at_least=1)
         direction = _direction(text("direction"))
         scale_text = text("scale")
         try:
             scale = float(scale_text) if scale_text else 1.0
         except ValueError:
             raise ValueError(f"scale must be a number, got {scale_text!r}") from None
-        if not (math.isfinite(scale) and scale != 0):
-            raise ValueError(f"scale must be finite and non-zero, got {scale_text!r}")
+        nonzero("scale", scale)
     except ValueError as exc:
         raise DataError(f"{where}: {exc}") from None
     return ChannelRow(file=folder / file, channel=channel, role=role,

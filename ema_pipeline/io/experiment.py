@@ -12,29 +12,29 @@ FIFO or a device is refused without being opened). Every problem is one
 :class:`~ema_pipeline.data.DataError` line naming the file and the key
 (``experiment.toml: [identification] band_hz: ...``).
 
-The schema is a small table of checkers written here rather than a schema
-library (jsonschema, pydantic): none is a dependency, and the checks that
-matter (node ranges from the beam, names that are safe file names, the
+The schema is a small table of rules (:mod:`ema_pipeline.validation`: a
+number in a range, an integer, a list, a choice ...; the identification
+options' own rules, :func:`~ema_pipeline.identification.options.check_option`;
+the settings of ``ema-pipeline frf``,
+:data:`~ema_pipeline.acquisition.frf_settings.FRF_SETTING_RULES`) rather than
+a schema library (jsonschema, pydantic): none is a dependency, and the checks
+that matter (node ranges from the beam, names that are safe file names, the
 "did you mean" hint) are project-specific anyway.
 """
 
 from __future__ import annotations
 
 import difflib
-import math
 import os
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import fields
+from functools import partial
 from pathlib import Path
 from typing import Any
 
 from ema_pipeline.acquisition import noise_snr_db
-from ema_pipeline.acquisition.hits import (
-    MAX_EXP_WINDOW_TAU_S,
-    MAX_PRETRIGGER_S,
-    MAX_RECORD_LENGTH_S,
-)
+from ema_pipeline.acquisition.frf_settings import FRF_SETTING_RULES
 from ema_pipeline.data import DOF, Beam, DataError, OptionError
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.identification.options import IdentificationOptions, check_option
@@ -45,6 +45,16 @@ from ema_pipeline.io.channel_sheet import (
 )
 from ema_pipeline.io.files import check_readable, read_toml
 from ema_pipeline.io.geometry import geometry_from_table
+from ema_pipeline.validation import (
+    Rule,
+    choice,
+    integer,
+    nonzero,
+    number,
+    refusal,
+    sequence,
+    text,
+)
 
 #: Configuration names: letters, digits, ``_-.``, no leading dot, at most 64 characters.
 SAFE_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_\-.]{0,63}")
@@ -53,88 +63,6 @@ SAFE_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_\-.]{0,63}")
 #: thresholds are for studies of the method, in Python).
 IDENTIFICATION_KEYS = tuple(f.name for f in fields(IdentificationOptions)
                             if f.name not in ("exp_window_tau_s", "thresholds"))
-
-Check = Callable[[Any], Any]  # returns the normalised value or raises ValueError(reason)
-
-
-def _number(lo: float | None = None, hi: float | None = None, *, strict_lo: bool = True) -> Check:
-    def check(v: Any) -> float:
-        if isinstance(v, bool) or not isinstance(v, int | float):
-            raise ValueError(f"must be a number, got {v!r}")
-        v = float(v)
-        if not math.isfinite(v):
-            raise ValueError(f"must be a finite number, got {v!r}")
-        if lo is not None and (v <= lo if strict_lo else v < lo):
-            raise ValueError(f"must be {'>' if strict_lo else '>='} {lo:g}, got {v!r}")
-        if hi is not None and v > hi:
-            raise ValueError(f"must be <= {hi:g}, got {v!r}")
-        return v
-
-    return check
-
-
-def _integer(lo: int | None = None, hi: int | None = None) -> Check:
-    def check(v: Any) -> int:
-        if isinstance(v, bool) or not isinstance(v, int):
-            raise ValueError(f"must be an integer, got {v!r}")
-        if lo is not None and v < lo or hi is not None and v > hi:
-            bounds = f"{lo if lo is not None else ''}..{hi if hi is not None else ''}"
-            raise ValueError(f"must be an integer in {bounds}, got {v!r}")
-        return v
-
-    return check
-
-
-def _text(v: Any) -> str:
-    if not isinstance(v, str):
-        raise ValueError(f"must be a string, got {v!r}")
-    return v
-
-
-def _flag(v: Any) -> bool:
-    if not isinstance(v, bool):
-        raise ValueError(f"must be true or false, got {v!r}")
-    return v
-
-
-def _choice(*options: str) -> Check:
-    def check(v: Any) -> str:
-        if v not in options:
-            raise ValueError(f"must be one of {', '.join(map(repr, options))}, got {v!r}")
-        return str(v)
-
-    return check
-
-
-def _list(item: Check, *, min_len: int = 0, max_len: int | None = None) -> Check:
-    def check(v: Any) -> tuple:
-        if not isinstance(v, list):
-            raise ValueError(f"must be a list, got {v!r}")
-        if len(v) < min_len or max_len is not None and len(v) > max_len:
-            n = f"{min_len}" if max_len == min_len else f"{min_len}..{max_len or ''}"
-            raise ValueError(f"must have {n} entries, got {len(v)}")
-        out = []
-        for k, x in enumerate(v):
-            try:
-                out.append(item(x))
-            except ValueError as exc:
-                raise ValueError(f"entry {k + 1} {exc}") from None
-        return tuple(out)
-
-    return check
-
-
-def _option(name: str) -> Check:
-    """The check of the option ``name`` (:func:`~ema_pipeline.identification.options.check_option`,
-    the rule :class:`IdentificationOptions` applies), its reason as a ValueError."""
-    def check(v: Any) -> Any:
-        try:
-            return check_option(name, v)
-        except OptionError as exc:
-            raise ValueError(exc.reason) from None
-
-    return check
-
 
 def name_is_safe(name: str) -> bool:
     """Whether ``name`` may be a configuration name (it becomes part of file names).
@@ -147,20 +75,16 @@ def name_is_safe(name: str) -> bool:
     return bool(SAFE_NAME.fullmatch(name))
 
 
-def _name(v: Any) -> str:
-    v = _text(v)
-    if not name_is_safe(v):
-        raise ValueError(
-            f"{v!r} is not a safe name: use 1-64 letters, digits, '_', '-', '.', "
-            "not starting with a dot"
-        )
+def _name(name: str, v: Any) -> str:
+    if not name_is_safe(text(name, v)):
+        raise OptionError(name, f"{v!r} is not a safe name: use 1-64 letters, digits, '_', "
+                                "'-', '.', not starting with a dot")
     return v
 
 
-def _direction(v: Any) -> int:
-    v = _integer(-3, 3)(v)
-    if v == 0:
-        raise ValueError("must be 1, 2 or 3 (x, y, z; negative: minus), got 0")
+def _direction(name: str, v: Any) -> int:
+    if integer(name, v, at_least=-3, at_most=3) == 0:
+        raise refusal(name, "1, 2 or 3 (x, y, z; negative: minus)", v)
     return v
 
 
@@ -168,151 +92,133 @@ _AXES = {"X": 1, "Y": 2, "Z": 3, "1": 1, "2": 2, "3": 3}
 _DOF_LABEL = re.compile(r"\s*(\d+)\s*([+-]?)\s*([XYZxyz123])\s*")
 
 
-def dof_from_label(v: Any) -> DOF:
-    """A DOF from its label: node, sign, axis (``"3-Z"``, ``"12+X"``, ``"7Y"``).
+def dof_from_label(name: str, v: Any) -> DOF:
+    """A DOF from its label: node, sign, axis (``"3-Z"``, ``"12+X"``, ``"7Y"``);
+    another value is an :class:`~ema_pipeline.data.OptionError` naming ``name``.
 
     Examples
     --------
-    >>> dof_from_label("3-Z").label(), dof_from_label("12x").label()
+    >>> dof_from_label("fixed", "3-Z").label(), dof_from_label("fixed", "12x").label()
     ('3-Z', '12+X')
     """
-    match = _DOF_LABEL.fullmatch(_text(v))
+    match = _DOF_LABEL.fullmatch(text(name, v))
     if not match:
-        raise ValueError(f"must be a DOF label NODE+AXIS such as '3-Z' or '12+X', got {v!r}")
+        raise refusal(name, "a DOF label NODE+AXIS such as '3-Z' or '12+X'", v)
     node, sign, axis = match.groups()
     return DOF(int(node), (-1 if sign == "-" else 1) * _AXES[axis.upper()])
 
 
-def _text_or_list(v: Any) -> str:
+def _text_or_list(name: str, v: Any) -> str:
     if isinstance(v, list):
-        return "; ".join(_list(_text)(v))
-    return _text(v)
+        return "; ".join(sequence(name, v, item=text))
+    return text(name, v)
 
 
-def _dof_map(v: Any) -> tuple[tuple[DOF, DOF], ...]:
-    if not isinstance(v, dict):
-        raise ValueError(f"must be a table {{\"FILE_DOF\" = \"GEOMETRY_DOF\", ...}}, got {v!r}")
-    out = []
-    for key, x in v.items():
-        try:
-            out.append((dof_from_label(key), dof_from_label(x)))
-        except ValueError as exc:
-            raise ValueError(f"{key}: {exc}") from None
-    return tuple(out)
-
-
-#: table -> key -> checker. ``configurations`` entries are checked per entry.
-SCHEMA: dict[str, dict[str, Check]] = {
-    "experiment": {"name": _text, "genuine": _text},
-    "test": {
-        "object": _text,
-        "date": lambda v: str(v) if not isinstance(v, bool | int | float | list | dict)
-        else _text(v),
-        "operator": _text,
-        "equipment": _text_or_list,
-        "description": _text,
-    },
-    "dofs": {
-        "roving": _choice("hammer", "sensor", "none"),
-        "fixed": _list(dof_from_label, min_len=1, max_len=1000),
-        "map": _dof_map,
-    },
-    "beam": {
-        "length_m": _number(0.0, 1e3),
-        "width_m": _number(0.0, 1e2),
-        "thickness_m": _number(0.0, 1e2),
-        "youngs_modulus_pa": _number(0.0, 1e13),
-        "density_kg_m3": _number(0.0, 1e5),
-        "n_elements": _integer(1, 10_000),
-        "n_measurement_elements": _integer(1, 1_000),
-    },
-    "sensors": {
-        "response_nodes": _list(_integer(), min_len=1, max_len=1000),
-        "hammer_node": _integer(),
-        "direction": _direction,
-    },
-    # the options' own rules (one home: IdentificationOptions)
-    "identification": {name: _option(name) for name in IDENTIFICATION_KEYS},
-    "fe": {
-        "immersed_elements": _list(_integer(), min_len=1, max_len=1000),
-        "n_modes": _integer(1, 50),
-        "update_repeats": _integer(1, 1000),
-        "seed": _integer(0, 2**32 - 1),
-    },
-}
-
-
-#: keys of a ``[[configurations]]`` entry read from a file / simulated on the FE beam.
-FILE_CONFIGURATION: dict[str, Check] = {
-    "name": _name,
-    "file": _text,
-    "description": _text,
-    "exp_window_tau_s": _option("exp_window_tau_s"),
-}
-SIMULATED_CONFIGURATION: dict[str, Check] = {
-    "name": _name,
-    "added_mass": lambda v: v,  # checked with the beam below
-    "description": _text,
-    "zeta_pct": _list(_number(0.0, 100.0), min_len=1, max_len=100),
-    "snr_db": _number(None, 400.0),
-    "seed": _integer(0, 2**32 - 1),
-}
-
-
-def _recording_files(v: Any) -> tuple[str, ...]:
-    if isinstance(v, str):
-        return (v,)
-    return _list(_text, min_len=1, max_len=1000)(v)
-
-
-def _tau(v: Any) -> str | float | None:
-    if v in ("auto", "none"):
-        return None if v == "none" else "auto"
-    if isinstance(v, str):
-        raise ValueError(f"must be 'auto', 'none' or a time constant in s, got {v!r}")
-    return _number(0.0, MAX_EXP_WINDOW_TAU_S)(v)
-
-
-def _channel_table(value: Check) -> Check:
-    def check(v: Any) -> tuple[tuple[str, Any], ...]:
+def _table(value: Rule, key: Rule, shape: str) -> Rule:
+    """The rule of a TOML table ``{KEY = VALUE, ...}`` (``shape`` as the message
+    shows it): (key, value) pairs, each checked; a bad one is named by its key."""
+    def check(name: str, v: Any) -> tuple[tuple[Any, Any], ...]:
         if not isinstance(v, dict):
-            raise ValueError(f"must be a table {{CHANNEL = VALUE, ...}}, got {v!r}")
+            raise refusal(name, f"a table {shape}", v)
         out = []
-        for key, x in v.items():
+        for k, x in v.items():
             try:
-                out.append((str(key), value(x)))
-            except ValueError as exc:
-                raise ValueError(f"{key}: {exc}") from None
+                out.append((key(name, k), value(name, x)))
+            except OptionError as exc:
+                raise OptionError(name, f"{k}: {exc.reason}") from None
         return tuple(out)
 
     return check
 
 
-def _scale(v: Any) -> float:
-    v = _number()(v)
-    if v == 0:
-        raise ValueError("must be a non-zero number, got 0")
+def _given(name: str, v: Any) -> Any:
+    """Any value: checked later, with what it refers to."""
     return v
 
 
+#: table -> key -> rule. ``configurations`` entries are checked per entry.
+SCHEMA: dict[str, dict[str, Rule]] = {
+    "experiment": {"name": text, "genuine": text},
+    "test": {
+        "object": text,
+        "date": lambda name, v: str(v) if not isinstance(v, bool | int | float | list | dict)
+        else text(name, v),
+        "operator": text,
+        "equipment": _text_or_list,
+        "description": text,
+    },
+    "dofs": {
+        "roving": partial(choice, names=("hammer", "sensor", "none")),
+        "fixed": partial(sequence, item=dof_from_label, min_len=1, max_len=1000),
+        "map": _table(dof_from_label, dof_from_label, '{"FILE_DOF" = "GEOMETRY_DOF", ...}'),
+    },
+    "beam": {
+        "length_m": partial(number, above=0.0, at_most=1e3),
+        "width_m": partial(number, above=0.0, at_most=1e2),
+        "thickness_m": partial(number, above=0.0, at_most=1e2),
+        "youngs_modulus_pa": partial(number, above=0.0, at_most=1e13),
+        "density_kg_m3": partial(number, above=0.0, at_most=1e5),
+        "n_elements": partial(integer, at_least=1, at_most=10_000),
+        "n_measurement_elements": partial(integer, at_least=1, at_most=1_000),
+    },
+    "sensors": {
+        "response_nodes": partial(sequence, item=integer, min_len=1, max_len=1000),
+        "hammer_node": integer,
+        "direction": _direction,
+    },
+    # the options' own rules (one home: IdentificationOptions)
+    "identification": {name: check_option for name in IDENTIFICATION_KEYS},
+    "fe": {
+        "immersed_elements": partial(sequence, item=integer, min_len=1, max_len=1000),
+        "n_modes": partial(integer, at_least=1, at_most=50),
+        "update_repeats": partial(integer, at_least=1, at_most=1000),
+        "seed": partial(integer, at_least=0, at_most=2**32 - 1),
+    },
+}
+
+
+#: keys of a ``[[configurations]]`` entry read from a file / simulated on the FE beam.
+FILE_CONFIGURATION: dict[str, Rule] = {
+    "name": _name,
+    "file": text,
+    "description": text,
+    "exp_window_tau_s": check_option,
+}
+SIMULATED_CONFIGURATION: dict[str, Rule] = {
+    "name": _name,
+    "added_mass": _given,  # checked with the beam below
+    "description": text,
+    "zeta_pct": partial(sequence, item=partial(number, above=0.0, at_most=100.0), min_len=1,
+                        max_len=100),
+    "snr_db": partial(number, at_most=400.0),
+    "seed": partial(integer, at_least=0, at_most=2**32 - 1),
+}
+
+
+def _recording_files(name: str, v: Any) -> tuple[str, ...]:
+    if isinstance(v, str):
+        return (v,)
+    return sequence(name, v, item=text, min_len=1, max_len=1000)
+
+
+def _channel(name: str, key: Any) -> str:
+    return str(key)
+
+
 #: keys of a ``[[configurations]]`` entry that names raw impact recordings.
-RECORDING_CONFIGURATION: dict[str, Check] = {
+RECORDING_CONFIGURATION: dict[str, Rule] = {
     "name": _name,
     "recording": _recording_files,
-    "description": _text,
-    "frf": lambda v: v,  # checked against FRF_SETTINGS
+    "description": text,
+    "frf": _given,  # checked against FRF_SETTINGS
 }
-#: keys of its ``frf`` table: the options of ``ema-pipeline frf``.
-FRF_SETTINGS: dict[str, Check] = {
-    "pretrigger_s": _number(0.0, MAX_PRETRIGGER_S, strict_lo=False),
-    "record_length_s": _number(0.0, MAX_RECORD_LENGTH_S),
-    "force_window_s": _number(0.0, MAX_RECORD_LENGTH_S, strict_lo=False),
-    "exp_window_tau": _tau,
-    "estimator": _choice("H1", "H2", "Hv"),
-    "keep_all": _flag,
-    "force_channel": _text,
-    "scale": _channel_table(_scale),
-    "units": _channel_table(_text),
+#: keys of its ``frf`` table: the settings of ``ema-pipeline frf``
+#: (:data:`~ema_pipeline.acquisition.frf_settings.FRF_SETTING_RULES`) and the reader's.
+FRF_SETTINGS: dict[str, Rule] = {
+    **FRF_SETTING_RULES,
+    "force_channel": text,
+    "scale": _table(nonzero, _channel, "{CHANNEL = VALUE, ...}"),
+    "units": _table(text, _channel, "{CHANNEL = VALUE, ...}"),
 }
 
 
@@ -343,11 +249,11 @@ def read_recording_configuration(
 
 #: keys of a ``[[configurations]]`` entry (or of the ``[recordings]`` table) that
 #: names a channel sheet: a roving test from many recordings.
-SHEET_CONFIGURATION: dict[str, Check] = {
+SHEET_CONFIGURATION: dict[str, Rule] = {
     "name": _name,
-    "channels": lambda v: v,  # a file name or inline rows, checked below
-    "description": _text,
-    "frf": lambda v: v,  # checked against FRF_SETTINGS
+    "channels": _given,  # a file name or inline rows, checked below
+    "description": text,
+    "frf": _given,  # checked against FRF_SETTINGS
 }
 #: Settings of FRF_SETTINGS that a channel sheet gives itself.
 _SHEET_GIVES = ("force_channel", "scale", "units")
@@ -397,7 +303,7 @@ def _hint(key: str, known: list[str]) -> str:
 
 
 def _check_table(
-    table: Any, schema: Mapping[str, Check], where: str, required: tuple[str, ...] = ()
+    table: Any, schema: Mapping[str, Rule], where: str, required: tuple[str, ...] = ()
 ) -> dict[str, Any]:
     """The keys of ``table`` checked against ``schema`` (normalised values)."""
     if not isinstance(table, dict):
@@ -411,9 +317,9 @@ def _check_table(
     out = {}
     for key, value in table.items():
         try:
-            out[key] = schema[key](value)
-        except ValueError as exc:
-            raise DataError(f"{where} {key}: {exc}") from None
+            out[key] = schema[key](key, value)
+        except OptionError as exc:
+            raise DataError(f"{where} {key}: {exc.reason}") from None
     return out
 
 
@@ -610,11 +516,11 @@ def read_simulated_configuration(
                 f"{where}: added_mass element {el_i} does not exist "
                 f"(1..{beam.n_measurement_elements})"
             )
-        if (isinstance(frac, bool) or not isinstance(frac, int | float)
-                or not (math.isfinite(frac) and -1 < frac <= 1e3)):
-            raise DataError(f"{where}: added_mass of element {el_i} must be a number > -1, "
-                            f"got {frac!r}")
-        pairs.append((el_i, float(frac)))
+        try:
+            pairs.append((el_i, number(f"added_mass of element {el_i}", frac, above=-1.0,
+                                       at_most=1e3)))
+        except OptionError as exc:
+            raise DataError(f"{where}: {exc}") from None
     snr = entry.get("snr_db", 40.0)
     zeta = entry.get("zeta_pct")
     return ConfigurationSpec(

@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -24,6 +24,7 @@ import numpy as np
 from ema_pipeline import acquisition, io
 from ema_pipeline.acquisition import hits as hitlib
 from ema_pipeline.acquisition.channels import check_sample_rate
+from ema_pipeline.acquisition.frf_settings import FRF_SETTING_RULES
 from ema_pipeline.data import (
     ConfigError,
     DataError,
@@ -79,7 +80,11 @@ class FRFSettings:
     (:func:`ema_pipeline.acquisition.hits.auto_exp_window_tau`), ``None`` (no
     exponential window: records that have not decayed are rejected) or a time
     constant in s. ``estimator``: H1, H2 or Hv. ``keep_all``: average every hit
-    that has a record, whatever the checks say.
+    that has a record, whatever the checks say. Every field is checked when the
+    settings are made (the rules of
+    :data:`~ema_pipeline.acquisition.frf_settings.FRF_SETTING_RULES`): an
+    impossible value is an :class:`~ema_pipeline.data.OptionError` naming the
+    field and its option (``pretrigger_s (--pretrigger-s) must be ...``).
     """
 
     pretrigger_s: float = DEFAULT_PRETRIGGER_S
@@ -90,33 +95,11 @@ class FRFSettings:
     keep_all: bool = False
 
     def __post_init__(self) -> None:
-        def bad(name: str, value: object, rule: str) -> ConfigError:
-            option = "--" + name.replace("_", "-")
-            shown = f"{value:g}" if isinstance(value, float) else repr(value)
-            return ConfigError(f"{name} ({option}) must be {rule}, got {shown}")
-
-        def seconds(value: object) -> bool:
-            return isinstance(value, int | float) and not isinstance(value, bool)
-
-        top_pre, top_len = hitlib.MAX_PRETRIGGER_S, hitlib.MAX_RECORD_LENGTH_S
-        if not (seconds(self.pretrigger_s) and 0 <= self.pretrigger_s <= top_pre):
-            raise bad("pretrigger_s", self.pretrigger_s, f"0 to {top_pre:g} s")
-        if self.record_length_s is not None and not (
-            seconds(self.record_length_s) and 0 < self.record_length_s <= top_len
-        ):
-            raise bad("record_length_s", self.record_length_s, f"> 0 and at most {top_len:g} s")
-        if self.force_window_s is not None and not (
-            seconds(self.force_window_s) and 0 <= self.force_window_s <= top_len
-        ):
-            raise bad("force_window_s", self.force_window_s, f"0 (none) to {top_len:g} s")
-        tau = self.exp_window_tau
-        if not (tau is None or tau == "auto" or (
-            seconds(tau) and 0 < tau <= hitlib.MAX_EXP_WINDOW_TAU_S  # type: ignore[operator]
-        )):
-            raise bad("exp_window_tau", tau, "auto, none or a time constant > 0 and at most "
-                      f"{hitlib.MAX_EXP_WINDOW_TAU_S:g} s")
-        if self.estimator not in ("H1", "H2", "Hv"):
-            raise bad("estimator", self.estimator, "H1, H2 or Hv")
+        # each field checked and normalised by its rule, named with its option
+        for f in fields(self):
+            label = f"{f.name} (--{f.name.replace('_', '-')})"
+            value = FRF_SETTING_RULES[f.name](label, getattr(self, f.name))
+            object.__setattr__(self, f.name, value)
 
 
 @dataclass
@@ -495,7 +478,7 @@ def configuration_frf(
     >>> configuration_frf([], {"estimator": "H9"})
     Traceback (most recent call last):
     ...
-    ema_pipeline.data.ConfigError: estimator (--estimator) must be H1, H2 or Hv, got 'H9'
+    ema_pipeline.data.OptionError: estimator (--estimator) must be one of 'H1', 'H2', 'Hv', got 'H9'
     """
     values = dict(items)
     reader: dict = {k: values.pop(k) for k in READER_KEYS if k in values}
