@@ -410,3 +410,38 @@ def test_beam_page_speaks_words(browser, automatic, real_uff):
                          r"identification\.result", shown)
     cells = _texts(browser, "#modes td")
     assert not [c for c in cells if re.fullmatch(r"[a-z]+(_[a-z]+)+", c)], cells
+
+
+def test_each_diagram_of_a_study_page_picks_its_own(browser, example_study):
+    """The run report's three diagrams: the first holds the style and the
+    script's code once, every one draws its poles; a click and the key P in
+    the third change its picks alone."""
+    import json
+
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    page = example_study / "report.html"
+    html = page.read_text(encoding="utf-8")
+    assert html.count("window.emaStabDiagram=") == 1 and html.count(".stabd .pv-shapes{") == 1
+    browser.get(page.as_uri())
+    roots = browser.find_elements(By.CSS_SELECTOR, "[data-diagram]")
+    assert len(roots) == 3
+
+    def counts() -> list[int]:
+        return [int(r.find_element(By.CSS_SELECTOR, ".npicks").text) for r in roots]
+
+    start = counts()
+    for root in roots:
+        poles = json.loads(root.find_element(By.CSS_SELECTOR, "script.stab-poles")
+                           .get_attribute("textContent"))
+        assert len(root.find_elements(By.CSS_SELECTOR, "text.pole")) == len(poles["f"]) > 100
+        assert int(root.find_element(By.CSS_SELECTOR, ".npicks").text) == len(
+            root.find_elements(By.CSS_SELECTOR, "polygon.pole.mode"))
+    diamond = roots[2].find_elements(By.CSS_SELECTOR, "polygon.pole.mode")[0]
+    _click(browser, diamond)
+    assert counts() == start
+    ActionChains(browser).send_keys("p").perform()
+    assert counts() == [*start[:2], start[2] - 1]
+    roots[2].find_element(By.CSS_SELECTOR, "[data-pick-toggle]").click()
+    assert counts() == start

@@ -89,7 +89,7 @@ from ema_pipeline.report.stab_marks import (
     order_axis,
     stability_symbols,
 )
-from ema_pipeline.report.stab_script import CURVE_LEVELS, PICK_KEY, STAB_SCRIPT
+from ema_pipeline.report.stab_script import CURVE_LEVELS, PICK_KEY, STAB_CALL, STAB_SCRIPT
 from ema_pipeline.report.synthesis_view import CODE_0, synthesis_data
 
 __all__ = ["stab_diagram_html"]
@@ -210,12 +210,14 @@ def _preview_geometry(frf: FRFSet, result: IdentificationResult, geometry: Geome
 def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
                       picks_id: str = "picks", file_name: str = "picks.toml",
                       geometry: Geometry | None = None,
-                      mode_set: ModeSet | None = None) -> str:
+                      mode_set: ModeSet | None = None, with_code: bool = True) -> str:
     """The interactive diagram of ``result`` (identified from ``frf``, the FRF
     set it was given) with its ``<pre id="picks_id">`` picks file; empty
     without a diagram (sdypy backend). With ``geometry``, the preview of a
     kept mode animates its shape on it (``mode_set``: the shapes to draw,
-    one per kept mode, by default the result's).
+    one per kept mode, by default the result's). ``with_code=False``: the
+    style and the script's code are left to an earlier diagram of the page
+    (a study report's first), which holds them.
 
     Examples
     --------
@@ -345,7 +347,7 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
               "picked." if is_picked(result) else "")
     key = PICK_KEY.upper()
     return (
-        f'{_CSS}<div class="stabd" data-diagram="{esc(cfg)}">'
+        f'{_CSS if with_code else ""}<div class="stabd" data-diagram="{esc(cfg)}">'
         '<p class="muted" data-help="">Click a pole (a symbol) or a kept mode (a diamond '
         "on top) to preview it: its frequency, damping, MPC, order and stability and, for "
         "a kept mode, its shape. A click picks nothing: the preview's button "
@@ -370,5 +372,5 @@ def stab_diagram_html(frf: FRFSet, result: IdentificationResult, *,
         '<button type="button" class="download-picks">Download picks</button></p>'
         f'<pre class="picks" id="{esc(picks_id)}"></pre>'
         f'<script type="application/json" class="stab-poles">{data}</script>'
-        f"<script>{STAB_SCRIPT}</script></div>"
+        f"<script>{STAB_SCRIPT if with_code else ''}{STAB_CALL}</script></div>"
     )

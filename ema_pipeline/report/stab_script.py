@@ -15,16 +15,18 @@ from __future__ import annotations
 
 from ema_pipeline.report.synthesis_view import SYNTHESIS_JS
 
-__all__ = ["CURVE_LEVELS", "PICK_KEY", "STAB_SCRIPT"]
+__all__ = ["CURVE_LEVELS", "PICK_KEY", "STAB_CALL", "STAB_SCRIPT"]
 
 #: The levels of the overlay's characters (15 bits, from synthesis_view.CODE_0).
 CURVE_LEVELS = 32767
 #: The key that picks or unpicks the previewed pole (either case).
 PICK_KEY = "p"
 
-STAB_SCRIPT = (r"""(function(){""" + SYNTHESIS_JS
+#: The code: defines ``emaStabDiagram(root)``, which brings the diagram
+#: ``root`` (its ``.stabd`` element) to life. A page holds it once (in its
+#: first diagram) and calls it in every diagram (:data:`STAB_CALL`).
+STAB_SCRIPT = (r"""window.emaStabDiagram=function(root){""" + SYNTHESIS_JS
                + f"var CURVE_LEVELS={CURVE_LEVELS},PICK_KEY='{PICK_KEY}';" + r"""
-var root=document.currentScript.parentNode;
 var out=root.querySelector('pre.picks'), info=root.querySelector('.info');
 var count=root.querySelector('.npicks'), cfg=JSON.parse(root.getAttribute('data-diagram'));
 var svg=root.querySelector('svg.stab'), NS='http://www.w3.org/2000/svg';
@@ -244,4 +246,6 @@ root.querySelector('.download-picks').addEventListener('click',function(){
  a.download=cfg.file;document.body.appendChild(a);a.click();document.body.removeChild(a);
 });
 text();
-})();""")
+};""")
+#: The call in each diagram's own script.
+STAB_CALL = "emaStabDiagram(document.currentScript.parentNode);"
