@@ -167,13 +167,13 @@ function pickState(){var p=current,on=p.classList.contains('selected'),
 function showPreview(p){
  current=p;window.emaStabActive=root;preview.hidden=false;pvText.textContent='';
  pvBars.textContent='';
- var m=isMode(p),h=line('pv-head',describe(p));
+ var m=isMode(p),h=line('pv-head',m?describe(p):'order '+p.dataset.order+': '+values(p));
  h.setAttribute('data-preview-freq-hz',m?p.dataset.xHz:p.dataset.freqHz);
  if(m){line('muted','Refined frequency and damping, as the tables give them; stable '+
    (+p.dataset.stableCount?'from order '+p.dataset.stableFirst+' to '+p.dataset.stableLast+
     ' ('+p.dataset.stableCount+' orders)':'at no order of the stored diagram')+
    (p.dataset.foundBy?'; found by: '+p.dataset.foundBy:'')+'.');}
- else{line('muted','Stability at order '+p.dataset.order+': '+stability(p)+'.');}
+ else{line('pv-stability','Stability: '+stability(p)+'.');}
  line('pv-state','');pickState();draw();
  var sh=m?d.shapes[+p.dataset.mode-1]:null;
  if(pvGeo){pvGeo.hidden=!sh;}
