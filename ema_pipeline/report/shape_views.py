@@ -20,9 +20,12 @@ axis by axis; a node with a measured node on one side only (the end of a line,
 e.g. a support) or on no line **stays at rest**. Measured nodes are drawn as
 filled dots, the others hollow.
 
-The group functions: :func:`shape_views_html` (the modes of one result) and
+The group functions: :func:`shape_views_html` (the modes of one result),
 :func:`paired_shape_views_html` (the modes of several configurations, one row
-per mode of the reference, its paired mode of every configuration beside it).
+per mode of the reference, its paired mode of every configuration beside it)
+and :func:`shape_preview_html` (one view whose mode the page sets: the
+stabilization diagram's preview). Each group's script animates its own views
+(a page may hold several groups), and only while the group is shown.
 """
 
 from __future__ import annotations
