@@ -157,9 +157,11 @@ def test_the_page_script_writes_what_io_reads(plate, tmp_path):
         group = diamond.get_attribute("data-group")
         top = max(automatic.orders)
         pole = driver.find_element(
-            By.CSS_SELECTOR, f'circle.pole[data-group="{group}"][data-order="{top}"]')
-        driver.execute_script(
+            By.CSS_SELECTOR, f'text.pole[data-group="{group}"][data-order="{top}"]')
+        driver.execute_script(  # a click previews the pole, the preview's button picks it
             "arguments[0].dispatchEvent(new MouseEvent('click', {bubbles: true}))", pole)
+        assert driver.find_element(By.ID, "picks").get_attribute("textContent") == text
+        driver.find_element(By.CSS_SELECTOR, "[data-pole-preview] [data-pick-toggle]").click()
         assert "selected" not in diamond.get_attribute("class")
         moved = driver.find_element(By.ID, "picks").get_attribute("textContent")
         values = {k: pole.get_attribute(f"data-{k}") for k in ("freq-hz", "zeta", "order")}

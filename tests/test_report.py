@@ -54,8 +54,8 @@ class _Page(HTMLParser):
             self.tables[-1].append([])
         elif tag in ("td", "th"):
             self._cell = []
-        elif tag == "svg" and a.get("class") not in ("shape", "stab"):  # figures, not the
-            # shape views nor the interactive stabilization diagram
+        elif tag == "svg" and a.get("class") not in ("shape", "stab", "mark"):  # figures,
+            # not the shape views nor the interactive stabilization diagram and its legend
             self.svgs += 1
 
     def handle_endtag(self, tag):

@@ -126,7 +126,7 @@ def test_identify_and_batch_pages_fit(browser, other_pages, width, media):
 
 def test_batch_links_each_file_page_whose_diagram_draws_and_picks(browser, other_pages):
     """From the batch page to each file's page (broken.h5 has none) and back; on the
-    page the script draws one ``circle.pole`` per pole of the diagram's JSON and
+    page the script draws one ``text.pole`` per pole of the diagram's JSON and
     opens with one selected pole per mode of the file's ``_modes.csv``, all in
     ``#picks``."""
     import json
@@ -144,7 +144,7 @@ def test_batch_links_each_file_page_whose_diagram_draws_and_picks(browser, other
         n_modes = len(pd.read_csv(batch_page.parent / f"{Path(name).stem}_modes.csv"))
         poles = json.loads(browser.find_element(By.CSS_SELECTOR, "script.stab-poles")
                            .get_attribute("textContent"))
-        drawn = browser.find_elements(By.CSS_SELECTOR, "g.diagram-poles circle.pole")
+        drawn = browser.find_elements(By.CSS_SELECTOR, "g.diagram-poles text.pole")
         assert len(drawn) == len(poles["f"]) > 100
         assert len(browser.find_elements(By.CSS_SELECTOR, ".pole.selected")) == n_modes
         picks = browser.find_element(By.ID, "picks").get_attribute("textContent")

@@ -101,3 +101,34 @@ def test_two_sensor_preview_draws_no_shape(browser, tmp_path, example_dir):
     assert "MPC" in preview.text
     assert "2 measured points only: no shape is drawn" in preview.text
     assert not preview.find_elements(By.CSS_SELECTOR, "svg[data-shape]")
+
+
+def test_pole_preview_animates_the_mode_on_the_geometry(browser, tmp_path, three_sensor_h5):
+    """Clicking a kept mode's diamond previews its shape, animated on the test
+    geometry, in the preview itself (two frames 0.3 s apart differ), and picks
+    nothing; the views of the mode shapes section still move."""
+    from selenium.webdriver.common.action_chains import ActionChains
+    from selenium.webdriver.common.by import By
+
+    geometry = io.write_geometry_uff(Beam().measurement_geometry(), tmp_path / "beam.uff")
+    assert main(["identify", str(three_sensor_h5), "--out", str(tmp_path),
+                 "--report", "--quiet", "--geometry", str(geometry)]) == 0
+    page = tmp_path / f"{three_sensor_h5.stem}_report.html"
+    browser.get(page.as_uri())
+    count = browser.find_element(By.CSS_SELECTOR, ".stabd .npicks").text
+    view = browser.find_element(By.CSS_SELECTOR, "[data-pole-preview] [data-preview-shape]")
+    assert not view.is_displayed()  # nothing previewed yet
+    diamond = browser.find_elements(By.CSS_SELECTOR, 'polygon.pole.mode[data-mode="2"]')[0]
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", diamond)
+    ActionChains(browser).move_to_element(diamond).click().perform()
+    assert browser.find_element(By.CSS_SELECTOR, ".stabd .npicks").text == count
+    assert view.is_displayed() and view.get_attribute("data-key") == "1"
+    f_hz = float(diamond.get_attribute("data-x-hz"))
+    assert view.text.startswith(f"Mode 2: {f_hz:.2f} Hz")
+    browser.execute_script("arguments[0].scrollIntoView({block: 'center'})", view)
+    time.sleep(0.2)
+    first = view.screenshot_as_png
+    time.sleep(0.3)
+    assert view.screenshot_as_png != first, "the previewed shape does not move"
+    n_views, first, later, _ = _frames(browser, page)
+    assert n_views > 0 and later != first, "the section's shape does not move"

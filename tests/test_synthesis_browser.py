@@ -129,12 +129,16 @@ def test_synthesis_follows_the_picks(simulated, tmp_path, monkeypatch, reduced):
         diamond = next(p for p in driver.find_elements(By.CSS_SELECTOR, "polygon.pole.mode")
                        if abs(float(p.get_attribute("data-x-hz")) - 55.0) < 0.1)
         click = "arguments[0].dispatchEvent(new MouseEvent('click', {bubbles: true}))"
-        driver.execute_script(click, diamond)
+        driver.execute_script(click, diamond)  # previews it: still picked, the same curve
+        assert "selected" in diamond.get_attribute("class")
+        assert np.array_equal(_decades(driver)[1], dev)
+        toggle = driver.find_element(By.CSS_SELECTOR, "[data-pole-preview] [data-pick-toggle]")
+        toggle.click()
         assert "selected" not in diamond.get_attribute("class")
         _, off = _decades(driver)
         assert off[at[1]] < -0.5, off[at[1]]
         assert abs(off[at[0]]) < TOL_DECADES and abs(off[at[2]]) < TOL_DECADES
         # pick it again: the curve comes back
-        driver.execute_script(click, diamond)
+        toggle.click()
         _, back = _decades(driver)
         assert np.allclose(back, dev, atol=2e-3)

@@ -265,11 +265,15 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
     if report.identification:
         sec = page.section("stabilization", "Stabilization diagrams")
         sec.append(no_figures(figures))
+        drawn = 0  # the first diagram drawn holds the code the others call
         for k, (name, r) in enumerate(report.identification.items()):
             if name in report.frfs:  # interactive: pick poles, get a picks file
                 sec.append(f"<h3>{esc(name)}</h3>" + stab_diagram_html(
                     report.frfs[name], r, picks_id="picks" if k == 0 else
-                    f"picks-{safe_name(name)}", file_name=f"{safe_name(name)}_picks.toml"))
+                    f"picks-{safe_name(name)}", file_name=f"{safe_name(name)}_picks.toml",
+                    geometry=report.test_geometry, mode_set=_mode_set(report, r),
+                    with_code=drawn == 0))
+                drawn += 1
             sec.append(figure(f"stabilization_{safe_name(name)}", fg,
                                f"Stabilization diagram: {name}"))
         sec = page.section("modes", "Modes (MPC, MPD, stable orders)")
@@ -413,7 +417,7 @@ def render_identify_html(
         no + figure("frf_one", fg, f"|H| and coherence: {name}")
     )
     page.section("stabilization", "Stabilization diagram").append(
-        stab_diagram_html(frf, result)
+        stab_diagram_html(frf, result, geometry=geometry)
         + no + figure("stabilization_one", fg, "Stabilization diagram")
     )
     not_kept = not_kept_message(result.not_kept_hz, result.not_kept_frfs, frf.n_out * frf.n_in)

@@ -20,9 +20,12 @@ axis by axis; a node with a measured node on one side only (the end of a line,
 e.g. a support) or on no line **stays at rest**. Measured nodes are drawn as
 filled dots, the others hollow.
 
-The group functions: :func:`shape_views_html` (the modes of one result) and
+The group functions: :func:`shape_views_html` (the modes of one result),
 :func:`paired_shape_views_html` (the modes of several configurations, one row
-per mode of the reference, its paired mode of every configuration beside it).
+per mode of the reference, its paired mode of every configuration beside it)
+and :func:`shape_preview_html` (one view whose mode the page sets: the
+stabilization diagram's preview). Each group's script animates its own views
+(a page may hold several groups), and only while the group is shown.
 """
 
 from __future__ import annotations
@@ -45,6 +48,7 @@ __all__ = [
     "paired_shape_views_html",
     "shape_data",
     "shape_dof_count",
+    "shape_preview_html",
     "shape_views_html",
 ]
 
@@ -265,7 +269,6 @@ svg.shape circle.open{fill:#fff}
 # (W, H: the view size; the projections are those of _project).
 _SCRIPT = """
 (function(){
-if(window.emaShapeViews)return;window.emaShapeViews=true;
 var W=VIEW_W,H=VIEW_H,C=Math.cos(Math.PI/6);
 function proj(x,y,z,v){if(v==='xy')return[x,-y];if(v==='xz')return[x,-z];
  if(v==='yz')return[y,-z];return[(x-y)*C,(x+y)*0.5-z];}
@@ -273,7 +276,7 @@ function all(el,sel){return [].slice.call(el.querySelectorAll(sel));}
 function init(g){
  var data=JSON.parse(g.querySelector('script.shape-data').textContent);
  var q=function(s){return g.querySelector(s);};
- var views=all(g,'[data-mode-shape]');
+ var views=all(g,'figure.shape-view');
  var st={scale:1,speed:0.5,view:data.view,run:true,t0:performance.now(),phase:0};
  q('.sv-view').value=data.view;
  var N=data.nodes.length,fit=null,L=data.surfaces.concat(data.lines);
@@ -299,7 +302,8 @@ function init(g){
    el.setAttribute('points',pts(xy,L[k]));});
   all(v,'.moved circle').forEach(function(el,k){
    el.setAttribute('cx',xy[k][0].toFixed(1));el.setAttribute('cy',xy[k][1].toFixed(1));});}
- function tick(now){if(st.run){st.phase=2*Math.PI*st.speed*(now-st.t0)/1000;
+ function tick(now){if(st.run&&g.getClientRects().length){
+  st.phase=2*Math.PI*st.speed*(now-st.t0)/1000;
   views.forEach(function(v){draw(v,st.phase,false);});}requestAnimationFrame(tick);}
  q('.sv-scale').addEventListener('input',function(e){st.scale=+e.target.value;refit();});
  q('.sv-speed').addEventListener('input',function(e){var ph=st.phase;
@@ -310,8 +314,9 @@ function init(g){
   e.target.textContent=st.run?'pause':'play';});
  window.addEventListener('beforeprint',function(){st.run=false;st.phase=0;
   views.forEach(function(v){draw(v,0,false);});});
+ g.addEventListener('shape-key',refit);
  refit();requestAnimationFrame(tick);}
-all(document,'.shape-views').forEach(init);
+init(document.currentScript.parentNode);
 })();
 """.replace("VIEW_W", str(VIEW_W)).replace("VIEW_H", str(VIEW_H))
 
@@ -376,6 +381,32 @@ def shape_views_html(geometry: Geometry, modes: ModeSet) -> str:
     )
     return _group(data, f'<div class="shape-grid">{body}</div>',
                   _note(geometry, missing_dofs(geometry, modes.dofs)))
+
+
+def shape_preview_html(geometry: Geometry, modes: ModeSet) -> str:
+    """One animated view for a preview (``figure.shape-view[data-preview-shape]``,
+    drawn at first with the first mode of ``modes``), with the controls, the
+    JSON of every mode and the script. A page shows another mode in it by
+    setting the figure's ``data-key`` (the mode's index in ``modes``) and
+    sending the group (``.shape-views``) a ``shape-key`` event.
+
+    Examples
+    --------
+    >>> g = Geometry(node_ids=[1, 2, 3], xyz_m=[[0, 0, 0], [1, 0, 0], [2, 0, 0]],
+    ...              lines=((1, 2, 3),))
+    >>> phi = np.array([[1.0, 1.0], [0.0, -1.0], [-1.0, 1.0]])
+    >>> page = shape_preview_html(g, ModeSet(np.array([10.0, 20.0]), np.array([0.01, 0.01]),
+    ...                                      phi, (DOF(1), DOF(2), DOF(3))))
+    >>> page.count("data-preview-shape"), page.count('class="shape-view"')
+    (1, 1)
+    """
+    data = shape_data(geometry, {"": modes})
+    missing = missing_dofs(geometry, modes.dofs)
+    note = ('<div class="problems"><p>Measured DOFs with no node in the geometry (not drawn): '
+            + esc(", ".join(d.label() for d in missing)) + "</p></div>" if missing else "")
+    figure = (f'<figure class="shape-view" data-preview-shape="" data-key="0">'
+              f"{_view_svg(data, data['modes'][0])}<figcaption></figcaption></figure>")
+    return _group(data, figure, note)
 
 
 def paired_shape_views_html(

@@ -33,7 +33,10 @@ __all__ = [
     "Axes",
     "Canvas",
     "envelope",
+    "NICE_MANTISSAS",
     "log_ticks",
+    "nice_step",
+    "nice_steps",
     "nice_ticks",
     "path_data",
     "standalone",
@@ -87,8 +90,45 @@ def envelope(px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return ex, ey
 
 
+#: The leading digits of a round step between ticks: 1, 2 or 5 times a power of ten.
+NICE_MANTISSAS = (1.0, 2.0, 5.0)
+
+
+def nice_step(span: float, parts: float) -> float:
+    """The smallest round step (:data:`NICE_MANTISSAS` times a power of ten)
+    that cuts ``span`` into at most ``parts`` parts: the one home of the
+    choice, for the figures' axes and the interactive diagram's.
+
+    Examples
+    --------
+    >>> nice_step(1019.0, 7), nice_step(1.0, 5), nice_step(252.0, 7), nice_step(24.0, 8)
+    (200.0, 0.2, 50.0, 5.0)
+    """
+    raw = span / parts
+    mag = 10.0 ** math.floor(math.log10(raw))
+    return next(m * mag for m in (*NICE_MANTISSAS, 10.0) if m * mag >= raw * 0.999)
+
+
+def nice_steps(smallest: float, largest: float, parts: float) -> list[float]:
+    """Every :func:`nice_step` of a span from ``smallest`` to ``largest``, in
+    increasing order: the steps a page's script chooses from as its axis is
+    zoomed (the first at least span / parts, which is :func:`nice_step`'s).
+
+    Examples
+    --------
+    >>> nice_steps(1.0, 1019.0, 7)
+    [0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0]
+    """
+    lo, hi = nice_step(smallest, parts), nice_step(largest, parts)
+    ladder = [m * 10.0 ** k for k in range(math.floor(math.log10(lo)) - 1,
+                                            math.floor(math.log10(hi)) + 2)
+              for m in NICE_MANTISSAS]
+    return [float(f"{v:.12g}") for v in ladder if lo * 0.999 <= v <= hi * 1.001]
+
+
 def nice_ticks(lo: float, hi: float, n: int = 6) -> np.ndarray:
-    """Round tick values (1, 2 or 5 times a power of ten apart) within [lo, hi].
+    """Round tick values (1, 2 or 5 times a power of ten apart,
+    :func:`nice_step` for ``n - 1`` parts) within [lo, hi].
 
     Examples
     --------
@@ -97,11 +137,9 @@ def nice_ticks(lo: float, hi: float, n: int = 6) -> np.ndarray:
     """
     if not hi > lo:
         return np.array([lo])
-    raw = (hi - lo) / max(n - 1, 1)
-    mag = 10.0 ** math.floor(math.log10(raw))
-    step = next(m * mag for m in (1, 2, 2.5, 5, 10) if m * mag >= raw * 0.999)
-    first = math.ceil(lo / step - 1e-9) * step
-    ticks = np.arange(first, hi + step * 1e-6, step)
+    step = nice_step(hi - lo, max(n - 1, 1))
+    first = math.ceil(lo / step - 1e-9)
+    ticks = (first + np.arange(math.floor(hi / step + 1e-6) - first + 1)) * step
     return np.round(ticks, max(0, 2 - math.floor(math.log10(step))))
 
 
