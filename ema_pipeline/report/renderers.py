@@ -414,7 +414,7 @@ def render_identify_html(
            else _limits_note())
     )
     page.section("setup", "Test setup").append(
-        html_table(setup_table({name: frf}, None), split=False)
+        html_table(setup_table({short: frf}, None), split=False)
     )
     no = no_figures(None if not figures else fg)
     page.section("frf", "FRFs and coherence").append(
