@@ -7,7 +7,6 @@ to per-pixel envelopes, so an 8193-line FRF costs the same as one of 700 lines.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING
 
@@ -18,7 +17,7 @@ from ema_pipeline import paper
 from ema_pipeline.data import FRFSet
 from ema_pipeline.identification.result import STABLE_ALL, STABLE_DAMP, STABLE_FREQ
 from ema_pipeline.report.result_tables import dof_labels
-from ema_pipeline.report.svg import SCALE, Canvas
+from ema_pipeline.report.svg import SCALE, Canvas, legend_size
 
 if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.result import IdentificationResult
@@ -85,9 +84,9 @@ def figure_frf_coherence(frf: FRFSet, title: str = "", *, standalone: bool = Fal
     box = (_LEFT, 30, _W - _LEFT - _RIGHT, n_panel_h)
     columns = 1
     if len(labels) > LEGEND_INSIDE:  # below the coherence panel: as many columns as fit
-        col_w = max(len(x) for x in labels) * 6.2 + 34
+        col_w = legend_size(labels)[0] - 6
         columns = max(1, min(len(labels), int((box[2] - 6) // col_w)))
-        height += 6 + math.ceil(len(labels) / columns) * 15
+        height += legend_size(labels, columns)[1]
     c = Canvas(_W, height, title or f"FRF and coherence - {frf.configuration}")
     xlim = (float(f[sel][0]), float(f[-1]))
     ax = c.axes(box, xlim, _log_limits(H, 5), ylog=True)

@@ -33,6 +33,7 @@ __all__ = [
     "Axes",
     "Canvas",
     "envelope",
+    "legend_size",
     "log_ticks",
     "nice_ticks",
     "path_data",
@@ -179,6 +180,21 @@ def path_data(x: np.ndarray, y: np.ndarray) -> str:
     d[1::2] = np.diff(yi)
     head = f"M{xi[0]} {yi[0]}"
     return head + ("l" + _ints(d) if d.size else "")
+
+
+def legend_size(labels: Sequence[str], columns: int = 1) -> tuple[float, float]:
+    """Width and height (CSS px) of a legend of ``labels`` in ``columns``
+    columns, as :meth:`Axes.legend` draws it (0, 0 without labels).
+
+    Examples
+    --------
+    >>> legend_size(["measured", "synthesised"], columns=2)
+    (210.4, 21)
+    """
+    if not labels:
+        return 0.0, 0.0
+    rows = math.ceil(len(labels) / columns)
+    return (max(len(x) for x in labels) * 6.2 + 34) * columns + 6, rows * 15 + 6
 
 
 @dataclass
@@ -457,14 +473,10 @@ class Axes:
         if title:
             c.text(left + w / 2, top - 7, title, weight="600")
 
-    def legend_size(self, columns: int = 1, labels: Sequence[str] = ()) -> tuple[float, float]:
-        """Width and height (CSS px) of the legend of ``labels`` (default: the
-        labelled items drawn so far) in ``columns`` columns."""
-        names = list(labels) or [label for label, _ in self.legend_items]
-        if not names:
-            return 0.0, 0.0
-        rows = math.ceil(len(names) / columns)
-        return (max(len(x) for x in names) * 6.2 + 34) * columns + 6, rows * 15 + 6
+    def legend_size(self, columns: int = 1) -> tuple[float, float]:
+        """Width and height (CSS px) of the legend of the labelled items drawn
+        so far in ``columns`` columns (:func:`legend_size`)."""
+        return legend_size([label for label, _ in self.legend_items], columns)
 
     def emptiest_corner(self, w: float, h: float) -> str:
         """The corner of the box (``"upper right"``, ``"upper left"``, ``"lower
