@@ -86,7 +86,7 @@ def figure_frf_coherence(frf: FRFSet, title: str = "", *, standalone: bool = Fal
     if len(labels) > LEGEND_INSIDE:  # below the coherence panel: as many columns as fit
         col_w = legend_size(labels)[0] - 6
         columns = max(1, min(len(labels), int((box[2] - 6) // col_w)))
-        height += legend_size(labels, columns)[1]
+        height += round(legend_size(labels, columns)[1])
     c = Canvas(_W, height, title or f"FRF and coherence - {frf.configuration}")
     xlim = (float(f[sel][0]), float(f[-1]))
     ax = c.axes(box, xlim, _log_limits(H, 5), ylog=True)
