@@ -151,3 +151,39 @@ def test_batch_links_each_file_page_whose_diagram_draws_and_picks(browser, other
         assert picks.count("[[pick]]") == n_modes  # (hidden in print media: textContent)
         back = browser.find_element(By.CSS_SELECTOR, "a.batch-page").get_attribute("href")
         assert back == batch_page.as_uri()
+
+
+#: Every element of ``#mac`` and ``#picks`` whose content is wider than its
+#: box (hidden behind a scroll bar or cut), and how the AutoMAC's last column
+#: and the picks' longest line sit in their boxes.
+HIDDEN_JS = """
+const out = {hidden: [], mac: null, picks: null};
+for (const sel of ['#mac', '#picks']) {
+  const root = document.querySelector(sel);
+  for (const e of [root, ...root.querySelectorAll('*')]) {
+    if (e.clientWidth > 0 && e.scrollWidth > e.clientWidth)
+      out.hidden.push(sel + ' ' + e.tagName + '.' + e.className + ' ' + e.scrollWidth + '>'
+                      + e.clientWidth);
+  }
+}
+const mac = document.querySelector('#mac table.mac'), box = document.querySelector('#mac');
+const cells = mac.querySelectorAll('thead th');
+out.mac = {columns: cells.length, right: cells[cells.length - 1].getBoundingClientRect().right,
+           box: box.getBoundingClientRect().right};
+const picks = document.querySelector('#picks');
+out.picks = {wrap: getComputedStyle(picks).whiteSpace,
+             orders: picks.textContent.split('\\n').some(l => l.startsWith('orders = ['))};
+return out;
+"""
+
+
+def test_beam_page_hides_nothing_at_1400_px(browser, beam_report, real_uff):
+    """The measured beam's 19 x 19 AutoMAC fits its box (its last column in
+    view, no scroll bar) and the picks text wraps its long ``orders = [...]``
+    line, in a 1400 px window."""
+    _layout(browser, (beam_report / f"{real_uff.stem}_report.html").as_uri(), 1400, "screen")
+    got = browser.execute_script(HIDDEN_JS)
+    assert got["hidden"] == []
+    assert got["mac"]["columns"] == 20  # the row labels' column and 19 modes
+    assert got["mac"]["right"] <= got["mac"]["box"] + 0.5, got["mac"]
+    assert got["picks"] == {"wrap": "pre-wrap", "orders": True}

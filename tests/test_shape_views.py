@@ -130,7 +130,9 @@ def _page_checks(html: str, n_modes: int) -> list[dict]:
 
 def test_study_report_has_paired_shapes_mac_and_stays_small(example_study):
     html = (example_study / "report.html").read_text()
-    assert (example_study / "report.html").stat().st_size < 400_000
+    # 452 kB, 3 x 24 kB of it the stabilization diagrams' FRFs for the
+    # synthesis of the picks (every line of the band)
+    assert (example_study / "report.html").stat().st_size < 470_000
     data = _page_checks(html, 12)  # 4 modes x 3 configurations, paired
     assert {m["set"] for m in data[0]["modes"]} == {"genuine", "larger_tank", "smaller_tank"}
     assert len(data[0]["nodes"]) == Beam().n_measurement_elements + 1

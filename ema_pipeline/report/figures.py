@@ -16,7 +16,8 @@ import pandas as pd
 from ema_pipeline import paper
 from ema_pipeline.data import FRFSet
 from ema_pipeline.identification.result import STABLE_ALL, STABLE_DAMP, STABLE_FREQ
-from ema_pipeline.report.svg import SCALE, Canvas
+from ema_pipeline.report.result_tables import dof_labels
+from ema_pipeline.report.svg import SCALE, Canvas, legend_size
 
 if TYPE_CHECKING:  # pragma: no cover
     from ema_pipeline.identification.result import IdentificationResult
@@ -38,6 +39,8 @@ __all__ = [
 COLORS = ("#1f4e79", "#c0504d", "#4f8a3c", "#7f6084", "#d08b26", "#3a9ca6", "#8c564b")
 _W = 720  # figure width, CSS px
 _LEFT, _RIGHT = 70, 20
+#: At most this many curves are labelled inside an FRF panel; more, below the figure.
+LEGEND_INSIDE = 6
 
 
 def sum_abs_frf(H: np.ndarray) -> np.ndarray:
@@ -66,27 +69,40 @@ def figure_frf_coherence(frf: FRFSet, title: str = "", *, standalone: bool = Fal
 
     Without coherence in the data the lower panel says so. ``marks_hz``: dashed
     vertical lines on both panels (e.g. the usable band of the force spectrum).
+    The curves are labelled ``response / reference`` with the signs as tested
+    (:func:`~ema_pipeline.report.result_tables.dof_labels`); up to
+    :data:`LEGEND_INSIDE` of them in the emptiest corner of the panel, more
+    below the figure, where they cover no curve.
     """
     f = frf.freq_hz
     sel = f >= max(f[0], f[min(5, f.size - 1)])  # the first lines hold no information
     H = np.abs(frf.H[..., sel])
+    responses, references = dof_labels(frf)
+    labels = [f"{r} / {q}" for r in responses for q in references]
     n_panel_h, c_h = 250, 110
     height = 30 + n_panel_h + 24 + c_h + 48
+    box = (_LEFT, 30, _W - _LEFT - _RIGHT, n_panel_h)
+    columns = 1
+    if len(labels) > LEGEND_INSIDE:  # below the coherence panel: as many columns as fit
+        col_w = legend_size(labels)[0] - 6
+        columns = max(1, min(len(labels), int((box[2] - 6) // col_w)))
+        height += round(legend_size(labels, columns)[1])
     c = Canvas(_W, height, title or f"FRF and coherence - {frf.configuration}")
     xlim = (float(f[sel][0]), float(f[-1]))
-    ax = c.axes((_LEFT, 30, _W - _LEFT - _RIGHT, n_panel_h), xlim, _log_limits(H, 5), ylog=True)
-    k = 0
-    for o in range(frf.n_out):
-        for i in range(frf.n_in):
-            label = f"{frf.response_dofs[o].label()} / {frf.reference_dofs[i].label()}"
-            ax.line(f[sel], H[o, i], COLORS[k % len(COLORS)], width=0.8, label=label)
-            k += 1
+    ax = c.axes(box, xlim, _log_limits(H, 5), ylog=True)
+    for k, label in enumerate(labels):
+        o, i = divmod(k, frf.n_in)
+        ax.line(f[sel], H[o, i], COLORS[k % len(COLORS)], width=0.8, label=label)
     marks = [x for x in marks_hz if xlim[0] < x < xlim[1]]
     for x in marks:
         ax.vline(x, "#888", dash="6 4")
     ax.frame(ylabel=f"|H| / ({frf.units})", title=title, show_x=False)
-    ax.legend("upper right", columns=min(k, 3))
     cax = c.axes((_LEFT, 30 + n_panel_h + 24, _W - _LEFT - _RIGHT, c_h), xlim, (0.0, 1.05))
+    if len(labels) > LEGEND_INSIDE:
+        cax.legend_items = ax.legend_items
+        cax.legend("below", columns=columns)
+    else:
+        ax.legend("best")
     for x in marks:
         cax.vline(x, "#888", dash="6 4")
     if frf.coherence is None:
@@ -128,10 +144,10 @@ def figure_frf_overlay(
         ax.line(f, v, COLORS[k % len(COLORS)], width=1.0, label=_label(name))
     ax.frame(
         xlabel="frequency / Hz",
-        ylabel=f"|H| / ({first.units})  {first.response_dofs[0].label()}",
+        ylabel=f"|H| / ({first.units})  {dof_labels(first)[0][0]}",
         title=title,
     )
-    ax.legend("upper right" if not zoom_hz else "upper left")
+    ax.legend("best")
     return c.to_svg(standalone)
 
 
@@ -188,6 +204,7 @@ def figure_fit(
     height = 30 + n * (panel + 30) + 20
     c = Canvas(_W, height, title or "Measured vs synthesised FRF")
     ref = result.shape_reference if H.shape[1] > result.shape_reference else 0
+    responses = dof_labels(frf)[0]
     for o in range(n):
         top = 30 + o * (panel + 30)
         meas, fit = np.abs(H[o, ref]), np.abs(result.H_fit[o, ref])
@@ -195,14 +212,14 @@ def figure_fit(
                     _log_limits(np.r_[meas, fit], 5), ylog=True)
         ax.line(f, meas, "#777", width=1.0, label="measured")
         ax.line(f, fit, "#c0504d", width=0.9, dash="5 3", label="synthesised")
-        dof = frf.response_dofs[o].label() if o < len(frf.response_dofs) else str(o + 1)
+        dof = responses[o] if o < len(responses) else str(o + 1)
         ptitle = (
             f"{dof}: FRAC {float(result.frac[o, ref]):.4f}, "
             f"fit error {100 * float(result.error[o, ref]):.2f} %"
         )
         ax.frame(ylabel="|H|", title=ptitle, xlabel="frequency / Hz" if o == n - 1 else "",
                  show_x=o == n - 1)
-        ax.legend("lower right", columns=2)
+        ax.legend("best", columns=2)
     return c.to_svg(standalone)
 
 

@@ -12,6 +12,8 @@ from html import escape
 
 import pandas as pd
 
+from ema_pipeline.report.wording import setting_text
+
 __all__ = [
     "Page",
     "esc",
@@ -41,7 +43,10 @@ td.num{text-align:right;font-variant-numeric:tabular-nums;white-space:nowrap}
 td.pm{white-space:normal;overflow-wrap:normal}
 td.hash,td.path{font-family:ui-monospace,Menlo,Consolas,monospace;font-size:.92em;
 word-break:break-all}
-table.mac td{min-width:3.6em}
+table.mac th,table.mac td{padding:.15em .3em;overflow-wrap:normal}
+.matwrap{container-type:inline-size}
+table.mac{table-layout:fixed;font-size:min(.86em,calc(100cqw / var(--cols) / 4.5))}
+pre{white-space:pre-wrap;overflow-wrap:anywhere}
 figure{margin:.8em 0 1.6em;break-inside:avoid;page-break-inside:avoid}
 svg.fig{display:block;width:100%;max-width:720px;height:auto}
 figcaption{font-size:.88em;color:#555}
@@ -130,7 +135,9 @@ def provenance(
     generated: str,
 ) -> str:
     """The provenance section: input files ``(role, path, sha256)``, software
-    versions and the settings."""
+    versions and the settings (an unset one as what it means:
+    :func:`~ema_pipeline.report.wording.setting_text`)."""
+    settings = {k: setting_text(k, v) for k, v in settings.items()}
     rows = "".join(
         f'<tr><td>{esc(role)}</td><td class="path">{esc(path)}</td>'
         f'<td class="hash">{esc(sha)}</td></tr>'

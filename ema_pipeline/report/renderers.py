@@ -8,6 +8,7 @@ settings) goes through :func:`.htmlparts.esc`; figures are inline SVG.
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
+from pathlib import PurePath
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -33,8 +34,8 @@ from ema_pipeline.report.page_figures import identification_figures, safe_name
 from ema_pipeline.report.result_tables import (
     COLUMN_TITLES,
     cross_mac_html,
+    dof_labels,
     fit_table,
-    label_as_tested,
     mac_section,
     mode_table,
     mode_table_html,
@@ -298,8 +299,12 @@ def render_html(report: ReportInput, figures: Mapping[str, str] | None) -> str:
         if any(shapes):  # no empty section (no geometry, no figure)
             page.section("shapes", "Mode shapes").extend(shapes)
         sec = page.section("fit", "Measured vs synthesised FRFs")
-        sec.append(html_table(fit_table(report.identification, report.frfs),
-                              titles=COLUMN_TITLES))
+        fits = fit_table(report.identification, report.frfs)
+        if len(report.identification) == 1:  # the configuration named once, above
+            sec.append(f'<p class="fit-of">The FRFs of {esc(next(iter(report.identification)))}'
+                       ", each against its synthesis:</p>")
+            fits = fits.drop(columns="configuration")
+        sec.append(html_table(fits, titles=COLUMN_TITLES))
         sec.append(no_figures(figures))
         for name in report.identification:
             sec.append(figure(f"fit_{safe_name(name)}", fg, f"LSFD fit: {name}"))
@@ -372,18 +377,19 @@ def render_identify_html(
     are animated on it (:mod:`.shape_views`); ``batch_page``: the link (URL) of
     the batch page this page belongs to (``batch --report``), shown on top;
     ``picks``: the picks file the modes were fitted from and its sha256, named
-    in the summary and the provenance."""
+    in the summary and the provenance. The file's path is given once on top
+    (summary, test setup, provenance); the figures, the AutoMAC and the fit
+    table name the file by its configuration or its file name."""
     name = frf.configuration or frf.source.path or "FRF set"
+    short = frf.configuration or (PurePath(frf.source.path).name if frf.source.path
+                                  else "FRF set")
     fg: dict[str, str] = {}
     n_dof = shape_dof_count(frf)
     few = n_dof < MIN_SHAPE_DOFS
     if figures:
-        identification_figures("one", frf, result, fg, name)
+        identification_figures("one", frf, result, fg, short)
     if figures and not few:
-        fg["shapes_one"] = figs.figure_shapes_by_dof(
-            result, [label_as_tested(d, frf.acquisition.response_negative)
-                     for d in frf.response_dofs]
-        )
+        fg["shapes_one"] = figs.figure_shapes_by_dof(result, dof_labels(frf)[0])
     page = Page(f"Modal identification: {frf.source.path or name}")
     m, st = result.modes, result.settings
     error = float(np.mean(result.error))
@@ -391,9 +397,11 @@ def render_identify_html(
     noise_mean = float(np.mean(noise)) if np.all(np.isfinite(noise)) else float("nan")
     summary = pd.DataFrame(
         {
-            "": ["file", "configuration", "modes", "natural frequencies / Hz", "fit quality",
-                 "model", *(["modes selected by"] if picks is not None else [])],
-            "value": [frf.source.path, frf.configuration, str(m.n_modes),
+            "": ["file", *(["configuration"] if frf.configuration else []), "modes",
+                 "natural frequencies / Hz", "fit quality", "model",
+                 *(["modes selected by"] if picks is not None else [])],
+            "value": [frf.source.path or "(in memory)",
+                      *([frf.configuration] if frf.configuration else []), str(m.n_modes),
                       ", ".join(f"{f:.3f}" for f in np.sort(m.fn_hz)),
                       fit_noise_verdict(error, noise_mean),
                       model_text(st.band_hz, st.orders, st.lower_residual, st.upper_residual,
@@ -410,11 +418,11 @@ def render_identify_html(
            else _limits_note())
     )
     page.section("setup", "Test setup").append(
-        html_table(setup_table({name: frf}, None), split=False)
+        html_table(setup_table({short: frf}, None), split=False)
     )
     no = no_figures(None if not figures else fg)
     page.section("frf", "FRFs and coherence").append(
-        no + figure("frf_one", fg, f"|H| and coherence: {name}")
+        no + figure("frf_one", fg, f"|H| and coherence: {short}")
     )
     page.section("stabilization", "Stabilization diagram").append(
         stab_diagram_html(frf, result, geometry=geometry)
@@ -427,7 +435,7 @@ def render_identify_html(
         + (_few_dofs_note(frf, n_dof) if few else "")
     )
     if not few:
-        page.section("mac", "AutoMAC").append(mac_section({name: result}, name))
+        page.section("mac", "AutoMAC").append(mac_section({short: result}, short))
         shapes = []
         if figures and geometry is not None and m.shapes is not None:
             shapes.append(shape_views_html(geometry,
@@ -438,7 +446,9 @@ def render_identify_html(
         if any(shapes):
             page.section("shapes", "Mode shapes").extend(shapes)
     sec = page.section("fit", "Measured vs synthesised FRFs")
-    sec.append(html_table(fit_table({name: result}, {name: frf}), titles=COLUMN_TITLES))
+    sec.append(f'<p class="fit-of">The FRFs of {esc(short)}, each against its synthesis:</p>')
+    sec.append(html_table(fit_table({name: result}, {name: frf}).drop(columns="configuration"),
+                          titles=COLUMN_TITLES))
     sec.append(no + figure("fit_one", fg, "LSFD fit"))
     inputs = [("FRF file", frf.source.path, frf.source.sha256)]
     if picks is not None:

@@ -34,6 +34,7 @@ if TYPE_CHECKING:  # pragma: no cover
 __all__ = [
     "COLUMN_TITLES",
     "cross_mac_html",
+    "dof_labels",
     "fit_table",
     "mac_section",
     "mode_table",
@@ -134,6 +135,26 @@ def label_as_tested(dof: DOF, negative: str) -> str:
     """
     tested = DOF(dof.node, -dof.direction)
     return tested.label() if tested.label() in set(negative.split()) else dof.label()
+
+
+def dof_labels(frf: FRFSet) -> tuple[list[str], list[str]]:
+    """The labels of ``frf``'s response and reference DOFs with the sign as
+    tested (:func:`label_as_tested`): the one labelling of the FRFs for every
+    table, legend and title of the report.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import AcquisitionInfo
+    >>> frf = FRFSet(freq_hz=np.arange(3.0), H=np.ones((2, 1, 3), dtype=complex),
+    ...              response_dofs=(DOF(2), DOF(4)), reference_dofs=(DOF(3),),
+    ...              acquisition=AcquisitionInfo(response_negative="2-Z",
+    ...                                          reference_negative="3-Z"))
+    >>> dof_labels(frf)
+    (['2-Z', '4+Z'], ['3-Z'])
+    """
+    a = frf.acquisition
+    return ([label_as_tested(d, a.response_negative) for d in frf.response_dofs],
+            [label_as_tested(d, a.reference_negative) for d in frf.reference_dofs])
 
 
 def fit_table(identification: Mapping[str, Any], frfs: Mapping[str, FRFSet]) -> pd.DataFrame:

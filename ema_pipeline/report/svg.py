@@ -34,6 +34,7 @@ __all__ = [
     "Canvas",
     "envelope",
     "NICE_MANTISSAS",
+    "legend_size",
     "log_ticks",
     "nice_step",
     "nice_steps",
@@ -219,6 +220,21 @@ def path_data(x: np.ndarray, y: np.ndarray) -> str:
     return head + ("l" + _ints(d) if d.size else "")
 
 
+def legend_size(labels: Sequence[str], columns: int = 1) -> tuple[float, float]:
+    """Width and height (CSS px) of a legend of ``labels`` in ``columns``
+    columns, as :meth:`Axes.legend` draws it (0, 0 without labels).
+
+    Examples
+    --------
+    >>> legend_size(["measured", "synthesised"], columns=2)
+    (210.4, 21)
+    """
+    if not labels:
+        return 0.0, 0.0
+    rows = math.ceil(len(labels) / columns)
+    return (max(len(x) for x in labels) * 6.2 + 34) * columns + 6, rows * 15 + 6
+
+
 @dataclass
 class Canvas:
     """An SVG drawing of ``width`` x ``height`` CSS pixels (coordinates in canvas
@@ -288,6 +304,9 @@ class Axes:
     xlog: bool = False
     ylog: bool = False
     legend_items: list[tuple[str, str]] = field(default_factory=list)
+    #: The (x, y) CSS-pixel points of the lines drawn so far, for a legend
+    #: placed where they are fewest (``legend("best")``).
+    drawn: list[np.ndarray] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         for lim, log, name in ((self.xlim, self.xlog, "x"), (self.ylim, self.ylog, "y")):
@@ -326,6 +345,7 @@ class Axes:
         if px.size == 0:
             return
         ex, ey = envelope(px * SCALE / 2, py)  # columns of 2 CSS px: half the points
+        self.drawn.append(np.c_[ex * 2 / SCALE, ey])
         d = path_data(ex * 2, ey * SCALE)
         attrs = f'd="{d}" fill="none" stroke="{color}" stroke-width="{width * SCALE:g}"'
         if dash:
@@ -491,17 +511,50 @@ class Axes:
         if title:
             c.text(left + w / 2, top - 7, title, weight="600")
 
-    def legend(self, where: str = "upper right", columns: int = 1) -> None:
-        """Legend of the labelled lines, markers and bars drawn so far."""
+    def legend_size(self, columns: int = 1) -> tuple[float, float]:
+        """Width and height (CSS px) of the legend of the labelled items drawn
+        so far in ``columns`` columns (:func:`legend_size`)."""
+        return legend_size([label for label, _ in self.legend_items], columns)
+
+    def emptiest_corner(self, w: float, h: float) -> str:
+        """The corner of the box (``"upper right"``, ``"upper left"``, ``"lower
+        right"``, ``"lower left"``) where a ``w`` x ``h`` legend covers the
+        fewest points of the lines drawn so far (the first of a tie).
+
+        Examples
+        --------
+        >>> ax = Canvas(200, 100).axes((0, 0, 200, 100), (0.0, 1.0), (0.0, 1.0))
+        >>> ax.line(np.linspace(0, 1, 50), np.linspace(0, 1, 50), "#000")  # rising
+        >>> ax.emptiest_corner(60, 30)
+        'upper left'
+        """
+        left, top, bw, bh = self.box
+        pts = np.concatenate(self.drawn) if self.drawn else np.zeros((0, 2))
+        best, fewest = "upper right", None
+        for where in ("upper right", "upper left", "lower right", "lower left"):
+            x0 = left + 6 if "left" in where else left + bw - w - 6
+            y0 = top + 6 if "upper" in where else top + bh - h - 6
+            n = int(np.count_nonzero((pts[:, 0] >= x0 - 3) & (pts[:, 0] <= x0 + w + 3)
+                                     & (pts[:, 1] >= y0 - 3) & (pts[:, 1] <= y0 + h + 3)))
+            if fewest is None or n < fewest:
+                best, fewest = where, n
+        return best
+
+    def legend(self, where: str = "best", columns: int = 1) -> None:
+        """Legend of the labelled lines, markers and bars drawn so far: in a
+        corner of the box (``"best"``: :meth:`emptiest_corner`) or ``"below"``
+        the x axis's label, outside the box."""
         if not self.legend_items:
             return
         c = self.canvas
         S = SCALE
         n = len(self.legend_items)
         rows = math.ceil(n / columns)
-        col_w = max(len(label) for label, _ in self.legend_items) * 6.2 + 34
-        w, h = col_w * columns + 6, rows * 15 + 6
+        w, h = self.legend_size(columns)
+        col_w = (w - 6) / columns
         left, top, bw, bh = self.box
+        if where == "best":
+            where = self.emptiest_corner(w, h)
         x0 = left + 6 if "left" in where else left + bw - w - 6
         y0 = top + 6 if "upper" in where else top + bh - h - 6
         if where == "below":  # under the x axis label, outside the box

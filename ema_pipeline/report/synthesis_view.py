@@ -14,8 +14,8 @@ problem, solved in the page by its normal equations (columns scaled to a
 unit diagonal, Cholesky). Untouched, the picks include the companions, as
 the picks file does.
 
-The page carries the measured FRFs for this (:func:`synthesis_data`): the
-band's lines (every ``k``-th above :data:`FIT_LINES`), each complex value as
+The page carries the measured FRFs for this (:func:`synthesis_data`): every
+line of the band (every ``k``-th above :data:`FIT_LINES`), each complex value as
 one character (3 bytes in UTF-8): its log10 magnitude in 256 levels over
 the channel's top :data:`DECADES` decades (2.3 % at most) and its phase in
 128 (1.4 degrees at most). The fit averages these errors over the lines; the
@@ -39,8 +39,9 @@ from ema_pipeline.identification.result import ResolvedSettings
 __all__ = ["CODE_0", "DECADES", "FIT_LINES", "MAG_LEVELS", "PHASE_LEVELS", "SYNTHESIS_JS",
            "SYNTH_VALUES", "decode_levels", "synthesis_data"]
 
-#: At most this many lines of the band are fitted in the page.
-FIT_LINES = 800
+#: At most this many lines of the band are fitted in the page (all of them
+#: below it, as the identification's LSFD).
+FIT_LINES = 4096
 #: At most this many complex values (lines x channels or components) in the page.
 SYNTH_VALUES = 40_000
 #: One character a value, ``CODE_0 + PHASE_LEVELS * m + p``: the magnitude's

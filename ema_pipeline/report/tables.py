@@ -437,6 +437,10 @@ def html_matrix(
 ) -> str:
     """A matrix in [0, 1] (MAC) as an HTML table, cells shaded by value.
 
+    The table takes the width its columns need (4.8 em each) up to its box's
+    and its letters shrink with its columns beyond that (CSS ``.matwrap``,
+    ``table.mac``): a large AutoMAC fits its box instead of scrolling.
+
     Examples
     --------
     >>> s = html_matrix(np.eye(2), ["1", "2"], ["1", "2"], caption="AutoMAC")
@@ -460,6 +464,7 @@ def html_matrix(
         rows.append(f"<tr><th>{escape(label)}</th>{''.join(cells)}</tr>")
     cap = f"<caption>{escape(caption)}</caption>" if caption else ""
     return (
-        f'<div class="tablewrap"><table class="mac">{cap}<thead><tr>{head}</tr></thead>'
+        f'<div class="tablewrap matwrap"><table class="mac" style="--cols:{m.shape[1] + 1};'
+        f'width:min(100%,{4.8 * (m.shape[1] + 1):g}em)">{cap}<thead><tr>{head}</tr></thead>'
         f"<tbody>{''.join(rows)}</tbody></table></div>"
     )

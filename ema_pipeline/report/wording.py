@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["FIT_LIMITS", "NOISE_LIMITS", "FitLimits", "NoiseLimits", "fit_grade",
            "fit_limits_text", "fit_noise_text", "fit_noise_verdict", "fit_verdict", "model_text",
-           "plural"]
+           "plural", "setting_text"]
 
 
 def plural(n: int, word: str, many: str | None = None) -> str:
@@ -190,3 +190,35 @@ def model_text(band_hz: tuple[float, float], orders: Sequence[int] | np.ndarray,
                 if terms else ", no residual terms")
     usable = " (up to the force's -20 dB point)" if to_usable_top else ""
     return f"band {lo:.4g}-{hi:.4g} Hz{usable}{span}{residual}"
+
+
+#: What an unset setting (``None`` or an empty list) means, by the last part of
+#: its name; any other unset setting reads :data:`NOT_SET`.
+UNSET_MEANS = {
+    "band_hz": "automatic (the resolved band below)",
+    "max_order": "automatic (the resolved order below)",
+    "expect_hz": "none (automatic selection)",
+    "exp_window_tau_s": "as stored with the FRFs",
+    "tol_freq": "tuned default",
+    "tol_zeta": "tuned default",
+    "tol_mac": "tuned default",
+}
+NOT_SET = "not set"
+
+
+def setting_text(name: str, value: str) -> str:
+    """A setting's value as the report shows it: the text of ``value``, or what
+    leaving the setting unset means (``None``, ``()``, ``[]`` or empty).
+
+    Examples
+    --------
+    >>> setting_text("identification.max_order", "None")
+    'automatic (the resolved order below)'
+    >>> setting_text("identification.expect_hz", "()"), setting_text("frf.window", "None")
+    ('none (automatic selection)', 'not set')
+    >>> setting_text("identification.min_fraction", "0.3")
+    '0.3'
+    """
+    if str(value).strip() not in ("None", "()", "[]", ""):
+        return str(value)
+    return UNSET_MEANS.get(name.rsplit(".", 1)[-1], NOT_SET)
