@@ -185,6 +185,19 @@ def test_stabilization_data_and_figures(noise_free):
     sub = frf.band(*res.settings.band_hz)
     plot_stabilization(ax1, st, freq_hz=sub.freq_hz, frf_sum=np.abs(sub.H).sum(axis=(0, 1)),
                        selected_hz=res.fn_hz)
+    # every pole drawn once, as its stability symbol (the interactive diagram's classes)
+    from ema_pipeline.report.stab_marks import STABILITY, stability_symbols
+
+    drawn = {ln.get_label(): ln.get_xdata().size for ln in ax1.lines if ln.get_label()[1:2] == ":"}
+    symbols = stability_symbols(st.flags)
+    assert drawn == {f"{k}: {STABILITY[k][0]}": int((symbols == k).sum())
+                     for k in STABILITY if (symbols == k).any()}
+    assert sum(drawn.values()) == n
+    from ema_pipeline.report.figures import figure_stabilization
+
+    svg = figure_stabilization(res, frf)  # the report's static figure: the same classes
+    for k in STABILITY:
+        assert (f"{k}: {STABILITY[k][0]}" in svg) == bool((symbols == k).any())
     plot_fit_quality(ax2, res, sub.H, output=0)
     assert "FRAC" in ax2.get_title()
     plt.close(fig)

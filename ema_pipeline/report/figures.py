@@ -15,8 +15,8 @@ import pandas as pd
 
 from ema_pipeline import paper
 from ema_pipeline.data import FRFSet
-from ema_pipeline.identification.result import STABLE_ALL, STABLE_DAMP, STABLE_FREQ
 from ema_pipeline.report.result_tables import dof_labels
+from ema_pipeline.report.stab_marks import STABILITY, stability_symbols
 from ema_pipeline.report.svg import SCALE, Canvas, legend_size
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -156,8 +156,10 @@ def figure_stabilization(
 ) -> str:
     """Stabilization diagram over the sum of |H|, selected modes marked.
 
-    Markers: green dot stable in f, zeta and vector; blue square f and zeta;
-    orange dot f only; grey cross new/unstable.
+    The poles are marked by the stability classes of the interactive diagram
+    (:data:`.stab_marks.STABILITY`, in its colours): a grey cross new or
+    unstable, a dot stable in frequency only, in frequency and vector, or in
+    all three, a square in frequency and damping.
     """
     stab = result.stabilization
     lo, hi = result.settings.band_hz
@@ -171,18 +173,15 @@ def figure_stabilization(
     total = sum_abs_frf(band.H)
     tw = c.axes(box, (lo, hi), _log_limits(total, 5), ylog=True)
     tw.line(band.freq_hz, total, "#222", width=0.7, opacity=0.55)
-    fl = stab.flags
-    groups = [
-        (fl & STABLE_FREQ == 0, "x", "#b0b0b0", "new / unstable", 3.0),
-        ((fl & STABLE_FREQ > 0) & (fl & STABLE_DAMP == 0), "o", "#d08b26", "stable f", 3.5),
-        ((fl & STABLE_DAMP > 0) & (fl & STABLE_ALL != STABLE_ALL), "s", "#1f77b4",
-         "stable f, zeta", 3.5),
-        (fl & STABLE_ALL == STABLE_ALL, "o", "#2e8b3a", "stable f, zeta, vector", 4.5),
-    ]
-    for mask, shape, color, label, size in groups:
+    symbols = stability_symbols(stab.flags)
+    # the interactive diagram's classes and colours (stab_marks.STABILITY), as marker shapes
+    shapes = {"o": ("x", 3.0), "f": ("o", 3.5), "d": ("s", 3.5), "v": ("o", 3.5), "s": ("o", 4.5)}
+    for key, (label, color) in STABILITY.items():
+        mask = symbols == key
         if np.any(mask):
+            shape, size = shapes[key]
             ax.markers(stab.freq_hz[mask], orders[mask], color, shape=shape, size=size,
-                       label=label)
+                       label=f"{key}: {label}")
     for fs in np.atleast_1d(result.modes.fn_hz):
         ax.vline(float(fs), "#c0504d", width=0.8, dash="6 4")
     ax.frame(xlabel="frequency / Hz", ylabel="model order", title=title)

@@ -14,12 +14,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ema_pipeline.identification.result import (
-    STABLE_ALL,
-    STABLE_DAMP,
-    STABLE_FREQ,
-    StabilizationData,
-)
+from ema_pipeline.identification.result import StabilizationData
+from ema_pipeline.report.stab_marks import STABILITY, stability_symbols
 
 if TYPE_CHECKING:  # pragma: no cover
     from matplotlib.axes import Axes
@@ -37,23 +33,20 @@ def plot_stabilization(
 ) -> Axes:
     """Draw a stabilization diagram onto ``ax``.
 
-    Markers: ``o`` stable in frequency, damping and vector; ``v`` stable in
-    frequency and damping; ``.`` frequency only; ``x`` unstable (grey).
-    Cluster members are drawn in colour. With ``freq_hz`` and ``frf_sum`` (e.g.
-    the sum of |H| over all FRFs) the FRF sum is drawn on a twin log axis;
-    ``selected_hz`` draws vertical lines at the selected modes.
+    Each pole is drawn as its stability symbol in its colour, as the report's
+    interactive diagram draws it (:data:`.stab_marks.STABILITY`): ``o`` new or
+    unstable, ``f`` stable in frequency only, ``d`` in frequency and damping,
+    ``v`` in frequency and vector, ``s`` in all three. With ``freq_hz`` and
+    ``frf_sum`` (e.g. the sum of |H| over all FRFs) the FRF sum is drawn on a
+    twin log axis; ``selected_hz`` draws vertical lines at the selected modes.
     """
-    f, n, fl = stab.freq_hz, stab.order, stab.flags
-    groups = [
-        (fl & STABLE_ALL == STABLE_ALL, "o", "tab:green", "stable f, zeta, vector"),
-        ((fl & STABLE_DAMP > 0) & (fl & STABLE_ALL != STABLE_ALL), "v", "tab:blue",
-         "stable f, zeta"),
-        ((fl & STABLE_FREQ > 0) & (fl & STABLE_DAMP == 0), ".", "tab:orange", "stable f"),
-        (fl & STABLE_FREQ == 0, "x", "0.7", "new / unstable"),
-    ]
-    for mask, marker, color, label in groups:
+    f, n = stab.freq_hz, stab.order
+    symbols = stability_symbols(stab.flags)
+    for key, (label, color) in STABILITY.items():
+        mask = symbols == key
         if np.any(mask):
-            ax.plot(f[mask], n[mask], marker, color=color, ms=3, ls="none", label=label)
+            ax.plot(f[mask], n[mask], marker=f"${key}$", color=color, ms=5, ls="none",
+                    label=f"{key}: {label}")
     if selected_hz is not None:
         for fs in np.atleast_1d(selected_hz):
             ax.axvline(fs, color="tab:red", lw=0.8, alpha=0.7)
