@@ -296,6 +296,10 @@ class AcquisitionInfo:
     sample_rate_hz: float | None = None
     n_samples: int | None = None
     n_averages: int | None = None
+    #: The most averages of any FRF where they differ between FRFs (a roving
+    #: test's points; ``n_averages`` is then the fewest); ``None``: every FRF
+    #: has ``n_averages``.
+    n_averages_max: int | None = None
     force_window: str = "none"
     response_window: str = "none"
     exp_window_tau_s: float | None = None

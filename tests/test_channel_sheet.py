@@ -391,6 +391,13 @@ def test_sheet_hit_page(plate, tmp_path):
     # channels named by the sheet's DOFs (the WAV's channel 1 is the sensor 100+Z), in SI
     assert page.count(">100+Z [m/s^2]<") == 8 and "1 [m/s^2]" not in page
     assert "<th>averages</th><td>3-4 per point</td>" in page  # p6.wav: 3 of 4
+    # the FRF file keeps the range, and the identify report's setup says it
+    from ema_pipeline.report.result_tables import setup_table
+
+    acq = io.read_frf(out).acquisition
+    assert (acq.n_averages, acq.n_averages_max) == (3, 4)
+    setup = setup_table({"t": io.read_frf(out)}, None).set_index("")
+    assert setup.loc["averages", "t"] == "3-4 per point"
     # the sheet and every recording hashed
     for name in ("p5.wav", "p6.wav"):
         assert (f'<td class="path">{rel}/{name}</td><td class="hash">'

@@ -8,7 +8,8 @@ FRF file layout (schema ``ema-pipeline/frf``, version 1)::
     /frf/coherence    (n_out, n_in, n_freq) float64, optional
     /frf/response_dofs, /frf/reference_dofs   (n, 2) int: node, direction
     /frf              attrs: quantity, units, configuration, source_path, source_sha256
-    /frf/acquisition  attrs: sample_rate_hz, n_samples, n_averages, windows, tau, estimator,
+    /frf/acquisition  attrs: sample_rate_hz, n_samples, n_averages (n_averages_max where the
+                      points differ), windows, tau, estimator,
                       force_band_hz (2 floats, optional: the force spectrum's -10/-20 dB points)
 
 A results store (schema ``ema-pipeline/results``) holds any tree of dataclasses,
@@ -295,6 +296,7 @@ _ACQUISITION_KINDS = {
     "sample_rate_hz": "float",
     "n_samples": "int",
     "n_averages": "int",
+    "n_averages_max": "int",
     "force_window": "str",
     "response_window": "str",
     "exp_window_tau_s": "float",

@@ -205,6 +205,8 @@ def _assemble(sheet: ChannelSheet, points: list[ImpactFRF]) -> FRFSet:
     bands = [p.force_band_hz for p in points]
     info = replace(first.acquisition,
                    n_averages=min(p.n_accepted for p in points),
+                   n_averages_max=(max(p.n_accepted for p in points)
+                                   if len({p.n_accepted for p in points}) > 1 else None),
                    force_band_hz=(min(b[0] for b in bands), min(b[1] for b in bands)))
     sha = ""
     if Path(sheet.source).is_file():

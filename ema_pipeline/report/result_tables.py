@@ -221,7 +221,8 @@ def setup_table(frfs: Mapping[str, FRFSet], geometry: BeamSetup | None) -> pd.Da
             ),
             "frequency lines": f"{frf.freq_hz.size}, df = {frf.df_hz:.5g} Hz, "
             f"{frf.freq_hz[0]:.4g}-{frf.freq_hz[-1]:.5g} Hz",
-            "averages": fmt(a.n_averages),
+            "averages": (fmt(a.n_averages) if a.n_averages_max is None
+                         else f"{a.n_averages}-{a.n_averages_max} per point"),
             "estimator": a.estimator,
             "force window": a.force_window,
             "response window": a.response_window,
