@@ -1191,3 +1191,23 @@ def test_a_fixed_order_says_it_turned_the_narrower_searches_off(
     assert np.all(np.asarray(auto["band_support"])[middle, 0] >= 2)
     with pytest.warns(UserWarning, match="turned off the narrower searches"):
         identify(_twelve_frf(), max_order=60)
+
+
+def test_a_fixed_order_says_so_where_the_modes_look_sparse(
+        example_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--max-order`` on a band the window searches would search only if its modes
+    were dense (the example beam, 100-700 Hz: three modes, no band of their lowest
+    1/8): the warning still says the window searches are off, since the modes of a
+    fixed order need not be the adaptive order's; with ``--no-window-search`` nothing
+    the user left on is turned off, and nothing is said."""
+    src = example_dir / "genuine.uff"
+    base = ["identify", src, "--band", "100", "700", "--max-order", "40", "--quiet"]
+    with pytest.warns(UserWarning, match="the modes found make no dense band"):  # identify()'s
+        code, _, err = _run([*base, "--out", tmp_path / "fixed"], capsys)
+    assert code == 0
+    assert err.strip() == (
+        f"ema-pipeline identify: warning: {src}: max_order (--max-order) turned off the "
+        "narrower searches that run with the adaptive order only (the windows of a dense "
+        "band): the modes found make no dense band, but those of the adaptive order may")
+    code, _, err = _run([*base, "--out", tmp_path / "off", "--no-window-search"], capsys)
+    assert (code, err) == (0, "")

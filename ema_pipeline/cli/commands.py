@@ -184,16 +184,26 @@ def check_output_file(path: Path, option: str) -> None:
 
 
 def _check_creatable(path: Path, option: str, of: Path | None = None) -> None:
-    """``path`` is a folder or can be made as one, writable."""
+    """``path`` is a folder or can be made as one, writable: not through a symbolic
+    link loop, not on a read-only file system."""
+    import errno
+
+    what = of if of is not None else path
+    try:
+        os.stat(what)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise ConfigError(f"{what}: {option} goes through a symbolic link loop") from None
     ancestor = path.absolute()
     while not ancestor.exists() and ancestor != ancestor.parent:
         ancestor = ancestor.parent
-    what = of if of is not None else path
     if not ancestor.is_dir():
         raise ConfigError(f"{what}: {option} cannot be created: {ancestor} is a file, "
                           "not a folder")
     if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise ConfigError(f"{what}: {option} is not writable ({ancestor}: permission denied)")
+        why = ("read-only file system" if os.statvfs(ancestor).f_flag & os.ST_RDONLY
+               else "permission denied")
+        raise ConfigError(f"{what}: {option} is not writable ({ancestor}: {why})")
 
 
 #: The option of ``identify`` / ``batch`` that sets each field of
@@ -405,12 +415,12 @@ def cmd_init(args: argparse.Namespace) -> int:
     """``init``: a commented experiment-file template in a folder, or the example study."""
     from ema_pipeline.io.template import write_channel_template, write_experiment_template
 
+    check_output_dir(args.folder, "DIR")
     if args.example:
         from ema_pipeline.pipeline.simulate import write_example_study
 
         if args.recordings is not None:
             raise ConfigError("--example writes the example's own files; drop --recordings")
-        check_output_dir(args.folder, "DIR")
         written = write_example_study(args.folder, force=args.force)
         print(f"wrote {written[0].parent}: the example study ({', '.join(p.name for p in written)}"
               f"; simulated impact tests of a steel cantilever); run it with `cd {args.folder} "

@@ -141,7 +141,8 @@ class ImpactFRF:
     records: TimeRecords
     recording: Recording | None = None
     settings: FRFSettings | None = None
-    #: Warnings about the force channel (:func:`ema_pipeline.acquisition.hits.force_warnings`).
+    #: Warnings: the file's channels skipped (``Recording.skipped``), then those about the
+    #: force channel (:func:`ema_pipeline.acquisition.hits.force_warnings`).
     warnings: list[str] = field(default_factory=list)
 
     @property
@@ -234,7 +235,7 @@ def frf_from_recording(
     if chosen is not None:
         hits = choose_hits(hits, chosen, where)
     accepted = [h.index - 1 for h in hits if h.accepted]
-    warnings = hitlib.force_warnings(hits, rec.channels[0].name)
+    warnings = [*recording.skipped, *hitlib.force_warnings(hits, rec.channels[0].name)]
     if not accepted:
         summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {h.reasons_text()}"
                             for h in hits)
@@ -355,6 +356,7 @@ def concatenate_recordings(recordings: list[Recording]) -> Recording:
         channels=first.channels,
         segment_starts=tuple(starts),
         source=Provenance(path=", ".join(r.source.path for r in recordings)),
+        skipped=tuple(m for r in recordings for m in r.skipped),
     )
 
 

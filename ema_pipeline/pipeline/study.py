@@ -567,7 +567,7 @@ def write_study(
     from ema_pipeline import report
 
     say = say or (lambda _msg: None)
-    results_dir = Path(results_dir).resolve()
+    results_dir = Path(os.path.realpath(results_dir))  # a loop: an OSError on writing
     with io.atomic_folder(results_dir) as tmp_dir:
         for name, table in result.tables.items():
             io.write_csv(table, tmp_dir / "tables" / f"{name}.csv")
