@@ -188,9 +188,9 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
         os.close(fd)
     except OSError as exc:  # a read-only folder or file system names the temporary
-        named = Path(exc.filename) if exc.filename else target
-        tmp = named if named.name.startswith(f".{target.name}.") else target
-        raise _named_error(exc, tmp, target) from exc
+        culprit = Path(exc.filename) if exc.filename else target
+        hidden = culprit if culprit.name.startswith(f".{target.name}.") else target
+        raise _named_error(exc, hidden, target) from exc
     tmp_path = Path(tmp)
     staged = _STAGED.get()
     try:
