@@ -105,9 +105,12 @@ def test_run_without_an_experiment_file_offers_the_example(tmp_path, monkeypatch
     assert not (tmp_path / "results").exists()
 
 
-@pytest.mark.parametrize("folder", ["file", "file/sub"])
-def test_init_example_into_a_file_is_refused_by_name(tmp_path, capsys, folder):
-    (tmp_path / "file").write_text("x")
+@pytest.mark.parametrize("folder, file", [("file", "file"), ("file/sub", "file"),
+                                          ("dir", "dir/raw_frf")])
+def test_init_example_into_a_file_is_refused_by_name(tmp_path, capsys, folder, file):
+    (tmp_path / "dir").mkdir()
+    (tmp_path / file).write_text("x")
     assert main(["init", str(tmp_path / folder), "--example"]) == 2
     err = capsys.readouterr().err
-    assert str(tmp_path / "file") in err and len(err.splitlines()) == 1
+    assert str(tmp_path / file) in err and len(err.splitlines()) == 1
+    assert (tmp_path / file).read_text() == "x"

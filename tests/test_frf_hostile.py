@@ -679,6 +679,14 @@ def test_tdms_text_and_boolean_channels_are_skipped_by_name(rec, tmp_path, capsy
     ours, without = io.read_frf(tmp_path / "x.h5"), io.read_frf(tmp_path / "plain.h5")
     np.testing.assert_array_equal(ours.H, without.H)
     assert read_recording(plain).skipped == ()
+    folder = tmp_path / "batch"  # batch's summary says it too
+    folder.mkdir()
+    tdms_with(rec, folder / "x.tdms", note)
+    assert main(["batch", str(folder), "--out", str(tmp_path / "out"), "--workers", "1",
+                 "--quiet"]) == 0
+    summary = (tmp_path / "out" / "summary.csv").read_text()
+    assert f"{folder / 'x.tdms'}: channel 'g/Note' holds text or objects (object): skipped" \
+        in summary
     text_only = tmp_path / "note.tdms"
     from nptdms import TdmsWriter
 

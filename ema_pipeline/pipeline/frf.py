@@ -663,5 +663,7 @@ def identify_recording(
                            reason=f"{where}: {exc.strerror or exc}",
                            seconds=time.perf_counter() - start)
     outcome = identify_file(frf_path, out_dir, options, force=True, sha256=sha, uff=uff)
+    if isinstance(result, ImpactFRF) and result.recording is not None:  # channels skipped
+        outcome.warnings[:0] = result.recording.skipped
     outcome.seconds = time.perf_counter() - start
     return outcome

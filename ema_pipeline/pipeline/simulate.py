@@ -245,6 +245,8 @@ def write_example_study(folder: str | os.PathLike[str], *, force: bool = False) 
     ['experiment.toml', 'genuine.uff', 'larger_tank.h5', 'smaller_tank.uff']
     """
     raw = Path(folder) / DEFAULT_RAW_FOLDER
+    if raw.exists() and not raw.is_dir():
+        raise ConfigError(f"{raw}: is a file; the example study needs a folder there")
     text, files = example_experiment()
     targets = [raw / EXPERIMENT_FILE, *(raw / name for name in files.values())]
     taken = [p for p in targets if os.path.lexists(p)]
