@@ -1211,3 +1211,23 @@ def test_a_fixed_order_says_so_where_the_modes_look_sparse(
         "band): the modes found make no dense band, but those of the adaptive order may")
     code, _, err = _run([*base, "--out", tmp_path / "off", "--no-window-search"], capsys)
     assert (code, err) == (0, "")
+
+
+def test_a_fixed_order_in_the_experiment_file_is_a_note_of_run(
+        example_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``[identification] max_order`` in the study: ``run`` says once, in its notes
+    (console and ``summary.json``), for which configurations it turned the
+    narrower searches off (the warning of ``identify`` went to the log only)."""
+    raw = tmp_path / "raw"
+    shutil.copytree(example_dir, raw)
+    toml = raw / "experiment.toml"
+    toml.write_text(toml.read_text().replace("# max_order = 40", "max_order = 40"))
+    with pytest.warns(UserWarning, match="turned off the narrower searches"):
+        code, out, _ = _run(["run", "--raw", raw, "--results", tmp_path / "results",
+                             "--no-figures"], capsys)
+    assert code == 0
+    note = ("genuine, larger_tank, smaller_tank: max_order (--max-order) turned off the "
+            "narrower searches that run with the adaptive order only (the band's lowest 1/8 "
+            "and the windows of a dense band)")
+    assert [line for line in out.splitlines() if "narrower searches" in line] == [
+        f"note: {note}: the modes found make no dense band, but those of the adaptive order may"]
