@@ -1216,7 +1216,7 @@ def test_a_fixed_order_says_so_where_the_modes_look_sparse(
 def test_a_fixed_order_in_the_experiment_file_is_a_note_of_run(
         example_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``[identification] max_order`` in the study: ``run`` says once, in its notes
-    (console and ``summary.json``), for which configurations it turned the
+    (console and report), for which configurations it turned the
     narrower searches off (the warning of ``identify`` went to the log only)."""
     raw = tmp_path / "raw"
     shutil.copytree(example_dir, raw)
