@@ -153,6 +153,7 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "init folder": (INIT,
                     "test_init_run.py::test_run_on_a_plate_identifies_both_configurations"),
     "init --force": (INIT, "test_init_run.py::test_init_refuses_to_overwrite"),
+    "init --example": ("test_example_study.py::test_init_example_then_run_outside_the_checkout",),
     "init --recordings": (SHEET_RUN,),
     "frf --hits": ("test_channel_sheet.py::test_hits_chosen_by_hand",),
     "frf --channels": ("test_channel_sheet.py::test_roving_hammer_plate_frf_and_modes",
