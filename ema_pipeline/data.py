@@ -649,6 +649,9 @@ class Recording:
     channels: tuple[Channel, ...]
     segment_starts: tuple[int, ...] = (0,)
     source: Provenance = field(default_factory=Provenance)
+    #: The file's channels left out as no signal (a TDMS channel of text), each a
+    #: sentence naming the file and the channel, for the warnings.
+    skipped: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         where = f"{self.source.path}: " if self.source.path else ""

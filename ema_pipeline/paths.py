@@ -17,10 +17,15 @@ from pathlib import Path
 
 from ema_pipeline.data import DataError
 
-__all__ = ["FRF_FILE_KIND", "check_readable", "not_regular"]
+__all__ = ["DEFAULT_RAW_FOLDER", "FRF_FILE_KIND", "check_readable", "not_regular"]
 
 #: What an FRF input must be, as error messages say it.
 FRF_FILE_KIND = "an FRF file (UFF or HDF5)"
+
+#: The folder of the experiment file and its inputs that ``ema-pipeline run`` reads
+#: by default (``--raw``), as the repository ships the example study and as
+#: ``ema-pipeline init DIR --example`` writes it into DIR.
+DEFAULT_RAW_FOLDER = "raw_frf"
 
 
 def not_regular(mode: int) -> str | None:

@@ -914,6 +914,8 @@ def hostile_recording_cases(root: Path) -> list[Case]:
     uff_path.unlink()
     starts = [m.start() for m in re.finditer(rb"(?m)^    -1\r?\n    58", uff)]
     square = np.where((t // 0.25) % 2 == 0, 1000.0, -1000.0)
+    edges = np.zeros(n)  # issue 49: hits at the first and the last sample, no room for either
+    edges[[0, -1]] = 1000.0
 
     # name: (files {name: bytes or text}, argv after "frf", names in stderr, quick)
     specs: dict[str, tuple[dict[str, bytes | str], list[str], tuple[str, ...], bool]] = {
@@ -962,6 +964,9 @@ def hostile_recording_cases(root: Path) -> list[Case]:
                        True),
         "h39_uff_records": ({"rec.uff": uff[:starts[6]]}, ["rec.uff"],
                             ("rec.uff: truncated Universal File: 6 of 12",), True),
+        "h49_edge_hits": ({"rec.csv": csv_text(edges)}, ["rec.csv"],
+                          ("rec.csv: no room for a record: the data end 1 sample(s) after",),
+                          True),
     }
     cases = []
     for name, (files, args, names, quick) in specs.items():
@@ -995,6 +1000,19 @@ def hostile_recording_cases(root: Path) -> list[Case]:
                             "--quiet"],
                       names=("rec.tdms: channel 'g/Acc' holds complex",), path=tdms,
                       check=_left_as_it_was(_folder_hashes(tdms))))
+    for name, inp, out, said in (  # issue 49: symbolic link loops as input and output
+            ("h49_loop_input", "loop.uff", "frf.h5", "loop.uff: symbolic link loop"),
+            ("h49_loop_output", "rec.csv", "loop/frf.h5",
+             "loop/frf.h5: --out goes through a symbolic link loop")):
+        folder = root / name
+        folder.mkdir()
+        (folder / "rec.csv").write_text(csv_text(rec.force_n[:n]))
+        for link in ("loop", "loop.uff"):
+            (folder / link).symlink_to(link)  # each names itself
+        cases.append(Case(name, "recording", "recording_hostile", "solo",
+                          argv=["frf", str(folder / inp), "--out", str(folder / out), "--quiet"],
+                          names=(said,), path=folder,
+                          check=_left_as_it_was(_folder_hashes(folder))))
     return cases
 
 

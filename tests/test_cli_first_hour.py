@@ -280,3 +280,20 @@ def test_batch_figure_says_missing_and_outliers_in_words() -> None:
                                               failures=pd.DataFrame()))
     assert "missing in 1 file" in html and "1 outliers" not in html
     assert ">poor<" in html and ">good<" in html
+
+
+def test_the_exit_statuses_are_those_the_readme_names() -> None:
+    """The README's exit statuses, their meanings and the constants it names are the
+    command line's (``cli.support``, their one home); an input error is 2 and a
+    runtime failure 1 under those names."""
+    from ema_pipeline.cli import support
+
+    readme = " ".join((Path(__file__).resolve().parents[1] / "README.md").read_text().split())
+    said = re.search(r"Exit status: (.*?) \((`EXIT_\w+`(?:, `EXIT_\w+`)*) of "
+                     r"`ema_pipeline.cli.support`\)", readme)
+    assert said is not None
+    statuses = [item.split(" ", 1) for item in said.group(1).split(", ")]
+    names = re.findall(r"`(EXIT_\w+)`", said.group(2))
+    assert {int(code): meaning for code, meaning in statuses} == support.EXIT_STATUSES
+    assert [getattr(support, name) for name in names] == [int(code) for code, _ in statuses]
+    assert (support.EXIT_OK, support.EXIT_INPUT, support.EXIT_RUNTIME) == (0, 2, 1)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import errno
 import hashlib
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -623,35 +624,82 @@ def test_complex_time_records_are_refused(tmp_path):
         read_recording(path)
 
 
-@pytest.mark.parametrize("extra, expected", [
-    ("complex", "channel 'g/Z' holds complex numbers (complex128)"),
-    ("text", "channel 'g/Note' holds text or objects"),
-    ("empty", "channel 'g/Nothing' is empty (no samples)"),
-    ("bool", "channel 'g/Flag' holds booleans"),
-])
-def test_tdms_channels_that_are_not_samples_are_refused_by_name(rec, tmp_path, capsys, extra,
-                                                               expected):
+def tdms_with(rec, path: Path, *more) -> Path:
+    """A TDMS file of the hammer force and one response, then the channels ``more``."""
     from nptdms import ChannelObject, TdmsWriter
 
-    more = {
-        "complex": ChannelObject("g", "Z", rec.response[0] * (1 + 1j),
-                                 properties={"unit_string": "m/s^2", "wf_increment": 1 / 2048}),
-        "text": ChannelObject("g", "Note", np.array(["a", "b"]), properties={}),
-        "empty": ChannelObject("g", "Nothing", np.array([], dtype=float),
-                               properties={"unit_string": "m/s^2"}),
-        "bool": ChannelObject("g", "Flag", np.ones(8, dtype=bool), properties={}),
-    }[extra]
-    path = tmp_path / "x.tdms"
     with TdmsWriter(str(path)) as writer:
         writer.write_segment([
             ChannelObject("g", "Hammer force", rec.force_n,
                           properties={"unit_string": "N", "wf_increment": 1 / 2048}),
             ChannelObject("g", "Acc", rec.response[0],
                           properties={"unit_string": "m/s^2", "wf_increment": 1 / 2048}),
-            more])
+            *more])
+    return path
+
+
+@pytest.mark.parametrize("extra, expected", [
+    ("complex", "channel 'g/Z' holds complex numbers (complex128)"),
+    ("empty", "channel 'g/Nothing' is empty (no samples)"),
+])
+def test_tdms_channels_that_are_not_samples_are_refused_by_name(rec, tmp_path, capsys, extra,
+                                                               expected):
+    from nptdms import ChannelObject
+
+    more = {
+        "complex": ChannelObject("g", "Z", rec.response[0] * (1 + 1j),
+                                 properties={"unit_string": "m/s^2", "wf_increment": 1 / 2048}),
+        "empty": ChannelObject("g", "Nothing", np.array([], dtype=float),
+                               properties={"unit_string": "m/s^2"}),
+    }[extra]
+    path = tdms_with(rec, tmp_path / "x.tdms", more)
     code, err = run(capsys, str(path), "--out", str(tmp_path / "o.h5"))
     assert code == 2
     one_line(err, "x.tdms", expected)
+
+
+def test_tdms_text_and_boolean_channels_are_skipped_by_name(rec, tmp_path, capsys):
+    """A channel of text (a comment) and one of booleans (a digital line) beside the
+    numeric ones: the numeric ones are read, the FRF is the one of the file without
+    them (equal arrays), and ``frf`` warns once per skipped channel, naming it; a
+    file of text alone has no numeric channel and says why."""
+    from nptdms import ChannelObject
+
+    from ema_pipeline.data import DataError
+    from ema_pipeline.io.recording import read_recording
+
+    note = ChannelObject("g", "Note", np.array(["a", "b"]), properties={})
+    flag = ChannelObject("g", "Flag", np.ones(8, dtype=bool), properties={})
+    mixed = tdms_with(rec, tmp_path / "x.tdms", note, flag)
+    plain = tdms_with(rec, tmp_path / "plain.tdms")
+    recording = read_recording(mixed)
+    assert [c.name for c in recording.channels] == ["Hammer force", "Acc"]
+    assert recording.skipped == (
+        f"{mixed}: channel 'g/Note' holds text or objects (object): skipped, not a signal",
+        f"{mixed}: channel 'g/Flag' holds booleans (bool): skipped, not a signal")
+    code, err = run(capsys, str(mixed), "--out", str(tmp_path / "x.h5"))
+    assert code == 0
+    assert err.splitlines() == [f"warning: {m}" for m in recording.skipped]
+    assert run(capsys, str(plain), "--out", str(tmp_path / "plain.h5")) == (0, "")
+    ours, without = io.read_frf(tmp_path / "x.h5"), io.read_frf(tmp_path / "plain.h5")
+    np.testing.assert_array_equal(ours.H, without.H)
+    assert read_recording(plain).skipped == ()
+    folder = tmp_path / "batch"  # batch's summary says it too
+    folder.mkdir()
+    tdms_with(rec, folder / "x.tdms", note)
+    assert main(["batch", str(folder), "--out", str(tmp_path / "out"), "--workers", "1",
+                 "--quiet"]) == 0
+    summary = (tmp_path / "out" / "summary.csv").read_text()
+    assert f"{folder / 'x.tdms'}: channel 'g/Note' holds text or objects (object): skipped" \
+        in summary
+    text_only = tmp_path / "note.tdms"
+    from nptdms import TdmsWriter
+
+    with TdmsWriter(str(text_only)) as writer:
+        writer.write_segment([note])
+    with pytest.raises(DataError, match=r"note.tdms: no numeric channels in the TDMS file; "
+                                        r"channel 'g/Note' holds text"):
+        read_recording(text_only)
 
 
 def test_tdms_time_stamps_are_not_a_signal(rec, tmp_path):
@@ -818,3 +866,114 @@ def test_a_swap_killed_between_its_renames_is_put_back_by_the_next(tmp_path):
     assert (tmp_path / "c.txt").read_text() == "old c.txt"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["a.txt", "c.txt", "d.txt"]
     assert io.recover_interrupted(tmp_path) == []  # nothing left to put back
+
+
+# ---------------------------------------------------------------- 6. loops, read-only, edges
+@pytest.mark.parametrize("argv, said", [
+    (["frf", "loop.uff", "--out", "o.h5"], "loop.uff: symbolic link loop, expected a recording"),
+    (["frf", "rec.csv", "--out", "loop/o.h5"], "loop/o.h5: --out goes through a symbolic link "
+                                                "loop"),
+    (["identify", "rec.csv", "--out", "loop"], "loop: --out goes through a symbolic link loop"),
+    (["run", "--results", "loop"], "loop: --results goes through a symbolic link loop"),
+    (["batch", "sub", "--out", "loop/sub"], "loop/sub: --out goes through a symbolic link loop"),
+    (["init", "loop", "--example"], "loop: DIR goes through a symbolic link loop"),
+], ids=["frf_input", "frf_out", "identify_out", "run_results", "batch_out", "init"])
+def test_a_symbolic_link_loop_is_one_line_naming_it(rec, tmp_path, capsys, monkeypatch,
+                                                    example_dir, argv, said):
+    """A path that loops (``loop -> loop``) as input or output: exit 2 and one line
+    naming it, before any work (Path.resolve raised RuntimeError on it)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "rec.csv").write_text(csv_text(rec))
+    (tmp_path / "sub").mkdir()
+    for link in ("loop", "loop.uff"):
+        (tmp_path / link).symlink_to(link)
+    if argv[0] == "run":
+        argv = [*argv, "--raw", str(example_dir)]
+    before = snapshot(tmp_path)
+    code = main([*argv, "--quiet"] if argv[0] != "init" else argv)
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    one_line(err, said)
+    assert snapshot(tmp_path) == before
+
+
+def test_an_unwritable_folder_names_the_output_not_its_temporary(rec, tmp_path, capsys,
+                                                                 monkeypatch):
+    """A folder where no file can be made although it looks writable (sysfs: EACCES
+    even for root; a file system turned read-only): the error names the output
+    file, not the hidden temporary it failed to make; exit 1, nothing left."""
+    import tempfile
+
+    src = tmp_path / "rec.csv"
+    src.write_text(csv_text(rec))
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    real = tempfile.mkstemp
+
+    def refused(suffix=None, prefix=None, dir=None, text=False):
+        if Path(dir) == out_dir:
+            raise PermissionError(errno.EACCES, "Permission denied",
+                                  os.path.join(dir, f"{prefix}x1y2z3{suffix}"))
+        return real(suffix, prefix, dir, text)
+
+    monkeypatch.setattr(tempfile, "mkstemp", refused)
+    code, err = run(capsys, str(src), "--out", str(out_dir / "o.h5"))
+    assert code == 1
+    one_line(err, f"{out_dir / 'o_hits.csv'}: Permission denied")
+    assert ".tmp" not in err
+    assert list(out_dir.iterdir()) == []
+    with pytest.raises(PermissionError) as caught:
+        io.write_text("x", out_dir / "t.csv")
+    assert caught.value.filename == str(out_dir / "t.csv")
+
+
+def test_a_read_only_file_system_is_refused_before_any_work(rec, tmp_path, capsys,
+                                                            monkeypatch):
+    """``--out`` on a read-only file system (``os.access`` says no and ``statvfs``
+    flags it): exit 2 before any work, naming the output and why."""
+    from types import SimpleNamespace
+
+    src = tmp_path / "rec.csv"
+    src.write_text(csv_text(rec))
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    real_access, real_statvfs = os.access, os.statvfs
+    monkeypatch.setattr(os, "access", lambda p, mode, **kw: (
+        False if Path(p) == ro else real_access(p, mode, **kw)))
+    monkeypatch.setattr(os, "statvfs", lambda p: (
+        SimpleNamespace(f_flag=os.ST_RDONLY) if Path(p) == ro else real_statvfs(p)))
+    code, err = run(capsys, str(src), "--out", str(ro / "o.h5"))
+    assert code == 2
+    one_line(err, f"{ro / 'o.h5'}: --out is not writable ({ro}: read-only file system)")
+
+
+def test_hits_at_the_first_and_last_samples_have_no_room(rec, tmp_path, capsys):
+    """Two hits, at the very first and the very last sample: the first is a pulse cut
+    off by the start of the data (no upward crossing), the last has one sample after
+    it. The message says that the hits have no room, not that the pretrigger is too
+    long; one hit at the end alone says the same, and a pulse at the start alone
+    says it is cut off."""
+    n = rec.force_n.size
+    force = np.zeros(n)
+    force[[0, -1]] = 1000.0
+    edges = tmp_path / "edges.csv"
+    edges.write_text(csv_text(replace(rec, force_n=force)))
+    code, err = run(capsys, str(edges), "--out", str(tmp_path / "o.h5"))
+    assert code == 2
+    one_line(err, f"{edges}: no room for a record: the data end 1 sample(s) after the hit at "
+                  f"{(n - 2) / rec.sample_rate_hz:.3g}", "; the force is above the trigger from "
+                  "the first sample on (a hit cut off by the start of the data)")
+    assert "pretrigger" not in err
+    force[0] = 0.0
+    edges.write_text(csv_text(replace(rec, force_n=force)))
+    code, err = run(capsys, str(edges), "--out", str(tmp_path / "o.h5"))
+    assert code == 2
+    one_line(err, "edges.csv: no room for a record: the data end 1 sample(s) after the hit")
+    assert "first sample" not in err
+    force[[0, -1]] = [1000.0, 0.0]
+    edges.write_text(csv_text(replace(rec, force_n=force)))
+    code, err = run(capsys, str(edges), "--out", str(tmp_path / "o.h5"))
+    assert code == 2
+    one_line(err, "edges.csv: no hit found: the force never crosses the trigger",
+              "above the trigger from the first sample on")
+    assert not (tmp_path / "o.h5").exists()

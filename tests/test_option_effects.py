@@ -153,6 +153,7 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "init folder": (INIT,
                     "test_init_run.py::test_run_on_a_plate_identifies_both_configurations"),
     "init --force": (INIT, "test_init_run.py::test_init_refuses_to_overwrite"),
+    "init --example": ("test_example_study.py::test_init_example_then_run_outside_the_checkout",),
     "init --recordings": (SHEET_RUN,),
     "frf --hits": ("test_channel_sheet.py::test_hits_chosen_by_hand",),
     "frf --channels": ("test_channel_sheet.py::test_roving_hammer_plate_frf_and_modes",
@@ -1191,3 +1192,43 @@ def test_a_fixed_order_says_it_turned_the_narrower_searches_off(
     assert np.all(np.asarray(auto["band_support"])[middle, 0] >= 2)
     with pytest.warns(UserWarning, match="turned off the narrower searches"):
         identify(_twelve_frf(), max_order=60)
+
+
+def test_a_fixed_order_says_so_where_the_modes_look_sparse(
+        example_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--max-order`` on a band the window searches would search only if its modes
+    were dense (the example beam, 100-700 Hz: three modes, no band of their lowest
+    1/8): the warning still says the window searches are off, since the modes of a
+    fixed order need not be the adaptive order's; with ``--no-window-search`` nothing
+    the user left on is turned off, and nothing is said."""
+    src = example_dir / "genuine.uff"
+    base = ["identify", src, "--band", "100", "700", "--max-order", "40", "--quiet"]
+    with pytest.warns(UserWarning, match="the modes found make no dense band"):  # identify()'s
+        code, _, err = _run([*base, "--out", tmp_path / "fixed"], capsys)
+    assert code == 0
+    assert err.strip() == (
+        f"ema-pipeline identify: warning: {src}: max_order (--max-order) turned off the "
+        "narrower searches that run with the adaptive order only (the windows of a dense "
+        "band): the modes found make no dense band, but those of the adaptive order may")
+    code, _, err = _run([*base, "--out", tmp_path / "off", "--no-window-search"], capsys)
+    assert (code, err) == (0, "")
+
+
+def test_a_fixed_order_in_the_experiment_file_is_a_note_of_run(
+        example_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``[identification] max_order`` in the study: ``run`` says once, in its notes
+    (console and report), for which configurations it turned the
+    narrower searches off (the warning of ``identify`` went to the log only)."""
+    raw = tmp_path / "raw"
+    shutil.copytree(example_dir, raw)
+    toml = raw / "experiment.toml"
+    toml.write_text(toml.read_text().replace("# max_order = 40", "max_order = 40"))
+    with pytest.warns(UserWarning, match="turned off the narrower searches"):
+        code, out, _ = _run(["run", "--raw", raw, "--results", tmp_path / "results",
+                             "--no-figures"], capsys)
+    assert code == 0
+    note = ("genuine, larger_tank, smaller_tank: max_order (--max-order) turned off the "
+            "narrower searches that run with the adaptive order only (the band's lowest 1/8 "
+            "and the windows of a dense band)")
+    assert [line for line in out.splitlines() if "narrower searches" in line] == [
+        f"note: {note}: the modes found make no dense band, but those of the adaptive order may"]

@@ -349,9 +349,11 @@ def find_hits(
                 crosses.append(int(c))
                 segment.append(seg)
                 last = int(c)
+    cut = ("; the force is above the trigger from the first sample on (a hit cut off by the "
+           "start of the data)") if any(g[a] > trigger for a, _ in _segments(recording)) else ""
     if not crosses:
         raise DataError(f"{where}no hit found: the force never crosses the trigger "
-                        f"({trigger:.4g} N) upwards")
+                        f"({trigger:.4g} N) upwards{cut}")
     cross = np.array(crosses)
     seg_arr = np.array(segment)
     frac = (trigger - g[cross - 1]) / (g[cross] - g[cross - 1])
@@ -363,22 +365,20 @@ def find_hits(
         peaks[k] = g[c:max(stop, c + 1)].max()
     n_pre = int(round(pretrigger_s * fs))
     if record_length_s is None:
-        space = []
+        space, alone_hit = [], []  # alone_hit: the hit alone in its segment, else -1
         for k in range(cross.size):
             same_next = k + 1 < cross.size and seg_arr[k + 1] == seg_arr[k]
             alone = not same_next and (k == 0 or seg_arr[k - 1] != seg_arr[k])
-            if same_next:
-                space.append(cross[k + 1] - cross[k])
-            elif alone:
-                space.append(ends[seg_arr[k]] - (cross[k] - n_pre))
+            if same_next or alone:
+                space.append(cross[k + 1] - cross[k] if same_next
+                             else ends[seg_arr[k]] - (cross[k] - n_pre))
+                alone_hit.append(-1 if same_next else k)
         usable = min(space) if space else 0
         if usable < 2:
             raise DataError(f"{where}no room for a record: the hits are too close to each "
                             "other or to the end of the data")
         n_samples = 2 ** int(np.floor(np.log2(usable)))
     else:
-        if not (np.isfinite(record_length_s) and record_length_s > 0):
-            raise DataError(f"record length must be > 0 s, got {record_length_s}")
         n_samples = int(round(record_length_s * fs))
         if n_samples <= n_pre + 1:
             raise DataError(f"{where}record length (--record-length-s) {record_length_s:g} s "
@@ -397,6 +397,11 @@ def find_hits(
         if precut:
             raise DataError(f"{where}the hits lie {n_pre / fs:g} s into their pre-cut records, "
                             f"not before the end of the {n_samples / fs:g} s they all hold")
+        late = alone_hit[int(np.argmin(space))] if record_length_s is None else -1
+        if late >= 0:  # the data end right after the only hit: no room, whatever the pretrigger
+            after = int(ends[seg_arr[late]] - cross[late])
+            raise DataError(f"{where}no room for a record: the data end {after} sample(s) after "
+                            f"the hit at {time_s[late]:.4g} s{cut}")
         raise DataError(f"{where}the pretrigger (--pretrigger-s) {pretrigger_s:g} s is not "
                         f"shorter than the records, {n_samples / fs:g} s ({n_samples} samples: "
                         "the longest power of two between hits); it is in seconds")

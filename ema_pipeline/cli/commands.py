@@ -15,8 +15,9 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ema_pipeline.cli.support import EXIT_INPUT, EXIT_OK, EXIT_RUNTIME, EXIT_USAGE
+from ema_pipeline.cli.support import EXIT_INPUT, EXIT_OK, EXIT_RUNTIME
 from ema_pipeline.data import ConfigError, DataError
+from ema_pipeline.paths import DEFAULT_RAW_FOLDER
 
 if TYPE_CHECKING:  # pragma: no cover
     import numpy as np
@@ -183,16 +184,26 @@ def check_output_file(path: Path, option: str) -> None:
 
 
 def _check_creatable(path: Path, option: str, of: Path | None = None) -> None:
-    """``path`` is a folder or can be made as one, writable."""
+    """``path`` is a folder or can be made as one, writable: not through a symbolic
+    link loop, not on a read-only file system."""
+    import errno
+
+    what = of if of is not None else path
+    try:
+        os.stat(what)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise ConfigError(f"{what}: {option} goes through a symbolic link loop") from None
     ancestor = path.absolute()
     while not ancestor.exists() and ancestor != ancestor.parent:
         ancestor = ancestor.parent
-    what = of if of is not None else path
     if not ancestor.is_dir():
         raise ConfigError(f"{what}: {option} cannot be created: {ancestor} is a file, "
                           "not a folder")
     if not os.access(ancestor, os.W_OK | os.X_OK):
-        raise ConfigError(f"{what}: {option} is not writable ({ancestor}: permission denied)")
+        why = ("read-only file system" if os.statvfs(ancestor).f_flag & os.ST_RDONLY
+               else "permission denied")
+        raise ConfigError(f"{what}: {option} is not writable ({ancestor}: {why})")
 
 
 #: The option of ``identify`` / ``batch`` that sets each field of
@@ -263,7 +274,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
         except DataError as exc:
             print(f"ema-pipeline identify: error: {exc}", file=sys.stderr)
     if not readable:
-        return EXIT_USAGE
+        return EXIT_INPUT
     from ema_pipeline.pipeline.many import FileJob, identify_files
     from ema_pipeline.report.wording import plural
 
@@ -294,7 +305,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
                 + f"({outcome.seconds:.1f} s)"
             )
             print(f"  model: {outcome.model}")
-    return EXIT_RUNTIME if runtime else EXIT_USAGE if failed else EXIT_OK
+    return EXIT_RUNTIME if runtime else EXIT_INPUT if failed else EXIT_OK
 
 
 def _memory_limit(args: argparse.Namespace) -> None:
@@ -342,7 +353,7 @@ def cmd_batch(args: argparse.Namespace) -> int:
             print(f"ema-pipeline batch: warning: {warning}", file=sys.stderr)
         if not args.quiet:
             print(f"report: {page}")
-    return EXIT_INPUT if report.n_failed else EXIT_OK
+    return EXIT_RUNTIME if report.n_failed else EXIT_OK
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -353,6 +364,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     from ema_pipeline.report.wording import plural
 
     experiment_path = args.experiment or args.raw / "experiment.toml"
+    if args.experiment is None and not os.path.lexists(experiment_path):
+        raise ConfigError(f"{experiment_path}: no such file; `ema-pipeline init DIR --example` "
+                          "writes the example study (then `cd DIR && ema-pipeline run`), "
+                          "`ema-pipeline init DIR` an experiment file for your test")
     check_output_dir(args.results, "--results")
     _memory_limit(args)
     experiment = study.load_experiment(experiment_path)
@@ -393,13 +408,24 @@ def cmd_run(args: argparse.Namespace) -> int:
     elif result.problems:
         for problem in result.problems:
             print(f"ema-pipeline run: {problem}", file=sys.stderr)
-    return EXIT_OK if result.ok else EXIT_INPUT
+    return EXIT_OK if result.ok else EXIT_RUNTIME
 
 
 def cmd_init(args: argparse.Namespace) -> int:
-    """``init``: a commented experiment-file template in a folder."""
+    """``init``: a commented experiment-file template in a folder, or the example study."""
     from ema_pipeline.io.template import write_channel_template, write_experiment_template
 
+    check_output_dir(args.folder, "DIR")
+    if args.example:
+        from ema_pipeline.pipeline.simulate import write_example_study
+
+        if args.recordings is not None:
+            raise ConfigError("--example writes the example's own files; drop --recordings")
+        written = write_example_study(args.folder, force=args.force)
+        print(f"wrote {written[0].parent}: the example study ({', '.join(p.name for p in written)}"
+              f"; simulated impact tests of a steel cantilever); run it with `cd {args.folder} "
+              "&& ema-pipeline run` (results in results/)")
+        return EXIT_OK
     if args.recordings is not None:
         exists = (args.folder / "experiment.toml").exists()
         if exists and not args.force:  # before the sheet is written
@@ -466,6 +492,6 @@ def _experiment_or_default(path: Path | None) -> Experiment | None:
     from ema_pipeline.pipeline import study
 
     if path is None:
-        default = Path("raw_frf") / "experiment.toml"
+        default = Path(DEFAULT_RAW_FOLDER) / "experiment.toml"
         path = default if default.is_file() else None
     return None if path is None else study.load_experiment(path)

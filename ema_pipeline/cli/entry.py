@@ -12,8 +12,9 @@ from collections.abc import Callable
 
 from ema_pipeline.cli.parser import build_parser
 from ema_pipeline.cli.support import (
+    EXIT_INPUT,
+    EXIT_INTERRUPTED,
     EXIT_RUNTIME,
-    EXIT_USAGE,
     capture_warnings,
     verbose_logging,
 )
@@ -42,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
             return func(args)
     except EMAError as exc:  # bad input or settings (DataError, ConfigError)
         print(f"ema-pipeline {args.command}: error: {_one_line(exc)}", file=sys.stderr)
-        return EXIT_USAGE
+        return EXIT_INPUT
     except OSError as exc:  # unwritable output folder, disk full, ...
         where = f" {exc.filename}:" if getattr(exc, "filename", None) else ""
         print(f"ema-pipeline {args.command}: error:{where} {_one_line(exc.strerror or exc)}",
@@ -54,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_RUNTIME
     except KeyboardInterrupt:
         print(f"ema-pipeline {args.command}: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
 
 
 def run() -> int:

@@ -13,6 +13,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from ema_pipeline.cli.commands import check_output_file
 from ema_pipeline.cli.support import EXIT_OK
 from ema_pipeline.data import ConfigError
 from ema_pipeline.validation import nonzero
@@ -135,6 +136,7 @@ def cmd_frf(args: argparse.Namespace) -> int:
                               "force channel, scales and units)")
     else:
         check_output(args.out, list(args.inputs), report=args.report)  # before any work
+    check_output_file(args.out, "--out")  # a loop, a read-only folder: before any work
     settings = FRFSettings(  # ranges checked here, before any work
         pretrigger_s=DEFAULT_PRETRIGGER_S if args.pretrigger_s is None else args.pretrigger_s,
         record_length_s=args.record_length_s,

@@ -25,8 +25,9 @@ from ema_pipeline.cli.commands import (
     cmd_simulate,
 )
 from ema_pipeline.cli.frf_command import add_frf_parser
-from ema_pipeline.cli.support import EXIT_USAGE
+from ema_pipeline.cli.support import EXIT_INPUT
 from ema_pipeline.identification.options import MAX_ORDER, METHOD_NAMES, MIN_ORDER
+from ema_pipeline.paths import DEFAULT_RAW_FOLDER
 
 __all__ = ["MODES_CSV_HELP", "build_parser"]
 
@@ -77,7 +78,7 @@ class _Parser(argparse.ArgumentParser):
         return super().parse_known_args(args, namespace)
 
     def error(self, message: str) -> NoReturn:
-        self.exit(EXIT_USAGE, f"{self.prog}: error: {message}{self.suggestion(message)}\n")
+        self.exit(EXIT_INPUT, f"{self.prog}: error: {message}{self.suggestion(message)}\n")
 
     def suggestion(self, message: str) -> str:
         """``"; did you mean --band?"`` for an unknown option (or subcommand) close
@@ -410,7 +411,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--raw",
         type=Path,
-        default=Path("raw_frf"),
+        default=Path(DEFAULT_RAW_FOLDER),
         help="folder with experiment.toml and the FRF files (default raw_frf)",
     )
     p.add_argument(
@@ -436,16 +437,24 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = sub.add_parser(
         "init",
-        help="write a commented experiment-file template for your own test",
+        help="write a commented experiment-file template for your own test, or the example "
+        "study (--example)",
         description="Write DIR/experiment.toml, a commented template of an experiment file "
         "for any structure: test metadata (object, date, operator, equipment), geometry, "
         "roving and fixed DOFs, identification settings and two configurations. Put the FRF "
         "and geometry files beside it (or edit the names), then `ema-pipeline run --raw DIR`. "
-        "The FE, update and added-mass stages run only where the file has a [beam] table.",
+        "The FE, update and added-mass stages run only where the file has a [beam] table. "
+        "With --example: the example study instead, ready to run.",
     )
     p.add_argument("folder", type=Path, metavar="DIR", help="folder for experiment.toml "
                    "(created if needed)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing experiment.toml")
+    p.add_argument("--force", action="store_true", help="overwrite an existing experiment.toml "
+                   "(with --example: the example's files)")
+    p.add_argument("--example", action="store_true",
+                   help="write the example study instead: DIR/raw_frf/ with its experiment.toml "
+                   "and three simulated impact tests of a steel cantilever in air and partly "
+                   "immersed (genuine.uff, larger_tank.h5, smaller_tank.uff); then `cd DIR && "
+                   "ema-pipeline run` runs the whole study into DIR/results")
     p.add_argument("--recordings", type=Path, default=None, metavar="RECORDINGS",
                    help="also write DIR/channels.csv, a channel-sheet template with one row "
                    "per channel of every recording under RECORDINGS (names, roles and the "

@@ -14,17 +14,28 @@ from ema_pipeline.pipeline.logs import verbose_logging
 
 __all__ = [
     "EXIT_INPUT",
+    "EXIT_INTERRUPTED",
     "EXIT_OK",
     "EXIT_RUNTIME",
-    "EXIT_USAGE",
+    "EXIT_STATUSES",
     "LOG_ENV",
     "capture_warnings",
     "verbose_logging",
 ]
 
-#: Exit statuses: 0 success, 2 input or usage error, 1 runtime failure.
-EXIT_OK, EXIT_INPUT, EXIT_USAGE = 0, 1, 2
-EXIT_RUNTIME = EXIT_INPUT  # 1: runtime failure; input errors exit with EXIT_USAGE (2)
+#: Exit status of success.
+EXIT_OK = 0
+#: Exit status of an input or usage error: a bad option, experiment file or input
+#: file, settings the data cannot support (an :class:`~ema_pipeline.data.EMAError`).
+EXIT_INPUT = 2
+#: Exit status of a runtime failure: disk full, out of memory, a study with
+#: problems, a batch with failed files.
+EXIT_RUNTIME = 1
+#: Exit status of a command interrupted by Ctrl-C (128 + SIGINT, as shells report it).
+EXIT_INTERRUPTED = 130
+#: What each exit status means, in the words of the README and ``docs/cli.rst``.
+EXIT_STATUSES = {EXIT_OK: "success", EXIT_INPUT: "input or usage error",
+                 EXIT_RUNTIME: "runtime failure"}
 #: Environment variable naming a log file for library warnings (default: discarded).
 LOG_ENV = "EMA_PIPELINE_LOG"
 

@@ -130,7 +130,17 @@ def disk_full_error(exc: OSError, target: str | os.PathLike[str]) -> OSError:
 
 def _named_error(exc: OSError, tmp: Path, target: Path) -> OSError:
     """``exc`` naming ``target`` where it named the temporary ``tmp`` (a full disk
-    becomes :func:`disk_full_error`); other errors unchanged."""
+    becomes :func:`disk_full_error`); other errors unchanged.
+
+    Examples
+    --------
+    >>> import errno
+    >>> tmp, target = Path("out/.a.csv.x1.tmp"), Path("out/a.csv")
+    >>> _named_error(OSError(errno.EROFS, "Read-only file system", str(tmp)), tmp, target)
+    OSError(30, 'Read-only file system')
+    >>> _.filename
+    'out/a.csv'
+    """
     full = disk_full_error(exc, target)
     if full is not exc:
         return full
@@ -177,8 +187,10 @@ def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
         target.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
         os.close(fd)
-    except OSError as exc:
-        raise disk_full_error(exc, target) from exc
+    except OSError as exc:  # a read-only folder or file system names the temporary
+        culprit = Path(exc.filename) if exc.filename else target
+        hidden = culprit if culprit.name.startswith(f".{target.name}.") else target
+        raise _named_error(exc, hidden, target) from exc
     tmp_path = Path(tmp)
     staged = _STAGED.get()
     try:
@@ -362,9 +374,17 @@ def _swap_all(staged: list[tuple[Path, Path]]) -> None:
             warnings.warn(
                 f"{folder}: an earlier write was interrupted between its renames; put back "
                 f"{', '.join(p.name for p in put_back)} as they were before it", stacklevel=3)
-    for _, target in staged:
-        _refuse_folder(target)
-    journal, entries = _write_journal(staged[0][1].parent, staged)
+    try:  # nothing replaced yet: on an error the temporaries go
+        for _, target in staged:
+            _refuse_folder(target)
+        try:
+            journal, entries = _write_journal(staged[0][1].parent, staged)
+        except OSError as exc:  # named by the first target, not the hidden journal
+            raise _named_error(exc, Path(str(exc.filename)), staged[0][1]) from exc
+    except OSError:
+        for tmp, _ in staged:
+            tmp.unlink(missing_ok=True)
+        raise
     try:
         for (tmp, target), entry in zip(staged, entries, strict=True):
             _keep_old(target, Path(entry["backup"]))
@@ -394,8 +414,7 @@ def same_file(a: str | os.PathLike[str], b: str | os.PathLike[str]) -> bool:
     >>> same_file(d / "x.uff", d / "sub" / ".." / "x.uff"), same_file(d / "x", d / "y")
     (True, False)
     """
-    a, b = Path(a), Path(b)
-    if a.resolve() == b.resolve():
+    if os.path.realpath(a) == os.path.realpath(b):  # a symlink loop resolves to itself
         return True
     try:
         return os.path.samefile(a, b)

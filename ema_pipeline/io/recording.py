@@ -23,9 +23,12 @@ what each format adds:
   ``<channel>`` (``<group>/<channel>`` when names repeat); unit from the property
   ``unit_string``, sample rate from ``wf_increment``. A channel whose unit is a
   time (``s``) is a time track: it gives the sample rate when ``wf_increment`` is
-  absent and is not a signal; so is a channel of time stamps. A file npTDMS reads
-  only partly (truncated) is refused, and so is a channel that is empty or holds
-  text, booleans or complex numbers (named).
+  absent and is not a signal; so is a channel of time stamps. A channel of text or
+  booleans (a comment, a digital line) is no signal either: it is skipped, and the
+  recording says which (``Recording.skipped``; ``frf`` warns); channel positions
+  count the channels read. A file npTDMS reads only partly (truncated) is refused,
+  and so is a channel that is empty or holds complex numbers (named), and a file
+  with no numeric channel.
 * **WAV** (scipy): channels are named ``0``, ``1``, ...; ``units`` are required
   for every channel (``0=N``, ``ch1=g``) and ``scale`` for every channel of
   integer samples (``0=0.5``); float samples are taken as stored, in the unit. Integer samples
@@ -153,7 +156,8 @@ def read_recording(
         raise DataError(f"{path}: unknown recording format {suffix or '(no suffix)'!r}; "
                         f"expected one of {', '.join(sorted(RECORDING_SUFFIXES))}")
     check_readable(path, "a recording (UFF, TDMS, WAV, CSV, LVM or MAT)")
-    found, starts = reader(path)
+    skipped: list[str] = []
+    found, starts = _read_tdms(path, skipped) if reader is _read_tdms else reader(path)
     if channels is not None:
         names = [c.name for c in found]
         def name(key: str) -> str:  # positions refer to the file's channels
@@ -167,8 +171,11 @@ def read_recording(
     if suffix == ".wav":
         _require_wav_settings(path, found, scale, units)
     source = Provenance(path=str(path), sha256=sha256_file(path))
-    return assemble_recording(found, where=str(path), force_channel=force_channel,
-                              scale=scale, units=units, segment_starts=starts, source=source)
+    recording = assemble_recording(found, where=str(path), force_channel=force_channel,
+                                   scale=scale, units=units, segment_starts=starts, source=source)
+    if skipped and channels is None:  # a channel sheet reads the channels it names only
+        recording = replace(recording, skipped=tuple(skipped))
+    return recording
 
 
 def recording_channels(path: str | os.PathLike[str]) -> list[tuple[str, str, str]]:
@@ -347,7 +354,10 @@ def _nptdms_log() -> Iterator[list[str]]:
             lg.handlers, lg.propagate = handlers, propagate
 
 
-def _read_tdms(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
+def _read_tdms(path: Path, skipped: list[str] | None = None
+               ) -> tuple[list[ChannelData], tuple[int, ...]]:
+    """The numeric channels of a TDMS file; the channels of text or booleans are
+    left out, each said in ``skipped``."""
     try:
         from nptdms import TdmsFile  # type: ignore[import-untyped]
     except ImportError:  # pragma: no cover - a runtime dependency
@@ -363,11 +373,13 @@ def _read_tdms(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
     bad = [m for m in problems if re.search(r"less data|not a multiple|incomplete", m)]
     if bad:
         raise DataError(f"{path}: truncated TDMS file ({bad[0]})")
-    kept = []
+    kept, left_out = [], []
     for group, name, props, data in raw:
         what = _not_samples(data)
         if what == "time stamps":  # a time track of absolute times: not a signal
             log.info("%s: channel %s/%s holds time stamps; not a signal", path, group, name)
+        elif what is not None and what.startswith(("holds text", "holds booleans")):
+            left_out.append(f"channel {f'{group}/{name}'!r} {what}")
         elif what is not None:
             raise DataError(f"{path}: channel {f'{group}/{name}'!r} {what}; a recording's "
                             "channels hold real numbers")
@@ -375,7 +387,10 @@ def _read_tdms(path: Path) -> tuple[list[ChannelData], tuple[int, ...]]:
             kept.append((group, name, props, data))
     raw = kept
     if not raw:
-        raise DataError(f"{path}: no numeric channels in the TDMS file")
+        raise DataError(f"{path}: no numeric channels in the TDMS file"
+                        + "".join(f"; {m}" for m in left_out))
+    if skipped is not None:
+        skipped += [f"{path}: {m}: skipped, not a signal" for m in left_out]
     names = [c for _, c, _, _ in raw]
     time_rate = None
     channels: list[tuple[str, np.ndarray, float, str]] = []

@@ -1,13 +1,19 @@
-"""The commented experiment-file template that ``ema-pipeline init DIR`` writes.
+"""The commented experiment-file template that ``ema-pipeline init DIR`` writes,
+and the example study's experiment file that ``init DIR --example`` writes.
 
-It describes the test of any structure (geometry, DOFs, metadata, two
+The template describes the test of any structure (geometry, DOFs, metadata, two
 configurations); the keys are those of :mod:`ema_pipeline.io.experiment`, every
-one documented in ``docs/guide/experiment.md``.
+one documented in ``docs/guide/experiment.md``. The example's experiment file
+(the paper's cantilever, three configurations) is package data,
+``example_experiment.toml``, the same file as the repository's
+``raw_frf/experiment.toml``.
 """
 
 from __future__ import annotations
 
 import os
+import tomllib
+from importlib import resources
 from pathlib import Path
 
 from ema_pipeline.data import ConfigError, DataError
@@ -21,6 +27,21 @@ CHANNEL_SHEET_FILE = "channels.csv"
 
 #: The file name ``init`` writes and ``run --raw DIR`` reads.
 EXPERIMENT_FILE = "experiment.toml"
+
+
+def example_experiment() -> tuple[str, dict[str, str]]:
+    """The example study's experiment file: its text, and the FRF file name of
+    each configuration in the file's order.
+
+    Examples
+    --------
+    >>> text, files = example_experiment()
+    >>> files
+    {'genuine': 'genuine.uff', 'larger_tank': 'larger_tank.h5', 'smaller_tank': 'smaller_tank.uff'}
+    """
+    text = (resources.files("ema_pipeline.io") / "example_experiment.toml").read_text(
+        encoding="utf-8")
+    return text, {c["name"]: c["file"] for c in tomllib.loads(text)["configurations"]}
 
 EXPERIMENT_TEMPLATE = """\
 # ema-pipeline experiment file: the test of one structure (a plate, a frame, a

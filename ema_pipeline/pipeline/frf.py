@@ -121,7 +121,8 @@ class ImpactFRF:
     records: TimeRecords
     recording: Recording | None = None
     settings: FRFSettings | None = None
-    #: Warnings about the force channel (:func:`ema_pipeline.acquisition.hits.force_warnings`).
+    #: Warnings: the file's channels skipped (``Recording.skipped``), then those about the
+    #: force channel (:func:`ema_pipeline.acquisition.hits.force_warnings`).
     warnings: list[str] = field(default_factory=list)
     #: The hits averaged were chosen by hand (``chosen``, ``--hits``), not by the checks.
     chosen_by_hand: bool = False
@@ -216,7 +217,7 @@ def frf_from_recording(
     if chosen is not None:
         hits = choose_hits(hits, chosen, where)
     accepted = [h.index - 1 for h in hits if h.accepted]
-    warnings = hitlib.force_warnings(hits, rec.channels[0].name)
+    warnings = [*recording.skipped, *hitlib.force_warnings(hits, rec.channels[0].name)]
     if not accepted:
         summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {h.reasons_text()}"
                             for h in hits)
@@ -338,6 +339,7 @@ def concatenate_recordings(recordings: list[Recording]) -> Recording:
         channels=first.channels,
         segment_starts=tuple(starts),
         source=Provenance(path=", ".join(r.source.path for r in recordings)),
+        skipped=tuple(m for r in recordings for m in r.skipped),
     )
 
 
@@ -568,5 +570,7 @@ def identify_recording(
                            reason=f"{where}: {exc.strerror or exc}",
                            seconds=time.perf_counter() - start)
     outcome = identify_file(frf_path, out_dir, options, force=True, sha256=sha, uff=uff)
+    if isinstance(result, ImpactFRF) and result.recording is not None:  # channels skipped
+        outcome.warnings[:0] = result.recording.skipped
     outcome.seconds = time.perf_counter() - start
     return outcome

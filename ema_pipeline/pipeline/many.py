@@ -13,6 +13,7 @@ windows of a dense band are searched in the process that has the file).
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterator
 from dataclasses import dataclass, replace
 from functools import partial
@@ -70,7 +71,7 @@ def identify_files(
     """
     by_output: dict[Path, Path] = {}
     for path in paths:
-        key = output_paths(Path(path), job.out_dir)[0].resolve()
+        key = Path(os.path.realpath(output_paths(Path(path), job.out_dir)[0]))
         if key in by_output:
             raise ConfigError(f"{by_output[key]} and {path} would write the same outputs "
                               f"({key.name}); identify them into different --out folders")

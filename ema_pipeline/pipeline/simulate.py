@@ -15,19 +15,28 @@ given; this module supplies them:
   and for configurations declared with ``added_mass`` in an experiment file
   (:func:`simulate_configuration`).
 
-Used by ``ema-pipeline simulate``, ``ema-pipeline run``, the tests and the benchmarks.
+:func:`write_example_study` writes the example study (``ema-pipeline init DIR
+--example``): the repository's ``raw_frf`` folder, its three FRF files simulated
+again.
+
+Used by ``ema-pipeline simulate``, ``ema-pipeline run``, ``ema-pipeline init``,
+the tests and the benchmarks.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 
 import numpy as np
 
-from ema_pipeline import acquisition, paper
+from ema_pipeline import acquisition, io, paper
 from ema_pipeline.added_mass.modified_beam import beam_modes_with_added_mass
-from ema_pipeline.data import DataError, FRFSet, ModalParameters
+from ema_pipeline.data import ConfigError, DataError, FRFSet, ModalParameters
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
+from ema_pipeline.io.template import EXPERIMENT_FILE, example_experiment
+from ema_pipeline.paths import DEFAULT_RAW_FOLDER
 
 __all__ = [
     "added_mass_modes",
@@ -36,7 +45,13 @@ __all__ = [
     "simulate_added_mass_test",
     "simulate_configuration",
     "simulate_paper_test",
+    "write_example_study",
 ]
+
+#: How the example study's FRF files are simulated: configuration -> (seed, binary
+#: UFF); 40 dB SNR, the default test setup, the file format from the name.
+EXAMPLE_SIMULATION = {"genuine": (1, False), "larger_tank": (2, False),
+                      "smaller_tank": (3, True)}
 
 
 def paper_modes(
@@ -207,3 +222,40 @@ def simulate_configuration(experiment: Experiment, spec: ConfigurationSpec) -> F
         configuration=spec.name,
     )
     return frf
+
+
+def write_example_study(folder: str | os.PathLike[str], *, force: bool = False) -> list[Path]:
+    """Write the example study into ``folder``: ``folder/raw_frf`` with the example's
+    experiment file (:func:`ema_pipeline.io.template.example_experiment`) and its
+    three FRF files, simulated impact tests of the paper's configurations
+    (:func:`simulate_paper_test` with the seeds of :data:`EXAMPLE_SIMULATION`), so
+    that ``ema-pipeline run`` in ``folder`` runs the whole study. The files equal
+    those of the repository's ``raw_frf`` (the arrays recomputed: within a
+    rounding of the last bits).
+
+    An existing file among them is kept (:class:`ConfigError` naming it) unless
+    ``force``; the four files replace their targets together or not at all.
+    Returns the paths written, the experiment file first.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> with tempfile.TemporaryDirectory() as tmp:
+    ...     [p.name for p in write_example_study(tmp)]
+    ['experiment.toml', 'genuine.uff', 'larger_tank.h5', 'smaller_tank.uff']
+    """
+    raw = Path(folder) / DEFAULT_RAW_FOLDER
+    if raw.exists() and not raw.is_dir():
+        raise ConfigError(f"{raw}: is a file; the example study needs a folder there")
+    text, files = example_experiment()
+    targets = [raw / EXPERIMENT_FILE, *(raw / name for name in files.values())]
+    taken = [p for p in targets if os.path.lexists(p)]
+    if taken and not force:
+        raise ConfigError(f"{taken[0]} exists; give --force to overwrite the example study")
+    frfs = [simulate_paper_test(name, seed=EXAMPLE_SIMULATION[name][0]) for name in files]
+    with io.replace_together():
+        io.write_text(text, targets[0])
+        for name, frf, path in zip(files, frfs, targets[1:], strict=True):
+            fmt = "uff-binary" if EXAMPLE_SIMULATION[name][1] else io.frf_format_for_writing(path)
+            io.write_frf(frf, path, fmt)
+    return targets

@@ -52,6 +52,7 @@ from ema_pipeline.data import (
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
 from ema_pipeline.identification import identify
 from ema_pipeline.identification.common import single_reference
+from ema_pipeline.identification.diagram.narrower_searches import searches_turned_off
 from ema_pipeline.identification.diagram.resources import check_identification
 from ema_pipeline.io.experiment import experiment_channel_sheet, experiment_recording_paths
 from ema_pipeline.pipeline.frf import FRFSettings, configuration_frf
@@ -225,6 +226,7 @@ def prepare_study(
 def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
                   loaded: dict[str, FRFSet] | None = None) -> None:
     loaded = loaded or {}
+    turned_off: dict[str, list[str]] = {}  # a fixed order's note: the configurations
     for k, spec in enumerate(exp.configurations, start=1):
         # a configuration declared with added_mass has no file: simulated on the FE beam
         path = None if spec.added_mass is not None else io.experiment_file_path(exp, spec)
@@ -247,6 +249,10 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
             continue
         result.frfs[spec.name] = frf
         result.identification[spec.name] = ident
+        note = (searches_turned_off(options, ident.settings.band_hz, ident.fn_hz)
+                if ident.settings.method == "plscf" else "")  # identify()'s warning, a note
+        if note:
+            turned_off.setdefault(note, []).append(spec.name)
         modes = ident.modes
         n_use = min(exp.n_modes, modes.n_modes) if exp.has_beam else modes.n_modes
         if not exp.has_beam:
@@ -275,6 +281,7 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
         result.seconds[f"identify_{spec.name}"] = seconds
         freqs = ", ".join(f"{f:.2f}" for f in modes.fn_hz)
         say(f"    {plural(modes.n_modes, 'mode')} [{freqs}] Hz in {seconds:.1f} s")
+    result.notes += [f"{', '.join(names)}: {note}" for note, names in turned_off.items()]
 
 
 def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars: bool) -> None:
@@ -567,7 +574,7 @@ def write_study(
     from ema_pipeline import report
 
     say = say or (lambda _msg: None)
-    results_dir = Path(results_dir).resolve()
+    results_dir = Path(os.path.realpath(results_dir))  # a loop: an OSError on writing
     with io.atomic_folder(results_dir) as tmp_dir:
         for name, table in result.tables.items():
             io.write_csv(table, tmp_dir / "tables" / f"{name}.csv")

@@ -125,22 +125,26 @@ def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
 
 def searches_turned_off(options: IdentificationOptions, band_hz: tuple[float, float],
                         fn_hz: np.ndarray) -> str:
-    """The note that ``options`` turned off narrower searches that would have
-    run on this band, else ``""``. They run with the adaptive order only:
-    a fixed ``max_order`` turns them off, and so do ``expect_hz`` without
-    refinement (with it, the expected modes come from the automatic
-    selection, which ran them). Would have run: the search of the band's
-    lowest part where the top is ``zoom_ratio`` times the bottom or more, the
-    windows where the modes ``fn_hz`` (Hz) make a dense band
-    (:func:`~ema_pipeline.identification.diagram.order_search.mode_windows`) and
-    ``options.window_searches`` is on.
+    """The note that ``options`` turned off narrower searches, else ``""``.
+    They run with the adaptive order only: a fixed ``max_order`` turns them
+    off, and so do ``expect_hz`` without refinement (with it, the expected
+    modes come from the automatic selection, which ran them). The searches:
+    that of the band's lowest part where the top is ``zoom_ratio`` times the
+    bottom or more, and the windows of a dense band when
+    ``options.window_searches`` is on. A fixed order always gets the note
+    when they are on, since the modes it finds need not be those that make a
+    band dense (:func:`~ema_pipeline.identification.diagram.order_search.mode_windows`),
+    saying whether the modes ``fn_hz`` (Hz) do; ``expect_hz`` gets it only
+    where a search would have run on ``fn_hz``.
 
     Examples
     --------
     >>> note = searches_turned_off(IdentificationOptions(max_order=40), (5.0, 790.0),
     ...                            np.array([17.0]))
     >>> note.split(" (")[0], note.split("only ")[1].split(":")[0]
-    ('max_order', "(the band's lowest 1/8)")
+    ('max_order', "(the band's lowest 1/8 and the windows of a dense band)")
+    >>> note.split(": ")[1]
+    'the modes found make no dense band, but those of the adaptive order may'
     >>> searches_turned_off(IdentificationOptions(), (5.0, 790.0), np.array([17.0]))
     ''
     """
@@ -155,9 +159,14 @@ def searches_turned_off(options: IdentificationOptions, band_hz: tuple[float, fl
     what = []
     if hi >= th.zoom_ratio * lo:
         what.append(f"the band's lowest 1/{th.zoom_ratio:g}")
-    if options.window_searches and mode_windows(np.asarray(fn_hz, float), (lo, hi), th):
+    dense = bool(mode_windows(np.asarray(fn_hz, float), (lo, hi), th))
+    fixed = options.max_order is not None
+    if options.window_searches and (dense or fixed):
         what.append("the windows of a dense band")
     if not what:
         return ""
+    why_missing = ("the modes found make no dense band, but those of the adaptive order may"
+                   if fixed and options.window_searches and not dense
+                   else "modes only they find may be missing")
     return (f"{why} turned off the narrower searches that run with the adaptive order only "
-            f"({' and '.join(what)}): modes only they find may be missing")
+            f"({' and '.join(what)}): {why_missing}")
