@@ -198,6 +198,13 @@ def test_stabilization_data_and_figures(noise_free):
     svg = figure_stabilization(res, frf)  # the report's static figure: the same classes
     for k in STABILITY:
         assert (f"{k}: {STABILITY[k][0]}" in svg) == bool((symbols == k).any())
+    # its legend (below the axes) lies inside the drawing: nothing cut off
+    import re
+
+    width, height = map(float, re.search(r'viewBox="0 0 (\S+) (\S+)"', svg).groups())
+    x, y, w, h = map(float, re.search(
+        r'<rect x="(\S+)" y="(\S+)" width="(\S+)" height="(\S+)" fill="#fff"', svg).groups())
+    assert x + w <= width and y + h <= height
     plot_fit_quality(ax2, res, sub.H, output=0)
     assert "FRAC" in ax2.get_title()
     plt.close(fig)

@@ -164,16 +164,19 @@ def figure_stabilization(
     stab = result.stabilization
     lo, hi = result.settings.band_hz
     band = frf.band(lo, hi)
-    height = 390
+    symbols = stability_symbols(stab.flags)
+    labels = [f"{k}: {text}" for k, (text, _) in STABILITY.items() if np.any(symbols == k)]
+    # the legend below the figure in as many columns as fit its width
+    columns = max([1] + [n for n in range(1, 5) if legend_size(labels, n)[0] <= _W - _LEFT])
+    height = 369 + int(legend_size(labels, columns)[1])
     c = Canvas(_W, height, title or "Stabilization diagram")
     orders = stab.order
     top = float(orders.max()) + 2 if orders.size else 10.0
-    box = (_LEFT, 30, _W - _LEFT - 70, height - 110)
+    box = (_LEFT, 30, _W - _LEFT - 70, 280)
     ax = c.axes(box, (lo, hi), (0.0, top))
     total = sum_abs_frf(band.H)
     tw = c.axes(box, (lo, hi), _log_limits(total, 5), ylog=True)
     tw.line(band.freq_hz, total, "#222", width=0.7, opacity=0.55)
-    symbols = stability_symbols(stab.flags)
     # the interactive diagram's classes and colours (stab_marks.STABILITY), as marker shapes
     shapes = {"o": ("x", 3.0), "f": ("o", 3.5), "d": ("s", 3.5), "v": ("o", 3.5), "s": ("o", 4.5)}
     for key, (label, color) in STABILITY.items():
@@ -186,7 +189,7 @@ def figure_stabilization(
         ax.vline(float(fs), "#c0504d", width=0.8, dash="6 4")
     ax.frame(xlabel="frequency / Hz", ylabel="model order", title=title)
     tw.frame(ylabel="sum |H|", yside="right", show_x=False, grid=False, draw_box=False)
-    ax.legend("below", columns=4)
+    ax.legend("below", columns=columns)
     return c.to_svg(standalone)
 
 
