@@ -39,7 +39,6 @@ GROUPS = (
     "cli_option", "batch", "disk_full_identify", "disk_full_run", "disk_full_batch",
     "recording_bad", "recording_hostile",
 )
-XFAIL: dict[str, dict[str, str]] = {g: {} for g in GROUPS}
 
 CHECKS = {
     "no_crash": {"signal", "hang", "traceback"},
@@ -55,15 +54,6 @@ def fuzz(fuzz_verdicts):
     return fuzz_verdicts
 
 
-def _params(test: str):
-    for group, marks in XFAIL.items():
-        reason = marks.get(test)
-        yield pytest.param(
-            group, id=group,
-            marks=[pytest.mark.xfail(strict=False, reason=reason)] if reason else [],
-        )
-
-
 def _failures(fuzz, group: str, test: str) -> list[str]:
     mine = {name: v for name, v in fuzz.items() if v["group"] == group}
     assert mine, f"no cases in group {group}"
@@ -76,19 +66,19 @@ def _failures(fuzz, group: str, test: str) -> list[str]:
     return out
 
 
-@pytest.mark.parametrize("group", list(_params("no_crash")))
+@pytest.mark.parametrize("group", GROUPS)
 def test_no_crash(fuzz, group):
     bad = _failures(fuzz, group, "no_crash")
     assert not bad, "\n".join(bad)
 
 
-@pytest.mark.parametrize("group", list(_params("verdict")))
+@pytest.mark.parametrize("group", GROUPS)
 def test_verdict(fuzz, group):
     bad = _failures(fuzz, group, "verdict")
     assert not bad, "\n".join(bad)
 
 
-@pytest.mark.parametrize("group", list(_params("exit_status")))
+@pytest.mark.parametrize("group", GROUPS)
 def test_exit_status(fuzz, group):
     bad = _failures(fuzz, group, "exit_status")
     assert not bad, "\n".join(bad)

@@ -56,16 +56,6 @@ SIGMA_SEEDS = {f: DENSE_SEEDS if f.startswith("dense") else tuple(range(1, _N_SI
 #: ``background`` fixture), so that they run on the second core
 BACKGROUND = {f"hard:{f}": (*DENSE_SEEDS, 803) if f == "dense_log" else SIGMA_SEEDS[f]
               for f in hardcases.FAMILIES}
-PENDING = pytest.mark.xfail(strict=False, reason="issue 11 pending")
-#: families that do not yet meet the detection target (missed/spurious <= 2 %)
-#: on SEEDS, and those whose sigmas are not yet calibrated on them
-DETECTION_PENDING: set[str] = set()
-#: on SIGMA_SEEDS
-SIGMA_PENDING: set[str] = set()
-
-
-def _families(pending: set[str]) -> list:
-    return [pytest.param(f, marks=PENDING) if f in pending else f for f in hardcases.FAMILIES]
 
 
 def identify_case(case: hardcases.HardCase) -> dict[str, np.ndarray]:
@@ -278,14 +268,14 @@ def assert_window_shift_exact(case: hardcases.HardCase) -> None:
 
 
 # --------------------------------------------------------------------------- targets
-@pytest.mark.parametrize("family", _families(DETECTION_PENDING))
+@pytest.mark.parametrize("family", hardcases.FAMILIES)
 def test_no_mode_missed_or_invented(family: str, background: Background) -> None:
     s = _family_scores(family, background)
     assert s["missed"] <= 0.02 * s["n_true"], s
     assert s["spurious"] <= 0.02 * s["n_true"], s
 
 
-@pytest.mark.parametrize("family", _families(SIGMA_PENDING))
+@pytest.mark.parametrize("family", hardcases.FAMILIES)
 def test_sigmas_are_calibrated_per_family(family: str, background: Background) -> None:
     """68th percentile of |error|/sigma in 0.75-1.35 (f and zeta) on
     SIGMA_SEEDS (60 or more modes a family); the coverage is only checked
