@@ -94,7 +94,7 @@ class Case:
 
     name: str  # unique, also the file stem
     category: str
-    group: str  # finer grouping for xfail marks
+    group: str  # the test's parameter: a finer grouping of the cases
     kind: str  # "file" (identify, groupable) | "solo" (own process)
     garbage: bool = True  # exit 0 / success for this input is wrong
     expect_exit: int | None = 2  # 2 input error, 1 runtime failure, None: any non-zero

@@ -1,13 +1,8 @@
-"""Issue 11 acceptance tests on the hard cases of ``tests/hardcases.py``.
+"""Acceptance tests of identification on the hard cases of ``tests/hardcases.py``:
+every family meets the detection and sigma targets below (a regression of any
+family fails). The checks of the generator itself are real tests.
 
-The families that meet a target on these seeds are plain tests; those that
-do not yet (adaptive order and trajectory selection landed, issue 11 still
-open: see the README's "Identification on hard cases") are marked
-``xfail(strict=False, reason="issue 11 pending")`` family by family, so that
-a regression of a passing family fails. The checks of the generator itself
-are real tests.
-
-Targets (issue 11), at the defaults (only the band given):
+Targets, at the defaults (only the band given):
 each family <= 2 % of the true modes missed and <= 2 % spurious, a match being
 |f_id - f_true| <= (zeta_true + 0.005) f_true one-to-one; over the matched
 modes 90-98 % of the errors within 2 sigma and the 68th percentile of
