@@ -144,7 +144,7 @@ class _Collector(HTMLParser):
             self.images.append(a.get("src", ""))
         if tag == "table":
             self.tables += 1
-        if tag == "svg" and a.get("class") not in ("shape", "stab"):  # figures, not the
+        if tag == "svg" and a.get("class") not in ("shape", "stab", "mark"):  # figures, not the
             # shape views nor the interactive stabilization diagram
             self.svgs += 1
         for key in ("src", "href"):
