@@ -252,7 +252,7 @@ def search_diagrams(data: BandData, options: IdentificationOptions,
     part and (``options.window_searches``) of the windows of a dense band;
     the chosen diagram's stabilization flags with the diagram tolerances."""
     n_in, n_freq = data.Hn.shape[1], data.Hn.shape[2]
-    cap = order_cap(n_freq, n_in)
+    cap = order_cap(n_freq, n_in, data.thresholds.max_poles)
     fixed = options.max_order is not None
     p = min(default_max_order(n_in, n_freq), cap)
     if options.max_order is not None:
@@ -364,7 +364,7 @@ class Retest:
         d, th = self.data, self.data.thresholds
         ok = final_tests(d.freq_hz, d.Hc, d.Hn_c, ref, d.quantity, n_members,
                          partner=partner, strict=strict, thresholds=th)
-        self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, th)])
+        self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, thresholds=th)])
         return ok
 
     def could_pass(self, candidates: SelectedPoles, indices: np.ndarray) -> np.ndarray:
@@ -384,8 +384,8 @@ class Retest:
                            window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
                            thresholds=th, map_=self.map_, modes=indices)
         pole, cov = ref.pole[indices], ref.cov[indices]
-        determined = decay_determined(pole, cov, th)
-        ok = determined & inside_band(d.freq_hz, pole, th)
+        determined = decay_determined(pole, cov, thresholds=th)
+        ok = determined & inside_band(d.freq_hz, pole, thresholds=th)
         if not ok.any():
             self.rejected.append(pole[determined])
         return ok
@@ -414,7 +414,7 @@ def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
     (:func:`shown_by_the_frfs`)."""
     d = retest.data
     alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
-    alt = alt[shown_by_the_frfs(d.freq_hz, d.Hc, alt, d.thresholds)]
+    alt = alt[shown_by_the_frfs(d.freq_hz, d.Hc, alt, thresholds=d.thresholds)]
     return add_found(found, alt, partner=False, strict=np.zeros(alt.size, bool),
                      retest=retest, found_by="alternate", screen=retest.could_pass)
 
@@ -590,7 +590,8 @@ def with_band_support(result: IdentificationResult, auto: IdentificationResult |
                     support[i] = auto.band_support[same[0]]
         return replace(result, band_support=support)
     if searched:
-        return replace(result, band_support=band_support(pole, list(searched), thresholds))
+        support = band_support(pole, list(searched), thresholds=thresholds)
+        return replace(result, band_support=support)
     return result
 
 
@@ -612,8 +613,8 @@ def with_pair_flags(result: IdentificationResult, data: BandData, judged: np.nda
     if data.Hc.shape[0] >= th.min_shape_channels or judged.size == 0:
         return result
     flags = np.zeros(judged.size, dtype=int)
-    for i, j in close_pairs(judged, th):
-        if peaks_apart(data.freq_hz, data.Hc, judged[i], judged[j], th):
+    for i, j in close_pairs(judged, thresholds=th):
+        if peaks_apart(data.freq_hz, data.Hc, judged[i], judged[j], thresholds=th):
             continue
         if calibration is not None and calibration.calibrated and pair_significance(
                 data.freq_hz, data.Hc, judged, i, j, data.quantity,
@@ -634,5 +635,5 @@ def with_not_kept(result: IdentificationResult, data: BandData, rejected: list[n
         return result
     not_kept_hz, not_kept_frfs = resonances_not_kept(data.freq_hz, data.Hc,
                                                      np.concatenate(rejected), kept,
-                                                     data.thresholds)
+                                                     thresholds=data.thresholds)
     return replace(result, not_kept_hz=not_kept_hz, not_kept_frfs=not_kept_frfs)

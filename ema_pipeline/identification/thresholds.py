@@ -36,6 +36,8 @@ _ABOVE_ZERO = frozenset({
     "min_members", "expect_min_members", "young_min_members", "diagram_orders",
     "window_modes", "window_step", "window_min_lines", "local_min_lines", "min_frfs",
     "alternate_min_frfs", "alternate_peak_lines", "pair_significance_level", "pair_max_gap",
+    "max_poles", "local_max_fraction", "local_cap_min_lines", "local_band_min_lines",
+    "residual_contrast_widths",
 })
 #: Fields that are fractions, levels of the MAC or the MPC, or damping ratios: at most 1.
 _AT_MOST_ONE = frozenset({
@@ -139,9 +141,14 @@ class SelectionThresholds:
     fragment_tol_zeta: float = 0.3
     #: ... and one starts within this many computed orders of the other's end.
     fragment_max_gap: int = 3
-    #: An expected frequency is answered by the candidate nearest to it within
-    #: this relative distance
-    #: (:func:`~ema_pipeline.identification.selection.trajectories.select_expected`).
+    #: An expected frequency (``expect_hz``) is answered by the candidate
+    #: nearest to it within this relative distance
+    #: (:func:`~ema_pipeline.identification.selection.trajectories.select_expected`),
+    #: and a guess that no kept mode answers within it is reported not found
+    #: (:func:`~ema_pipeline.identification.selection.expect.match_expected`: the
+    #: warning and the empty row of the modes table; the sdypy-lscf backend
+    #: keeps only the poles that answer a guess within it). One tolerance for
+    #: both: a guess whose kept mode lies within it is never also "not found".
     expect_tol: float = 0.15
 
     # ------------------------------------------------ adaptive order search
@@ -176,6 +183,11 @@ class SelectionThresholds:
     #: A diagram holds at most this many orders, evenly spaced (the companion
     #: eigenvalues, O(sum n^3), dominate the cost at high order).
     diagram_orders: int = 40
+    #: The companion matrix of a pLSCF diagram has at most this many rows
+    #: (poles): the order is held to max_poles / n_in
+    #: (:func:`~ema_pipeline.identification.diagram.resources.order_cap`, which
+    #: also bounds the adaptive search and the memory check).
+    max_poles: int = 480
     #: A band whose top is more than this times its bottom is searched once more
     #: in its lowest 1/zoom_ratio (pLSCF's time step follows the band top, so
     #: the poles of low modes in a wide band crowd near z = 1 and are poorly
@@ -210,6 +222,16 @@ class SelectionThresholds:
     #: the refinement on half of it).
     local_half_width: float = 12.0
     local_min_lines: int = 40
+    #: ... but at most this fraction of the mode's frequency on each side (a
+    #: low mode's band stays clear of 0 Hz) ...
+    local_max_fraction: float = 0.2
+    #: ... where that cap still leaves more than this many lines (else the
+    #: band of ``local_half_width`` and ``local_min_lines`` stands) ...
+    local_cap_min_lines: int = 13
+    #: ... and a local band of fewer than this many lines is not fitted (the
+    #: mode has no local problem:
+    #: :func:`~ema_pipeline.identification.refinement.local_band.local_problem`).
+    local_band_min_lines: int = 12
     #: The split fit of a close partner uses +-this many half-power bandwidths.
     split_half_width: float = 6.0
     #: A refined pole that moves by more than this many decay rates (plus one
@@ -350,10 +372,13 @@ class SelectionThresholds:
     #: peaks of a few thousand lines; missed modes of the hard cases 10-60.
     residual_peak_ratio: float = 8.0
     #: ... and at least this many times the median of its surroundings (the
-    #: lines 1-4 peak widths plus 20 lines away): missed modes of the hard cases
+    #: lines 1 to ``residual_contrast_widths`` peak widths plus
+    #: ``residual_contrast_lines`` lines away): missed modes of the hard cases
     #: stand 5-30 times above theirs, the spikes of a noisy stretch (the top of
     #: the paper's simulated axis, at the anti-alias filter) 1.3-1.8 times.
     residual_peak_contrast: float = 3.0
+    residual_contrast_widths: int = 4
+    residual_contrast_lines: int = 20
     #: At most this many residual peaks (the highest) are tried per band.
     max_residual_peaks: int = 6
 

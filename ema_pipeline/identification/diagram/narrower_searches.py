@@ -64,7 +64,7 @@ def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None
 
 
 def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
-                      thresholds: SelectionThresholds | None = None) -> np.ndarray:
+                      *, thresholds: SelectionThresholds) -> np.ndarray:
     """Per pole: at least ``alternate_min_frfs`` of the FRFs ``H`` (n_ch, n_freq)
     show a peak of their own within ``alternate_peak_lines`` lines of its natural frequency
     (:func:`~ema_pipeline.identification.selection.not_kept.visible_peaks`). An
@@ -82,7 +82,7 @@ def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
     >>> shown_by_the_frfs(f, H, np.array([lam, -0.5 + 2j * np.pi * 70.0])).tolist()
     [True, False]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     pole = np.asarray(pole, dtype=complex)
     if pole.size == 0:
         return np.zeros(0, dtype=bool)
@@ -93,7 +93,7 @@ def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
 
 
 def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
-                 thresholds: SelectionThresholds | None = None) -> np.ndarray:
+                 *, thresholds: SelectionThresholds) -> np.ndarray:
     """Per pole (n, 2) int: how many of the narrower searches ``searched``
     (their bands in Hz and candidates: the first two entries of each
     :data:`~ema_pipeline.identification.diagram.order_search.SearchedBand`) hold it
@@ -111,7 +111,7 @@ def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
     >>> band_support(lam, [((50.0, 200.0), cand, None), ((90.0, 160.0), None, None)]).tolist()
     [[2, 1], [2, 0]]
     """
-    margin = (thresholds or SelectionThresholds()).band_support_margin
+    margin = thresholds.band_support_margin
     fd = pole_fd_hz(np.asarray(pole))
     out = np.zeros((fd.size, 2), dtype=int)
     for entry in searched:
@@ -155,7 +155,7 @@ def searches_turned_off(options: IdentificationOptions, band_hz: tuple[float, fl
     what = []
     if hi >= th.zoom_ratio * lo:
         what.append(f"the band's lowest 1/{th.zoom_ratio:g}")
-    if options.window_searches and mode_windows(np.asarray(fn_hz, float), (lo, hi), th):
+    if options.window_searches and mode_windows(np.asarray(fn_hz, float), (lo, hi), thresholds=th):
         what.append("the windows of a dense band")
     if not what:
         return ""

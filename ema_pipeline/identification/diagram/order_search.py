@@ -69,7 +69,7 @@ from ema_pipeline.modal import pole_fd_hz, poles_overlap
 from ema_pipeline.threads import Mapper, SerialMap, map_costliest_first
 
 
-def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarray:
+def diagram_orders(p: int, n_in: int, max_orders: int) -> np.ndarray:
     """Orders of one diagram: every order (every second for one reference, whose
     odd orders only add a real pole) up to ``max_orders`` of them (default
     ``SelectionThresholds.diagram_orders``), else that many evenly spaced up to
@@ -80,8 +80,6 @@ def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarr
     >>> diagram_orders(10, 1).tolist(), diagram_orders(200, 2, 4).tolist()
     ([2, 4, 6, 8, 10], [1, 67, 134, 200])
     """
-    if max_orders is None:
-        max_orders = SelectionThresholds().diagram_orders
     step = 2 if n_in == 1 else 1
     orders = np.arange(step, p + 1, step)
     if orders.size > max_orders:
@@ -96,7 +94,8 @@ def young_trajectories(
     selected: SelectedPoles,
     band_hz: tuple[float, float],
     window_decay_rate: float,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """Last poles of the trajectories that are still young: alive at the last
     order, at least ``young_min_members`` members, physical (0 < zeta <
@@ -114,7 +113,7 @@ def young_trajectories(
     >>> young_trajectories(ps, track_poles(ps), none, (1.0, 190.0), 0.0).size
     1
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     p = int(poles.orders[-1])
     last = np.flatnonzero(poles.order == p)
     ids, counts = np.unique(traj, return_counts=True)
@@ -147,7 +146,7 @@ class OrderSearch:
     min_peak: float
     min_fraction: float
     expect: bool
-    thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
+    thresholds: SelectionThresholds
     tolerances: tuple[float, float, float] | None = None
     #: worker processes for the diagrams' eigenvalues and the windows'
     #: searches (:func:`ema_pipeline.threads.process_map`; None: this process)
@@ -194,7 +193,7 @@ class OrderSearch:
             # a band of few lines allows few orders (46 lines at one reference:
             # orders 2-10): a mode stable from the second of them on still counts
             members = min(min_members, max(orders.size - 1, 2))
-            traj = link_fragments(poles, track_poles(poles, self.tolerances, th), decay,
+            traj = link_fragments(poles, track_poles(poles, self.tolerances, thresholds=th), decay,
                                   min_fraction=min_fraction, min_members=members,
                                   thresholds=th)
             sel = select_trajectories(
@@ -203,7 +202,7 @@ class OrderSearch:
                 min_members=members,
                 thresholds=th,
             )
-            sel = merge_coincident(sel, th)
+            sel = merge_coincident(sel, thresholds=th)
             if fixed:
                 rel, peak, snr = quick_significance(freq, Hn_c, sel.pole, thresholds=th)
                 screen = peak > min_peak
@@ -213,7 +212,7 @@ class OrderSearch:
                 best = (sel.subset(screen), traj, poles)
                 break
             # count only the modes the data determine (cheap screen, one linear fit)
-            young = young_trajectories(poles, traj, sel, (lo, hi), decay, th)
+            young = young_trajectories(poles, traj, sel, (lo, hi), decay, thresholds=th)
             rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]),
                                                 thresholds=th)
             ok = (rel < th.max_rel_sigma_std) & (peak > min_peak)
@@ -277,7 +276,7 @@ def search_window(
     if search.weights is not None:
         search = replace(search, weights=search.weights[..., lines])
     n_in = Hz.shape[1]
-    cap = order_cap(fz.size, n_in, window=True)
+    cap = order_cap(fz.size, n_in, search.thresholds.max_poles, window=True)
     try:
         zsel, _, _ = search.run(fz, Hz, window_hz, min(default_max_order(n_in, fz.size), cap),
                                 cap, fixed=False)
@@ -402,7 +401,7 @@ def without_merged(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPol
 
 
 def mode_windows(
-    fn_hz: np.ndarray, band: tuple[float, float], thresholds: SelectionThresholds | None = None
+    fn_hz: np.ndarray, band: tuple[float, float], *, thresholds: SelectionThresholds
 ) -> list[tuple[float, float]]:
     """Windows of ``window_modes`` consecutive candidate frequencies
     ``fn_hz`` inside ``band``, shifted by ``window_step``, each reaching to
@@ -415,7 +414,7 @@ def mode_windows(
     >>> mode_windows(np.arange(1.0, 15.0) * 10, (5.0, 145.0))
     [(5.0, 105.0), (45.0, 145.0)]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     lo, hi = band
     f = np.sort(fn_hz[(fn_hz > lo) & (fn_hz < hi)])
     n = f.size
@@ -452,7 +451,7 @@ def add_window_modes(
     >>> sel.pole.size, searched
     (0, [])
     """
-    windows = mode_windows(pole_fd_hz(sel.pole), band, search.thresholds)
+    windows = mode_windows(pole_fd_hz(sel.pole), band, thresholds=search.thresholds)
     # the windows' searches are independent: side by side in the worker
     # processes of search.map_, folded in in the windows' order as a serial
     # loop would

@@ -326,7 +326,7 @@ def refine_poles(
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
     map_: Mapper | None = None,
     modes: Sequence[int] | np.ndarray | None = None,
 ) -> RefinedPoles:
@@ -367,7 +367,7 @@ def refine_poles(
         own (the other poles are its start values), so a refined mode has the
         numbers it has when all are refined.
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     half_width = th.local_half_width if half_width is None else half_width
     return _refine(freq_hz, H, poles, half_width, max_iter, quantity, window_tau_s,
                    force_window_s, th, covariance=True, map_=map_, modes=modes)
@@ -400,7 +400,7 @@ class LocalFits:
         freq_hz, H, poles = self.freq_hz, self.H, self.poles
         df = freq_hz[1] - freq_hz[0]
         local = local_problem(freq_hz, H, poles, r, self.half_width, th.local_min_lines,
-                              self.a_all)
+                              self.a_all, thresholds=th)
         if local is None:
             return None
         f, Y, members, background, k, band = local
@@ -466,7 +466,7 @@ def local_residues(
     poles: np.ndarray,
     a_all: np.ndarray,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Each mode's residues from its own local band: a local LSFD.
 
@@ -520,13 +520,13 @@ def local_residues(
     >>> mac_pairs(a_loc.T, a[:2].T).round(6), bool(local.all())
     (array([1., 1.]), True)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     freq_hz = np.asarray(freq_hz, dtype=float)
     a = np.array(a_all, dtype=complex, copy=True)
     local = np.zeros(poles.size, dtype=bool)
     for r in range(poles.size):
         problem = local_problem(freq_hz, H, poles, r, th.local_half_width, th.local_min_lines,
-                                a_all)
+                                a_all, thresholds=th)
         if problem is None:
             continue
         f, Y, members, background, k, _ = problem
@@ -549,7 +549,7 @@ def band_sensitivity(
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
     map_: Mapper | None = None,
 ) -> np.ndarray:
     """Model-choice covariance of refined poles, (n_modes, 2, 2) in (sigma, omega_d).
@@ -577,7 +577,7 @@ def band_sensitivity(
     >>> float(np.abs(band_sensitivity(f, H, lam, quantity="receptance")).max()) < 1e-6
     True
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     half_width = th.local_half_width / 2 if half_width is None else half_width
     # the poles only: the narrower fit's covariance is not used
     other = _refine(freq_hz, H, poles, half_width, 10, quantity, window_tau_s, force_window_s,

@@ -141,7 +141,7 @@ def add_found(
 def refit_kept(
     found: Candidates,
     retest: Callable[[SelectedPoles, np.ndarray, np.ndarray], tuple[RefinedPoles, np.ndarray]],
-    rounds: int = SelectionThresholds.refit_rounds,
+    rounds: int,
 ) -> Candidates:
     """``found``'s kept candidates refined and tested again without those that
     failed (``retest`` as in :func:`add_found`), repeated while some fail.
@@ -185,7 +185,7 @@ def unseen_candidates(pole: np.ndarray, found_by: str = "residual") -> SelectedP
 
 
 def decay_determined(pole: np.ndarray, cov: np.ndarray,
-                     thresholds: SelectionThresholds | None = None) -> np.ndarray:
+                     *, thresholds: SelectionThresholds) -> np.ndarray:
     """True where the decay rate sigma = -Re(pole) is determined:
     std(sigma) / sigma < ``thresholds.max_rel_decay_std``; ``cov`` (n, 2, 2)
     is the covariance of (Re, Im) of each pole, in (rad/s)^2.
@@ -199,12 +199,12 @@ def decay_determined(pole: np.ndarray, cov: np.ndarray,
     """
     with np.errstate(invalid="ignore", divide="ignore"):
         rel = np.sqrt(np.asarray(cov)[:, 0, 0]) / np.abs(np.real(pole))
-    limit = (thresholds or SelectionThresholds()).max_rel_decay_std
+    limit = thresholds.max_rel_decay_std
     return np.asarray(np.nan_to_num(rel, nan=np.inf) < limit)
 
 
 def inside_band(freq_hz: np.ndarray, pole: np.ndarray,
-                thresholds: SelectionThresholds | None = None) -> np.ndarray:
+                *, thresholds: SelectionThresholds) -> np.ndarray:
     """True where the damped natural frequency of ``pole`` lies inside the band
     of the lines ``freq_hz`` less the fractions ``thresholds.band_edge`` of its
     width at the bottom and the top, as the selection asks of a trajectory: a
@@ -218,7 +218,7 @@ def inside_band(freq_hz: np.ndarray, pole: np.ndarray,
     >>> inside_band(f, 2j * np.pi * np.array([150.0, 395.0, 405.0])).tolist()
     [True, False, False]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     lo, hi = float(freq_hz[0]), float(freq_hz[-1])
     fd = pole_fd_hz(np.asarray(pole))
     return np.asarray((fd > lo + th.band_edge[0] * (hi - lo))
@@ -234,7 +234,8 @@ def final_tests(
     n_orders: np.ndarray | None = None,
     partner: np.ndarray | None = None,
     strict: np.ndarray | None = None,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """Which ``refined`` poles are modes (thresholds of ``thresholds``): their decay rate is
     determined (:func:`decay_determined`), they are resonances
@@ -262,14 +263,14 @@ def final_tests(
     >>> final_tests(f, H, H, ref, "receptance").tolist()
     [True]
     """
-    keep = decay_determined(refined.pole, refined.cov, thresholds) & inside_band(
-        freq_hz, refined.pole, thresholds)
+    keep = decay_determined(refined.pole, refined.cov, thresholds=thresholds) & inside_band(
+        freq_hz, refined.pole, thresholds=thresholds)
     by_shape = None if strict is None else ~strict[keep]
     keep[keep] = resonant(freq_hz, Hn, refined.pole[keep], quantity, by_shape=by_shape,
                           thresholds=thresholds)
     if partner is not None:
-        keep |= decay_determined(refined.pole, refined.cov, thresholds) & partner & inside_band(
-            freq_hz, refined.pole, thresholds)
+        keep |= (decay_determined(refined.pole, refined.cov, thresholds=thresholds) & partner
+                 & inside_band(freq_hz, refined.pole, thresholds=thresholds))
     return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders,
                                   thresholds=thresholds)
 
@@ -322,11 +323,11 @@ class SplitCalibration:
     def calibrated(self) -> bool:
         if self.search is None:
             return False
-        return f_test_calibrated(self.significances(), self.search.thresholds)
+        return f_test_calibrated(self.significances(), thresholds=self.search.thresholds)
 
 
 def f_test_calibrated(significance: np.ndarray,
-                      thresholds: SelectionThresholds | None = None) -> bool:
+                      *, thresholds: SelectionThresholds) -> bool:
     """Whether the F test of :func:`pair_significance` sees only the noise
     on a file: the median of the ``significance`` of every kept mode's split
     fit (a second pole beside each, NaN where none was fitted) is below
@@ -340,7 +341,7 @@ def f_test_calibrated(significance: np.ndarray,
     >>> f_test_calibrated(np.array([0.3, 0.5, 40.0])), f_test_calibrated(np.array([5.8, 0.4, 9.0]))
     (True, False)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     sig = np.asarray(significance, dtype=float)
     if not np.isfinite(sig).any():
         return False
@@ -355,7 +356,7 @@ def close_partners(
     *,
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
     map_: Mapper | None = None,
 ) -> ClosePartners:
     """Poles of close modes hidden in the resonances of the kept ``pole``: for
@@ -388,7 +389,7 @@ def close_partners(
     >>> (found.pole.imag / (2 * np.pi)).round(2).tolist(), found.calibrated
     ([100.6], False)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     none = ClosePartners(np.zeros(0, complex), SplitCalibration(None, (), None))
     if pole.size == 0:
         return none
@@ -444,11 +445,12 @@ class PartnerSearch:
         few = self.H.shape[0] < th.min_shape_channels
         a, b = fit.pole
         if fit.residual_ratio > th.partner_max_residual_ratio or abs(a.imag - b.imag) < 0.5 * (
-                abs(a.real) + abs(b.real)) or not np.all(decay_determined(fit.pole, fit.cov, th)):
+                abs(a.real) + abs(b.real)) or not np.all(
+                    decay_determined(fit.pole, fit.cov, thresholds=th)):
             return Split(None, lam if few else None, float("nan"))
         if few:  # no shape: the fit must prefer two poles
             return Split(complex(b), lam, self.significance(lam))
-        if pair_is_real(self.freq_hz, self.H, lam, self.quantity, th):
+        if pair_is_real(self.freq_hz, self.H, lam, self.quantity, thresholds=th):
             return Split(complex(b), None, float("nan"))
         return Split(None, None, float("nan"))
 
@@ -512,7 +514,7 @@ def pair_significance(
     quantity: str | None,
     *,
     window_tau_s: float | None = None,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> float:
     """How strongly the data prefer the two poles ``pole[a]``, ``pole[b]`` to
     one pole: the F statistic of the local problem with both (of the pole
@@ -548,11 +550,11 @@ def pair_significance(
     >>> bool(pair_significance(f, one, lam, 0, 1, None) < 1)
     True
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     a_all = global_residues(freq_hz, H, pole, quantity)
     for r, other in ((a, b), (b, a)):
         local = local_problem(freq_hz, H, pole, r, th.split_half_width, th.local_min_lines,
-                              a_all)
+                              a_all, thresholds=th)
         if local is None:
             return float("nan")
         f, Y, members, background, _, _ = local
@@ -590,7 +592,7 @@ def pair_significance(
 
 
 def peaks_apart(freq_hz: np.ndarray, H: np.ndarray, pa: complex, pb: complex,
-                thresholds: SelectionThresholds | None = None) -> bool:
+                *, thresholds: SelectionThresholds) -> bool:
     """True when an FRF of ``H`` (n_ch, n_freq) shows the poles ``pa`` and
     ``pb`` as two peaks: a local maximum of |H| within each pole's
     half-power half-width (at least its nearest line) and between them a
@@ -606,7 +608,7 @@ def peaks_apart(freq_hz: np.ndarray, H: np.ndarray, pa: complex, pb: complex,
     >>> peaks_apart(f, H, lam[0], lam[1]), peaks_apart(f, H, lam[0], lam[2])
     (True, False)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     lo, hi = sorted([pa, pb], key=lambda p: p.imag)
     df = freq_hz[1] - freq_hz[0]
 
@@ -629,7 +631,7 @@ def peaks_apart(freq_hz: np.ndarray, H: np.ndarray, pa: complex, pb: complex,
 
 
 def close_pairs(pole: np.ndarray,
-                thresholds: SelectionThresholds | None = None) -> list[tuple[int, int]]:
+                *, thresholds: SelectionThresholds) -> list[tuple[int, int]]:
     """Neighbours (i, j), ascending frequency, of the poles ``pole`` that lie
     within ``thresholds.pair_max_gap`` times the sum of their half-power
     half-widths of each other (indices into ``pole``).
@@ -641,7 +643,7 @@ def close_pairs(pole: np.ndarray,
     >>> close_pairs(lam)
     [(0, 1)]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     order = np.argsort(pole.imag)
     fd, hw = pole_fd_hz(pole), pole_half_width_hz(pole)
     return [(int(i), int(j)) for i, j in zip(order[:-1], order[1:], strict=True)
@@ -654,7 +656,7 @@ def unsupported_partners(
     pole: np.ndarray,
     quantity: str,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Of each close pair (:func:`close_pairs`) of the kept ``pole`` that the
     data do not prefer to one pole (:func:`pair_significance` below 1, judged
@@ -683,13 +685,13 @@ def unsupported_partners(
     >>> drop.tolist(), merged.tolist()
     ([False, True], [True, False])
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     drop, merged = np.zeros(pole.size, bool), np.zeros(pole.size, bool)
     if H.shape[0] >= th.min_shape_channels or pole.size < 2:
         return drop, merged
     snr = None
-    for i, j in close_pairs(pole, th):
-        if drop[i] or drop[j] or peaks_apart(freq_hz, H, pole[i], pole[j], th):
+    for i, j in close_pairs(pole, thresholds=th):
+        if drop[i] or drop[j] or peaks_apart(freq_hz, H, pole[i], pole[j], thresholds=th):
             continue
         sig = pair_significance(freq_hz, H, pole, i, j, quantity, thresholds=th)
         if not sig < 1.0:  # significant, or not judged (NaN)
@@ -702,7 +704,7 @@ def unsupported_partners(
 
 
 def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str,
-                 thresholds: SelectionThresholds | None = None) -> bool:
+                 *, thresholds: SelectionThresholds) -> bool:
     """True when the last two of ``pole`` have nearly real shapes (MPC >=
     ``thresholds.partner_min_mpc``) in one global LSFD of all of them or, failing
     that, each in its own local fit
@@ -721,7 +723,7 @@ def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity:
     >>> pair_is_real(f, real, lam, "receptance"), pair_is_real(f, cplx, lam, "receptance")
     (True, False)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     for shapes_of in (lambda: lsfd(freq_hz, H, pole, quantity).a,
                       lambda: local_shapes(freq_hz, H, pole, quantity=quantity, thresholds=th)):
         try:
@@ -739,7 +741,8 @@ def resonant(
     pole: np.ndarray,
     quantity: str = "accelerance",
     by_shape: np.ndarray | None = None,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """True for poles that are resonances of the data: own peak ratio at least
     ``weak_peak_ratio``, or peak SNR at least ``min_weak_peak_snr``
@@ -763,7 +766,7 @@ def resonant(
     >>> resonant(f, H, lam, "receptance").tolist()
     [True, False]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     shape_ok = np.ones(pole.size, bool) if by_shape is None else np.asarray(by_shape, bool)
     if H.shape[0] < th.min_shape_channels and np.all(shape_ok):
         return np.ones(pole.size, bool)
@@ -776,7 +779,7 @@ def resonant(
     # complex or real: a clear peak whose own term explains its local residual
     ask = ~ok & shape_ok & (snr >= th.complex_min_snr)
     if ask.any():
-        drop = np.nan_to_num(residual_drop(freq_hz, H, pole, quantity, th, only=ask))
+        drop = np.nan_to_num(residual_drop(freq_hz, H, pole, quantity, thresholds=th, only=ask))
         ok |= ask & (drop >= th.complex_min_residual_drop)
         if np.all(ok | ~shape_ok):
             return np.asarray(ok)
@@ -792,7 +795,8 @@ def residual_drop(
     H: np.ndarray,
     pole: np.ndarray,
     quantity: str | None = "accelerance",
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
     only: np.ndarray | None = None,
 ) -> np.ndarray:
     """For each pole (of those marked ``only``, when given; NaN for the
@@ -819,12 +823,12 @@ def residual_drop(
     >>> bool(drop[0] > 100), bool(drop[1] < 1.5)
     (True, True)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     a_all = global_residues(freq_hz, H, pole, quantity)
     out = np.full(pole.size, np.nan)
     for r in np.flatnonzero(np.ones(pole.size, bool) if only is None else only).tolist():
         local = local_problem(freq_hz, H, pole, r, th.local_half_width, th.local_min_lines,
-                              a_all)
+                              a_all, thresholds=th)
         if local is None:
             continue
         f, Y, members, background, k, _ = local
@@ -846,7 +850,8 @@ def distinct_shapes(
     quantity: str,
     keep: np.ndarray,
     n_orders: np.ndarray | None = None,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """``keep`` less duplicates: of two kept poles that coincide within their
     half-power bands and have parallel LSFD shapes (MAC >
@@ -865,7 +870,7 @@ def distinct_shapes(
     >>> distinct_shapes(f, H, lam, "receptance", np.array([True, True])).sum()
     np.int64(1)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     out = keep.copy()
     idx = np.flatnonzero(keep)
     if idx.size < 2:

@@ -34,7 +34,8 @@ from ema_pipeline.modal import mac, poles_overlap
 def track_poles(
     poles: PoleSet,
     tolerances: tuple[float, float, float] | None = None,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """Trajectory label of every pole of ``poles`` (sorted by order).
 
@@ -59,7 +60,7 @@ def track_poles(
     >>> track_poles(ps).tolist()
     [0, 0, 1, 0]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     tol_freq, tol_zeta, tol_mac = tolerances or (th.link_tol_freq, th.link_tol_zeta,
                                                  th.link_tol_mac)
     max_gap = th.link_max_gap
@@ -110,9 +111,9 @@ def link_fragments(
     traj: np.ndarray,
     window_decay_rate: float = 0.0,
     *,
-    min_fraction: float = 0.3,
-    min_members: int = 6,
-    thresholds: SelectionThresholds | None = None,
+    min_fraction: float,
+    min_members: int,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """``traj`` with the pieces of one heavily damped mode's trajectory joined.
 
@@ -141,7 +142,7 @@ def link_fragments(
     >>> len(set(tr.tolist())), len(set(link_fragments(ps, tr).tolist()))  # 3 + 3 < 6 members
     (2, 1)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     min_zeta, tol_zeta, max_gap = th.fragment_min_zeta, th.fragment_tol_zeta, th.fragment_max_gap
     ids, inv, counts = np.unique(traj, return_inverse=True, return_counts=True)
     if ids.size < 2:
@@ -196,9 +197,9 @@ def select_trajectories(
     band_hz: tuple[float, float],
     window_decay_rate: float = 0.0,
     *,
-    min_fraction: float = 0.1,
-    min_members: int = 6,
-    thresholds: SelectionThresholds | None = None,
+    min_fraction: float,
+    min_members: int,
+    thresholds: SelectionThresholds,
 ) -> SelectedPoles:
     """The trajectories that are physical modes, ascending frequency.
 
@@ -226,7 +227,7 @@ def select_trajectories(
     >>> (sel.pole.imag / (2 * np.pi)).round(1).tolist(), sel.n_members.tolist()
     ([50.0], [10])
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     edge, zeta_max, max_scatter = th.band_edge, th.max_zeta, th.max_scatter
     n_orders = poles.orders.size
     need = max(min_members, int(np.ceil(min_fraction * n_orders)))
@@ -268,7 +269,7 @@ def _selected(rows: list[tuple]) -> SelectedPoles:
     )
 
 
-def merge_coincident(sel: SelectedPoles, thresholds: SelectionThresholds | None = None
+def merge_coincident(sel: SelectedPoles, *, thresholds: SelectionThresholds
                      ) -> SelectedPoles:
     """Drop a trajectory whose pole lies within ``thresholds.coincident_rel``
     of a decay rate of the
@@ -283,7 +284,7 @@ def merge_coincident(sel: SelectedPoles, thresholds: SelectionThresholds | None 
     >>> merge_coincident(sel).pole.imag.tolist()
     [100.0, 110.0]
     """
-    rel = (thresholds or SelectionThresholds()).coincident_rel
+    rel = thresholds.coincident_rel
     pole = sel.pole
     keep = np.ones(pole.size, bool)
     for a in np.argsort(-sel.n_members, kind="stable"):
@@ -300,7 +301,7 @@ def select_expected(
     expect_hz: np.ndarray,
     window_decay_rate: float = 0.0,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> SelectedPoles:
     """For each expected frequency the candidate trajectory nearest to it
     (relative distance < ``thresholds.expect_tol``, the longer one when equally near),
@@ -318,7 +319,7 @@ def select_expected(
     >>> (select_expected(sel, np.array([20.0, 52.0])).pole.imag / (2 * np.pi)).round(1).tolist()
     [50.0]
     """
-    expect_tol = (thresholds or SelectionThresholds()).expect_tol
+    expect_tol = thresholds.expect_tol
     fn, _, _ = pole_to_modal(candidates.pole, window_decay_rate)
     chosen: list[int] = []
     for fe in np.atleast_1d(np.asarray(expect_hz, dtype=float)):
@@ -338,7 +339,7 @@ def expected_from_automatic(
     auto_start: np.ndarray,
     window_decay_rate: float = 0.0,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> tuple[SelectedPoles, np.ndarray]:
     """The expected candidates with the automatic selection's modes put in.
 
@@ -365,7 +366,7 @@ def expected_from_automatic(
     >>> (rows.pole.imag / (2 * np.pi)).round(1).tolist(), rows.cluster.tolist(), rest.tolist()
     ([50.0, 80.0], [0, 1], [0])
     """
-    expect_tol = (thresholds or SelectionThresholds()).expect_tol
+    expect_tol = thresholds.expect_tol
     fn_e, _, _ = pole_to_modal(expected.pole, window_decay_rate)
     used_a = np.zeros(auto_fn_hz.size, bool)
     used_e = np.zeros(expected.pole.size, bool)
