@@ -75,11 +75,12 @@ def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(0.0, 100.0, 401)
     >>> jw = 2j * np.pi * f
     >>> lam = -0.5 + 2j * np.pi * 40.0
     >>> H = np.tile(1 / (jw - lam) + 1 / (jw - np.conj(lam)), (2, 1))
-    >>> shown_by_the_frfs(f, H, np.array([lam, -0.5 + 2j * np.pi * 70.0])).tolist()
+    >>> shown_by_the_frfs(f, H, np.array([lam, -0.5 + 2j * np.pi * 70.0]), thresholds=th).tolist()
     [True, False]
     """
     th = thresholds
@@ -105,10 +106,12 @@ def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> cand = SelectedPoles(np.array([-1 + 2j * np.pi * 100.2]), np.zeros(1, int),
     ...                      np.ones(1, int), np.zeros(1), np.zeros(1), np.zeros(1, int))
     >>> lam = np.array([-2 + 2j * np.pi * 100.0, -2 + 2j * np.pi * 150.0])
-    >>> band_support(lam, [((50.0, 200.0), cand, None), ((90.0, 160.0), None, None)]).tolist()
+    >>> searched = [((50.0, 200.0), cand, None), ((90.0, 160.0), None, None)]
+    >>> band_support(lam, searched, thresholds=th).tolist()
     [[2, 1], [2, 0]]
     """
     margin = thresholds.band_support_margin

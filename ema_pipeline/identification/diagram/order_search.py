@@ -77,7 +77,7 @@ def diagram_orders(p: int, n_in: int, max_orders: int) -> np.ndarray:
 
     Examples
     --------
-    >>> diagram_orders(10, 1).tolist(), diagram_orders(200, 2, 4).tolist()
+    >>> diagram_orders(10, 1, 40).tolist(), diagram_orders(200, 2, 4).tolist()
     ([2, 4, 6, 8, 10], [1, 67, 134, 200])
     """
     step = 2 if n_in == 1 else 1
@@ -105,12 +105,14 @@ def young_trajectories(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> order = np.array([2, 4, 6, 6])
     >>> lam = np.array([-1 + 300j, -1 + 300j, -1 + 300j, -1 + 600j])
     >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((4, 1), complex),
     ...              orders=np.array([2, 4, 6]), dt=1 / 400)
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> young_trajectories(ps, track_poles(ps), none, (1.0, 190.0), 0.0).size
+    >>> traj = track_poles(ps, thresholds=th)
+    >>> young_trajectories(ps, traj, none, (1.0, 190.0), 0.0, thresholds=th).size
     1
     """
     th = thresholds
@@ -265,7 +267,8 @@ def search_window(
 
     Examples
     --------
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
+    >>> th = SelectionThresholds()
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False, thresholds=th)
     >>> search_window(search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)) is None
     True
     """
@@ -359,8 +362,9 @@ def add_zoom_modes(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False, thresholds=th)
     >>> sel, searched = add_zoom_modes(none, search, np.arange(10.0, 60.0),
     ...                                np.ones((1, 1, 50)), (10, 60))
     >>> sel.pole.size, searched
@@ -411,7 +415,8 @@ def mode_windows(
 
     Examples
     --------
-    >>> mode_windows(np.arange(1.0, 15.0) * 10, (5.0, 145.0))
+    >>> th = SelectionThresholds()
+    >>> mode_windows(np.arange(1.0, 15.0) * 10, (5.0, 145.0), thresholds=th)
     [(5.0, 105.0), (45.0, 145.0)]
     """
     th = thresholds
@@ -444,8 +449,9 @@ def add_window_modes(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False, thresholds=th)
     >>> f = np.arange(10.0, 60.0)
     >>> sel, searched = add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60))
     >>> sel.pole.size, searched

@@ -61,12 +61,13 @@ def quick_significance(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
     >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
-    >>> rel, peak, snr = quick_significance(f, H, lam)
+    >>> rel, peak, snr = quick_significance(f, H, lam, thresholds=th)
     >>> bool(rel[0] < 0.01), bool(peak[0] > 1), bool(snr[0] > 1e3)
     (True, True, True)
     """
@@ -135,11 +136,12 @@ def local_shapes(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
     >>> jw = 2j * np.pi * f
     >>> H = np.array([[1.0], [-2.0]]) * (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
-    >>> a = local_shapes(f, H, lam, quantity=None)
+    >>> a = local_shapes(f, H, lam, quantity=None, thresholds=th)
     >>> np.round(a[0] / a[0, 0], 6).tolist()
     [(1+0j), (-2+0j)]
     """
@@ -203,13 +205,14 @@ def split_fit(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(80.0, 120.0, 801)
     >>> lam = np.array([-3.0 + 2j * np.pi * 100.0, -3.0 + 2j * np.pi * 100.6])
     >>> jw = 2j * np.pi * f
     >>> H = np.stack([1 / (jw - lam[0]) + 0.5 / (jw - lam[1]),
     ...               1 / (jw - lam[0]) - 0.5 / (jw - lam[1])])
     >>> H = H + 1e-5 * np.random.default_rng(0).standard_normal(H.shape)
-    >>> fit = split_fit(f, H, lam[:1], 0, quantity=None)
+    >>> fit = split_fit(f, H, lam[:1], 0, quantity=None, thresholds=th)
     >>> np.sort(fit.pole.imag / (2 * np.pi)).round(2).tolist(), fit.residual_ratio < 0.01
     ([100.0, 100.6], True)
     """

@@ -506,6 +506,7 @@ def local_residues(
     only roughly: the global fit's shape of the 20 Hz mode has MAC 0.84 with
     the truth and MPC 0.49, the local one is exact.
 
+    >>> th = SelectionThresholds()
     >>> from ema_pipeline.identification.refinement.lsfd import lsfd, mpc
     >>> from ema_pipeline.modal import mac_pairs
     >>> f = np.arange(1.0, 281.0)
@@ -514,7 +515,7 @@ def local_residues(
     >>> jw = 2j * np.pi * f[:, None]
     >>> H = (1 / (jw - lam) @ a + 1 / (jw - lam.conj()) @ a.conj()).T  # (6, 280)
     >>> a_all = lsfd(f, H, lam[:2], "receptance").a
-    >>> a_loc, local = local_residues(f, H, lam[:2], a_all)
+    >>> a_loc, local = local_residues(f, H, lam[:2], a_all, thresholds=th)
     >>> mac_pairs(a_all.T, a[:2].T).round(2), mpc(a_all.T).round(2)
     (array([0.84, 1.  ]), array([0.49, 1.  ]))
     >>> mac_pairs(a_loc.T, a[:2].T).round(6), bool(local.all())
@@ -570,11 +571,13 @@ def band_sensitivity(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 801)
     >>> lam = np.array([-3.0 + 2j * np.pi * 100.0])
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam) + 1 / (jw - lam.conj()))[None] + 1e-4 * jw[None] ** 0
-    >>> float(np.abs(band_sensitivity(f, H, lam, quantity="receptance")).max()) < 1e-6
+    >>> shift = band_sensitivity(f, H, lam, quantity="receptance", thresholds=th)
+    >>> float(np.abs(shift).max()) < 1e-6
     True
     """
     th = thresholds

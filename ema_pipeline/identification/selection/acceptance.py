@@ -157,7 +157,7 @@ def refit_kept(
     --------
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
     >>> empty = Candidates(none, None, np.zeros(0, bool), np.zeros(0, bool), np.zeros(0, bool))
-    >>> refit_kept(empty, None) is empty
+    >>> refit_kept(empty, None, SelectionThresholds().refit_rounds) is empty
     True
     """
     for _ in range(rounds):
@@ -192,9 +192,10 @@ def decay_determined(pole: np.ndarray, cov: np.ndarray,
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> pole = np.array([-2.0 + 600j, -2.0 + 900j])
     >>> cov = np.array([np.diag([0.1, 0.1]), np.diag([2.5, 2.5])])  # std 0.32 and 1.6 rad/s
-    >>> decay_determined(pole, cov).tolist()
+    >>> decay_determined(pole, cov, thresholds=th).tolist()
     [True, False]
     """
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -214,8 +215,9 @@ def inside_band(freq_hz: np.ndarray, pole: np.ndarray,
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(100.0, 400.0, 301)
-    >>> inside_band(f, 2j * np.pi * np.array([150.0, 395.0, 405.0])).tolist()
+    >>> inside_band(f, 2j * np.pi * np.array([150.0, 395.0, 405.0]), thresholds=th).tolist()
     [True, False, False]
     """
     th = thresholds
@@ -253,14 +255,15 @@ def final_tests(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.ones((3, 1))
     >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
     >>> from ema_pipeline.identification.refinement.refine import refine_poles
-    >>> ref = refine_poles(f, H, lam, quantity="receptance")
-    >>> final_tests(f, H, H, ref, "receptance").tolist()
+    >>> ref = refine_poles(f, H, lam, quantity="receptance", thresholds=th)
+    >>> final_tests(f, H, H, ref, "receptance", thresholds=th).tolist()
     [True]
     """
     keep = decay_determined(refined.pole, refined.cov, thresholds=thresholds) & inside_band(
@@ -338,7 +341,9 @@ def f_test_calibrated(significance: np.ndarray,
 
     Examples
     --------
-    >>> f_test_calibrated(np.array([0.3, 0.5, 40.0])), f_test_calibrated(np.array([5.8, 0.4, 9.0]))
+    >>> th = SelectionThresholds()
+    >>> (f_test_calibrated(np.array([0.3, 0.5, 40.0]), thresholds=th),
+    ...  f_test_calibrated(np.array([5.8, 0.4, 9.0]), thresholds=th))
     (True, False)
     """
     th = thresholds
@@ -379,13 +384,14 @@ def close_partners(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(80.0, 120.0, 801)
     >>> lam = np.array([-3.0 + 2j * np.pi * 100.0, -3.0 + 2j * np.pi * 100.6])
     >>> jw = 2j * np.pi * f
     >>> terms = [1 / (jw - p) + 1 / (jw - p.conj()) for p in lam]
     >>> H = np.stack([terms[0] + s * terms[1] for s in (0.5, -0.5, 0.3)])
     >>> H = H + 1e-6 * np.random.default_rng(0).standard_normal(H.shape)
-    >>> found = close_partners(f, H, lam[:1], "receptance")
+    >>> found = close_partners(f, H, lam[:1], "receptance", thresholds=th)
     >>> (found.pole.imag / (2 * np.pi)).round(2).tolist(), found.calibrated
     ([100.6], False)
     """
@@ -538,6 +544,7 @@ def pair_significance(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(80.0, 120.0, 401)
     >>> lam = np.array([-3.0 + 2j * np.pi * 99.0, -3.0 + 2j * np.pi * 101.0])
     >>> jw = 2j * np.pi * f
@@ -545,9 +552,9 @@ def pair_significance(
     >>> noise = 1e-3 * (rng.standard_normal((1, f.size)) + 1j * rng.standard_normal((1, f.size)))
     >>> two = (1 / (jw - lam[0]) + 0.7 / (jw - lam[1]))[None] + noise
     >>> one = (1 / (jw - lam[0]))[None] + noise
-    >>> bool(pair_significance(f, two, lam, 0, 1, None) > 10)
+    >>> bool(pair_significance(f, two, lam, 0, 1, None, thresholds=th) > 10)
     True
-    >>> bool(pair_significance(f, one, lam, 0, 1, None) < 1)
+    >>> bool(pair_significance(f, one, lam, 0, 1, None, thresholds=th) < 1)
     True
     """
     th = thresholds
@@ -601,11 +608,13 @@ def peaks_apart(freq_hz: np.ndarray, H: np.ndarray, pa: complex, pb: complex,
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(90.0, 110.0, 201)
     >>> jw = 2j * np.pi * f
     >>> lam = -1.0 + 2j * np.pi * np.array([99.0, 101.0, 99.3])
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[1]))[None]
-    >>> peaks_apart(f, H, lam[0], lam[1]), peaks_apart(f, H, lam[0], lam[2])
+    >>> (peaks_apart(f, H, lam[0], lam[1], thresholds=th),
+    ...  peaks_apart(f, H, lam[0], lam[2], thresholds=th))
     (True, False)
     """
     th = thresholds
@@ -638,9 +647,10 @@ def close_pairs(pole: np.ndarray,
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> lam = np.array([-1.0 + 2j * np.pi * 100.0, -1.0 + 2j * np.pi * 100.5,
     ...                 -1.0 + 2j * np.pi * 110.0])
-    >>> close_pairs(lam)
+    >>> close_pairs(lam, thresholds=th)
     [(0, 1)]
     """
     th = thresholds
@@ -675,13 +685,14 @@ def unsupported_partners(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(80.0, 120.0, 401)
     >>> lam = np.array([-3.0 + 2j * np.pi * 99.0, -3.0 + 2j * np.pi * 99.8])
     >>> jw = 2j * np.pi * f
     >>> rng = np.random.default_rng(2)
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
     >>> H = H + 1e-3 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
-    >>> drop, merged = unsupported_partners(f, H, lam, "receptance")
+    >>> drop, merged = unsupported_partners(f, H, lam, "receptance", thresholds=th)
     >>> drop.tolist(), merged.tolist()
     ([False, True], [True, False])
     """
@@ -716,11 +727,13 @@ def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity:
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(90.0, 110.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 99.0, -2.0 + 2j * np.pi * 101.0])
     >>> t0, t1 = (1 / (2j * np.pi * f - p) + 1 / (2j * np.pi * f - p.conj()) for p in lam)
     >>> real, cplx = np.stack([t0 + t1, t0 - t1, 2 * t0]), np.stack([t0 + t1, t0 + 1j * t1, t0])
-    >>> pair_is_real(f, real, lam, "receptance"), pair_is_real(f, cplx, lam, "receptance")
+    >>> (pair_is_real(f, real, lam, "receptance", thresholds=th),
+    ...  pair_is_real(f, cplx, lam, "receptance", thresholds=th))
     (True, False)
     """
     th = thresholds
@@ -758,12 +771,13 @@ def resonant(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 100.0, -2.0 + 2j * np.pi * 120.0])
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.ones((3, 1))
     >>> H = H + 1e-3 * np.random.default_rng(1).standard_normal(H.shape) * (1 + 1j)
-    >>> resonant(f, H, lam, "receptance").tolist()
+    >>> resonant(f, H, lam, "receptance", thresholds=th).tolist()
     [True, False]
     """
     th = thresholds
@@ -814,12 +828,13 @@ def residual_drop(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 100.0, -2.0 + 2j * np.pi * 120.0])
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.array([[1], [1j], [-1]])
     >>> H = H + 1e-4 * np.random.default_rng(1).standard_normal(H.shape)
-    >>> drop = residual_drop(f, H, lam, "receptance")
+    >>> drop = residual_drop(f, H, lam, "receptance", thresholds=th)
     >>> bool(drop[0] > 100), bool(drop[1] < 1.5)
     (True, True)
     """
@@ -863,11 +878,12 @@ def distinct_shapes(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 100.0, -2.0 + 2j * np.pi * 100.1])
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.ones((3, 1))
-    >>> distinct_shapes(f, H, lam, "receptance", np.array([True, True])).sum()
+    >>> distinct_shapes(f, H, lam, "receptance", np.array([True, True]), thresholds=th).sum()
     np.int64(1)
     """
     th = thresholds

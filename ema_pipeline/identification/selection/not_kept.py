@@ -40,8 +40,9 @@ def half_width_hz(freq_hz: np.ndarray, pole: np.ndarray,
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.arange(0.0, 101.0)
-    >>> half_width_hz(f, np.array([-2 * np.pi + 2j * np.pi * 50.0]))
+    >>> half_width_hz(f, np.array([-2 * np.pi + 2j * np.pi * 50.0]), thresholds=th)
     array([2.5])
     """
     peak_lines = thresholds.peak_lines
@@ -119,11 +120,12 @@ def visible_peaks(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(0.0, 100.0, 201)
     >>> jw = 2j * np.pi * f
     >>> lam = -1.0 + 2j * np.pi * 40.0
     >>> H = np.array([1 / (jw - lam) + 1 / (jw - np.conj(lam)), np.ones(f.size)])
-    >>> visible_peaks(f, H, np.array([40.0, 70.0]), 1.0).tolist()
+    >>> visible_peaks(f, H, np.array([40.0, 70.0]), 1.0, thresholds=th).tolist()
     [1, 0]
     """
     min_log_prominence = thresholds.min_log_prominence
@@ -170,6 +172,7 @@ def resonances_not_kept(
     A weak mode at 60 Hz seen by two FRFs that do not see the strong one at
     50 Hz, rejected by the fit:
 
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(0.0, 100.0, 401)
     >>> jw = 2j * np.pi * f
     >>> def mode(fn):
@@ -178,7 +181,7 @@ def resonances_not_kept(
     >>> H = np.array([mode(50.0), mode(50.0), 0.01 * mode(60.0), 0.01 * mode(60.0)])
     >>> kept = np.array([-0.5 + 2j * np.pi * 50.0])
     >>> rejected = np.array([-0.5 + 2j * np.pi * 60.0, -3.0 + 2j * np.pi * 80.0])
-    >>> resonances_not_kept(f, H, rejected, kept)
+    >>> resonances_not_kept(f, H, rejected, kept, thresholds=th)
     (array([60.]), array([2]))
     """
     th = thresholds

@@ -131,6 +131,7 @@ def residual_peaks(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 801)
     >>> lam = np.array([-2.0 + 2j * np.pi * 80.0, -1.5 + 2j * np.pi * 120.0])
     >>> jw = 2j * np.pi * f
@@ -138,7 +139,7 @@ def residual_peaks(
     >>> rng = np.random.default_rng(0)
     >>> H = np.stack([terms[0] + s * terms[1] for s in (1.0, -0.7, 0.4)])
     >>> H = H + 1e-4 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
-    >>> start, from_edge = residual_peaks(f, H, lam[:1], "receptance")
+    >>> start, from_edge = residual_peaks(f, H, lam[:1], "receptance", thresholds=th)
     >>> (start.imag / (2 * np.pi)).round(1).tolist(), from_edge.tolist()
     ([120.0], [False])
     """
@@ -225,8 +226,9 @@ def is_physical(lam: complex, *, thresholds: SelectionThresholds) -> bool:
 
     Examples
     --------
-    >>> is_physical(-1.0 + 100j), is_physical(1.0 + 100j), is_physical(-50.0 + 100j)
-    (True, False, False)
+    >>> th = SelectionThresholds()
+    >>> [is_physical(lam, thresholds=th) for lam in (-1.0 + 100j, 1.0 + 100j, -50.0 + 100j)]
+    [True, False, False]
     """
     max_zeta = thresholds.max_zeta
     return bool(lam.real < 0 and -lam.real < max_zeta * abs(lam))

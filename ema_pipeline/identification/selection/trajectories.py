@@ -53,11 +53,12 @@ def track_poles(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> from ema_pipeline.identification.diagram.plscf import PoleSet
     >>> lam = np.array([-1 + 100j, -1 + 100.2j, -5 + 300j, -1 + 100.3j])
     >>> ps = PoleSet(order=np.array([2, 4, 4, 6]), pole=lam,
     ...              participation=np.ones((4, 1), complex), orders=np.array([2, 4, 6]), dt=1e-3)
-    >>> track_poles(ps).tolist()
+    >>> track_poles(ps, thresholds=th).tolist()
     [0, 0, 1, 0]
     """
     th = thresholds
@@ -133,13 +134,15 @@ def link_fragments(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> order = np.repeat(np.arange(2, 14, 2), 1)
     >>> f = np.array([100.0, 100.4, 100.2, 102.5, 102.2, 102.8])
     >>> lam = -0.05 * 2 * np.pi * f + 2j * np.pi * f
     >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((6, 1), complex),
     ...              orders=np.arange(2, 14, 2), dt=1e-3)
-    >>> tr = track_poles(ps)
-    >>> len(set(tr.tolist())), len(set(link_fragments(ps, tr).tolist()))  # 3 + 3 < 6 members
+    >>> tr = track_poles(ps, thresholds=th)
+    >>> joined = link_fragments(ps, tr, min_fraction=0.3, min_members=6, thresholds=th)
+    >>> len(set(tr.tolist())), len(set(joined.tolist()))  # 3 + 3 < 6 members
     (2, 1)
     """
     th = thresholds
@@ -218,12 +221,14 @@ def select_trajectories(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> from ema_pipeline.identification.diagram.plscf import PoleSet
     >>> order = np.repeat(np.arange(2, 22, 2), 2)
     >>> lam = np.tile([-2 + 2 * np.pi * 50j, -900 + 2 * np.pi * 80j], 10)
     >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((20, 1), complex),
     ...              orders=np.arange(2, 22, 2), dt=1 / 200)
-    >>> sel = select_trajectories(ps, track_poles(ps), (1.0, 100.0))
+    >>> sel = select_trajectories(ps, track_poles(ps, thresholds=th), (1.0, 100.0),
+    ...                           min_fraction=0.3, min_members=6, thresholds=th)
     >>> (sel.pole.imag / (2 * np.pi)).round(1).tolist(), sel.n_members.tolist()
     ([50.0], [10])
     """
@@ -278,10 +283,11 @@ def merge_coincident(sel: SelectedPoles, *, thresholds: SelectionThresholds
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> sel = SelectedPoles(pole=np.array([-1 + 100j, -1 + 100.1j, -1 + 110j]),
     ...                     cluster=np.arange(3), n_members=np.array([10, 4, 8]),
     ...                     scatter_fn_hz=np.zeros(3), scatter_zeta=np.zeros(3))
-    >>> merge_coincident(sel).pole.imag.tolist()
+    >>> merge_coincident(sel, thresholds=th).pole.imag.tolist()
     [100.0, 110.0]
     """
     rel = thresholds.coincident_rel
@@ -311,12 +317,14 @@ def select_expected(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> sel = SelectedPoles(pole=np.array([-1 + 2j * np.pi * 50, -1 + 2j * np.pi * 80]),
     ...                     cluster=np.arange(2), n_members=np.array([10, 8]),
     ...                     scatter_fn_hz=np.zeros(2), scatter_zeta=np.zeros(2))
-    >>> (select_expected(sel, np.array([78.0])).pole.imag / (2 * np.pi)).round(1).tolist()
+    >>> fn_hz = lambda s: (s.pole.imag / (2 * np.pi)).round(1).tolist()
+    >>> fn_hz(select_expected(sel, np.array([78.0]), thresholds=th))
     [80.0]
-    >>> (select_expected(sel, np.array([20.0, 52.0])).pole.imag / (2 * np.pi)).round(1).tolist()
+    >>> fn_hz(select_expected(sel, np.array([20.0, 52.0]), thresholds=th))
     [50.0]
     """
     expect_tol = thresholds.expect_tol
@@ -357,12 +365,13 @@ def expected_from_automatic(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> lam = np.array([-1 + 2j * np.pi * 50.0, -1 + 2j * np.pi * 81.0])
     >>> sel = SelectedPoles(pole=lam, cluster=np.arange(2), n_members=np.array([10, 8]),
     ...                     scatter_fn_hz=np.zeros(2), scatter_zeta=np.zeros(2))
     >>> auto = np.array([-0.5 + 2j * np.pi * 79.0, -0.5 + 2j * np.pi * 80.0])
     >>> rows, rest = expected_from_automatic(sel, np.array([50.0, 80.0]), np.array([79.0, 80.0]),
-    ...                                      auto)
+    ...                                      auto, thresholds=th)
     >>> (rows.pole.imag / (2 * np.pi)).round(1).tolist(), rows.cluster.tolist(), rest.tolist()
     ([50.0, 80.0], [0, 1], [0])
     """
