@@ -48,6 +48,8 @@ from ema_pipeline.report.matplotlib_plots import (  # noqa: E402
     plot_stabilization,
 )
 
+TH = SelectionThresholds()  # the tuned defaults
+
 FREQ = np.fft.rfftfreq(16384, 1 / 2000)  # 8193 lines, 0-1000 Hz
 TAU = 8.192 / 5
 
@@ -259,8 +261,9 @@ def test_window_search_resolves_ten_narrow_modes():
     H = H + 1e-3 * np.sqrt(np.mean(np.abs(H) ** 2)) * (
         rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
     Hn = (H / np.sqrt(np.mean(np.abs(H) ** 2, axis=1, keepdims=True)))[:, None, :]
-    assert order_cap(f.size, 1, window=True) == 59 and order_cap(f.size, 1) == 30
-    search = pb.OrderSearch(None, 0.0, SelectionThresholds().min_peak_ratio_shapes, 0.3, False)
+    assert order_cap(f.size, 1, TH.max_poles, window=True) == 59
+    assert order_cap(f.size, 1, TH.max_poles) == 30
+    search = pb.OrderSearch(None, 0.0, TH.min_peak_ratio_shapes, 0.3, False, thresholds=TH)
     sel = pb.search_window(search, f, Hn, (f[0], f[-1]))
     got = sel.pole.imag / (2 * np.pi)
     found = np.min(np.abs(got[None, :] - fn[:, None]), axis=1) < (zeta + 0.005) * fn
