@@ -5,8 +5,8 @@ With fewer than three channels no shape tells two close modes from one
 (``SelectionThresholds.min_shape_channels``), so a pole is kept as a second
 mode beside a close partner only on evidence one channel can give: two poles
 fit the pair's local problem better than one beyond what the noise explains
-(``acceptance.pair_significance``, an F test) or the FRFs show two peaks
-(``acceptance.peaks_apart``); otherwise the weaker pole is dropped and the
+(``pairs.pair_significance``, an F test) or the FRFs show two peaks
+(``pairs.peaks_apart``); otherwise the weaker pole is dropped and the
 mode marked ``second_pole_not_significant``. Two poles kept under one peak
 are marked ``pair_under_one_peak`` (doubtful, kept).
 
@@ -40,14 +40,14 @@ from ema_pipeline.identification import (  # noqa: E402
     doubtful_reasons,
     identify,
 )
-from ema_pipeline.identification.selection.acceptance import (  # noqa: E402
+from ema_pipeline.identification.selection.pairs import (  # noqa: E402
     close_pairs,
-    close_partners,
     f_quantile,
     pair_significance,
     peaks_apart,
     unsupported_partners,
 )
+from ema_pipeline.identification.selection.partners import close_partners  # noqa: E402
 
 TH = SelectionThresholds()  # the tuned defaults
 

@@ -87,19 +87,20 @@ from ema_pipeline.identification.result import (
 )
 from ema_pipeline.identification.selection.acceptance import (
     Candidates,
-    SplitCalibration,
     add_found,
-    close_pairs,
-    close_partners,
     decay_determined,
     final_tests,
     inside_band,
-    pair_significance,
-    peaks_apart,
     refit_kept,
-    unsupported_partners,
 )
 from ema_pipeline.identification.selection.not_kept import resonances_not_kept
+from ema_pipeline.identification.selection.pairs import (
+    close_pairs,
+    pair_significance,
+    peaks_apart,
+    unsupported_partners,
+)
+from ema_pipeline.identification.selection.partners import SplitCalibration, close_partners
 from ema_pipeline.identification.selection.residual_search import residual_peaks
 from ema_pipeline.identification.selection.trajectories import (
     SelectedPoles,
@@ -422,7 +423,7 @@ def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
 def add_close_partners(found: Candidates,
                        retest: Retest) -> tuple[Candidates, SplitCalibration]:
     """Stage 5c: close modes hidden in a kept resonance
-    (:func:`~ema_pipeline.identification.selection.acceptance.close_partners`).
+    (:func:`~ema_pipeline.identification.selection.partners.close_partners`).
     Returns the candidates and, with fewer than ``min_shape_channels``
     channels, whether the two-poles-against-one F test is calibrated on the
     band's data (``ClosePartners.calibration``, evaluated when
@@ -454,7 +455,7 @@ def merge_unsupported_pairs(found: Candidates,
     """Stage 5e, with fewer than ``min_shape_channels`` channels: of a close
     pair of kept poles that one channel cannot support (not significant, its
     peaks not apart:
-    :func:`~ema_pipeline.identification.selection.acceptance.unsupported_partners`),
+    :func:`~ema_pipeline.identification.selection.pairs.unsupported_partners`),
     the weaker is dropped and the rest refitted
     (:func:`~ema_pipeline.identification.selection.acceptance.refit_kept`).
     Returns the candidates and the poles of the partners that stayed (before
@@ -601,11 +602,11 @@ def with_pair_flags(result: IdentificationResult, data: BandData, judged: np.nda
     """Stage 7c, with fewer than ``min_shape_channels`` channels: which kept
     modes (refined poles ``judged``, result order) one channel cannot support
     as two (``IdentificationResult.pair_flags``): a close pair
-    (:func:`~ema_pipeline.identification.selection.acceptance.close_pairs`) whose
+    (:func:`~ema_pipeline.identification.selection.pairs.close_pairs`) whose
     peaks do not show apart (:data:`PAIR_UNDER_ONE_PEAK`), unless the F test
     is calibrated on these data (``calibration``, :func:`add_close_partners`) and prefers
     the two poles to one clearly
-    (:func:`~ema_pipeline.identification.selection.acceptance.pair_significance`
+    (:func:`~ema_pipeline.identification.selection.pairs.pair_significance`
     with the window's line correlation, at least ``pair_clear_significance``);
     and the mode nearest each pole of ``merged`` (:func:`merge_unsupported_pairs`:
     a second pole beside it was dropped, :data:`SECOND_POLE_DROPPED`)."""

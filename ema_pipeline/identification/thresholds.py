@@ -270,7 +270,7 @@ class SelectionThresholds:
     #: drops 14-150; a spurious pole beside a mode of zeta 7 %: SNR 20).
     complex_min_snr: float = 50.0
     complex_min_residual_drop: float = 4.0
-    #: A close mode hidden in a kept mode's resonance (``acceptance.close_partners``):
+    #: A close mode hidden in a kept mode's resonance (``partners.close_partners``):
     #: one pole more in that mode's local fit must leave at most
     #: partner_max_residual_ratio of the residual variance, both poles must be
     #: determined, apart by more than half the sum of their decay rates, and
@@ -291,9 +291,9 @@ class SelectionThresholds:
     #: With fewer channels (impact tests with one or two accelerometers, issue
     #: 42) a pole is a second mode beside a close partner only on evidence one
     #: channel can give: two poles fit the pair's local problem better than
-    #: one beyond what the noise explains (``acceptance.pair_significance``:
+    #: one beyond what the noise explains (``pairs.pair_significance``:
     #: an F test at this significance level), or its peak shows apart from the
-    #: partner's (``acceptance.peaks_apart``). Otherwise the weaker pole is
+    #: partner's (``pairs.peaks_apart``). Otherwise the weaker pole is
     #: dropped and the mode marked (``second_pole_not_significant``); the
     #: pairs of the diagrams are judged as if the noise were white (both
     #: poles passed the diagrams' and the final tests), a close partner of
@@ -305,7 +305,7 @@ class SelectionThresholds:
     #: pairs 20-1e4 (model error, not noise: hence the mark below) ...
     pair_significance_level: float = 1e-3
     #: ... a close partner of the split fit is added with fewer channels
-    #: (``acceptance.close_partners``) only where the F test is calibrated:
+    #: (``partners.close_partners``) only where the F test is calibrated:
     #: the median significance of every kept mode's split fit (with or
     #: without a partner) below this. In the impact families the noise is
     #: all the split fits see (medians 0.2-1.0, a missed partner 2.7-1.2e4);
@@ -327,7 +327,7 @@ class SelectionThresholds:
     #: A pair under one peak is not marked (``plscf_backend.with_pair_flags``)
     #: when the F test that adds close partners (``pair_significance``, the
     #: window's correction applied) is calibrated on the file
-    #: (``acceptance.f_test_calibrated``) and prefers the two poles by at
+    #: (``pairs.f_test_calibrated``) and prefers the two poles by at
     #: least this. Measured on seeds 300-339 of impact_1ch, impact_2ch and
     #: impact_close (99 files with one or two channels, all calibrated:
     #: medians 0.20-0.995): a second pole beside a mode with no true mode

@@ -16,7 +16,7 @@ channel over its median (the floor; a median ignores the peaks), averaged
 over the channels and over 3 lines, above ``residual_peak_ratio``,
 outside the half-power bands of the kept modes (a kept mode's misfit, and
 the part of the noise proportional to |H|, peak there; close modes hidden in
-a kept resonance are the business of ``acceptance.close_partners``), and
+a kept resonance are the business of ``partners.close_partners``), and
 at least ``residual_peak_contrast`` times its surroundings (fields of
 :class:`~ema_pipeline.identification.thresholds.SelectionThresholds`). A residual
 that rises into the band's edge is the tail of a mode outside the band or a
