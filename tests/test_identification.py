@@ -3,6 +3,7 @@ window correction, sdypy-EMA backend, bad input."""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -277,9 +278,27 @@ def test_expect_picks_nearest_clusters():
     res2 = identify(frf, expect_hz=[112, 629])
     np.testing.assert_allclose(res2.fn_hz, modes.fn_hz[[1, 3]], rtol=1e-4)
     # a guess with no trajectory within 15 % is not found, never an error
-    with pytest.warns(UserWarning, match="not found within 5 % of 500 Hz"):
+    with pytest.warns(UserWarning, match="not found within 15 % of 500 Hz"):
         res3 = identify(frf, expect_hz=[112, 500])
     np.testing.assert_allclose(res3.fn_hz, modes.fn_hz[[1]], rtol=1e-4)
+
+
+def test_expect_one_tolerance_selects_and_reports():
+    """The selection and the "not found" report use one tolerance
+    (``SelectionThresholds.expect_tol``): a guess 10 % above a mode is
+    answered by it and not reported; with a tolerance of 5 % it is neither
+    answered nor kept, and reported."""
+    frf, modes = beam_frf(tau=TAU, noise_rel=1e-3, seed=4)
+    guess = 1.10 * modes.fn_hz[1]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = identify(frf, expect_hz=[guess])
+    assert not [w for w in caught if "not found" in str(w.message)]
+    np.testing.assert_allclose(res.fn_hz, modes.fn_hz[[1]], rtol=1e-4)
+    strict = replace(SelectionThresholds(), expect_tol=0.05)
+    with pytest.warns(UserWarning, match=f"not found within 5 % of {guess:g} Hz"):
+        res5 = identify(frf, expect_hz=[guess], thresholds=strict)
+    assert res5.fn_hz.size == 0 or np.all(np.abs(res5.fn_hz - guess) >= 0.05 * guess)
 
 
 # ------------------------------------------------------------------ bad input

@@ -27,6 +27,7 @@ from ema_pipeline.identification.result import (  # light result types
     SelectedPoles,
     found_by_code,
 )
+from ema_pipeline.identification.selection.expect import within_tolerance
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, poles_overlap
 
@@ -310,7 +311,9 @@ def select_expected(
     thresholds: SelectionThresholds,
 ) -> SelectedPoles:
     """For each expected frequency the candidate trajectory nearest to it
-    (relative distance < ``thresholds.expect_tol``, the longer one when equally near),
+    (relative distance < ``thresholds.expect_tol``,
+    :func:`~ema_pipeline.identification.selection.expect.within_tolerance`: the
+    tolerance by which a guess is reported not found; the longer one when equally near),
     each candidate used once. A guess with no candidate that near gets none:
     :func:`ema_pipeline.identification.identify` then reports it as not
     found (a warning; an empty row in the modes table), it is never an error.
@@ -332,7 +335,7 @@ def select_expected(
     chosen: list[int] = []
     for fe in np.atleast_1d(np.asarray(expect_hz, dtype=float)):
         d = np.abs(fn - fe) / fe - 1e-4 * candidates.n_members
-        ok = np.abs(fn - fe) < expect_tol * fe
+        ok = within_tolerance(fn, fe, expect_tol)
         ok[chosen] = False
         if ok.any():
             chosen.append(int(np.argmin(np.where(ok, d, np.inf))))
