@@ -1,16 +1,18 @@
 """Every tuned threshold of the ``"plscf"`` identification, in one place.
 
-:class:`SelectionThresholds` is one frozen record of the numbers that the
-automatic selection depends on: the tolerances that link poles into
-trajectories, the screens of the adaptive order search, the final tests of a
-refined pole, the residual check, the list of resonances not kept, the local
-band of the pole refinement and the rule that marks a mode ``doubtful``. Each
+:class:`SelectionThresholds` is one frozen record of the tuned numbers of
+the identification: the diagram's tolerances and those that link poles into
+trajectories, the tolerance of an expected frequency, the screens of the
+adaptive order search and its order cap, the local band of the pole
+refinement, the final tests of a refined pole, the residual check, the list
+of resonances not kept and the rule that marks a mode ``doubtful``. Each
 field says what it was chosen on (the measured beam of ``../shared/data`` and
 the hard families of ``tests/hardcases.py``).
 
 It is a field of :class:`~ema_pipeline.identification.IdentificationOptions`
-(``options.thresholds``) and is passed down the chain from there, never
-imported as module constants: a study of one threshold is
+(``options.thresholds``) and is passed down the chain from there as a
+required keyword (no function inside the package has a default record of
+its own), never imported as module constants: a study of one threshold is
 ``identify(frf, thresholds=replace(SelectionThresholds(), max_rel_decay_std=0.3))``.
 The result keeps the record it was made with
 (``result.settings.thresholds``). Every field is checked when the record is
