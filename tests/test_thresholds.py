@@ -17,6 +17,7 @@ from ema_pipeline.data import ConfigError, FRFSet
 from ema_pipeline.identification import IdentificationOptions
 from ema_pipeline.identification.diagram.resources import check_identification, order_cap
 from ema_pipeline.identification.refinement.local_band import local_problem
+from ema_pipeline.identification.selection.residual_search import residual_peaks
 from ema_pipeline.identification.thresholds import SelectionThresholds
 
 TH = SelectionThresholds()  # the tuned defaults
@@ -111,3 +112,26 @@ def test_local_band_fields_set_the_band_of_a_low_mode() -> None:
     np.testing.assert_allclose(uncapped, (fd - 12 * 2 * zeta * fn, fd + 12 * 2 * zeta * fn),
                                rtol=1e-3)
     assert band(replace(TH, local_band_min_lines=100)) is None  # +-2 Hz: 80 lines
+
+
+def test_residual_contrast_fields_set_the_surroundings_of_a_peak() -> None:
+    """A stretch of the data 10 times noisier (120-160 Hz) beside one kept
+    mode: the residual check takes no peak inside it, each being no higher
+    than its surroundings (1-``residual_contrast_widths`` peak widths plus
+    ``residual_contrast_lines`` lines away); with those surroundings shrunk
+    to nothing, the stretch's peaks become start poles."""
+    f = np.linspace(10.0, 210.0, 2001)
+    lam = np.array([-1.0 + 2j * np.pi * 30.0])
+    jw = 2j * np.pi * f
+    H = np.stack([s * (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj())) for s in (1.0, 0.5, -0.7)])
+    rng = np.random.default_rng(5)
+    level = np.where((f > 120) & (f < 160), 10.0, 1.0) * 1e-5
+    H = H + level * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+
+    def inside(th: SelectionThresholds) -> int:
+        start, _ = residual_peaks(f, H, lam, "receptance", thresholds=th)
+        fd = start.imag / (2 * np.pi)
+        return int(np.sum((fd > 125.0) & (fd < 155.0)))
+
+    assert inside(TH) == 0
+    assert inside(replace(TH, residual_contrast_widths=1, residual_contrast_lines=0)) >= 3
