@@ -37,6 +37,10 @@ sys.path.insert(0, str(ROOT / "benchmarks"))
 import hardcases  # noqa: E402
 from eval_identification import match_modes  # noqa: E402
 
+from ema_pipeline.identification.thresholds import SelectionThresholds  # noqa: E402
+
+TH = SelectionThresholds()  # the tuned defaults
+
 FAMILY = "complex_chain"
 
 
@@ -93,8 +97,9 @@ def monte_carlo(seed: int, draws: int) -> None:
         H = (case.frf.H + noise / np.sqrt(2))[..., sel].reshape(-1, int(sel.sum()))
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            ref = refine_poles(f[sel], H, lam, quantity=case.frf.quantity)
-            cov = ref.cov + band_sensitivity(f[sel], H, ref.pole, quantity=case.frf.quantity)
+            ref = refine_poles(f[sel], H, lam, quantity=case.frf.quantity, thresholds=TH)
+            cov = ref.cov + band_sensitivity(f[sel], H, ref.pole, quantity=case.frf.quantity,
+                                             thresholds=TH)
         zeta = -ref.pole.real / np.abs(ref.pole)
         err.append(np.stack([pole_fn_hz(ref.pole) - case.fn_hz, zeta - case.zeta]))
         sig.append(np.stack(modal_std(ref.pole, cov)))

@@ -3,6 +3,7 @@ window correction, sdypy-EMA backend, bad input."""
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import replace
 from pathlib import Path
 
@@ -47,6 +48,8 @@ from ema_pipeline.report.matplotlib_plots import (  # noqa: E402
     plot_fit_quality,
     plot_stabilization,
 )
+
+TH = SelectionThresholds()  # the tuned defaults
 
 FREQ = np.fft.rfftfreq(16384, 1 / 2000)  # 8193 lines, 0-1000 Hz
 TAU = 8.192 / 5
@@ -266,8 +269,9 @@ def test_window_search_resolves_ten_narrow_modes():
     H = H + 1e-3 * np.sqrt(np.mean(np.abs(H) ** 2)) * (
         rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
     Hn = (H / np.sqrt(np.mean(np.abs(H) ** 2, axis=1, keepdims=True)))[:, None, :]
-    assert order_cap(f.size, 1, window=True) == 59 and order_cap(f.size, 1) == 30
-    search = pb.OrderSearch(None, 0.0, SelectionThresholds().min_peak_ratio_shapes, 0.3, False)
+    assert order_cap(f.size, 1, TH.max_poles, window=True) == 59
+    assert order_cap(f.size, 1, TH.max_poles) == 30
+    search = pb.OrderSearch(None, 0.0, TH.min_peak_ratio_shapes, 0.3, False, thresholds=TH)
     sel = pb.search_window(search, f, Hn, (f[0], f[-1]))
     got = sel.pole.imag / (2 * np.pi)
     found = np.min(np.abs(got[None, :] - fn[:, None]), axis=1) < (zeta + 0.005) * fn
@@ -281,9 +285,27 @@ def test_expect_picks_nearest_clusters():
     res2 = identify(frf, expect_hz=[112, 629])
     np.testing.assert_allclose(res2.fn_hz, modes.fn_hz[[1, 3]], rtol=1e-4)
     # a guess with no trajectory within 15 % is not found, never an error
-    with pytest.warns(UserWarning, match="not found within 5 % of 500 Hz"):
+    with pytest.warns(UserWarning, match="not found within 15 % of 500 Hz"):
         res3 = identify(frf, expect_hz=[112, 500])
     np.testing.assert_allclose(res3.fn_hz, modes.fn_hz[[1]], rtol=1e-4)
+
+
+def test_expect_one_tolerance_selects_and_reports():
+    """The selection and the "not found" report use one tolerance
+    (``SelectionThresholds.expect_tol``): a guess 10 % above a mode is
+    answered by it and not reported; with a tolerance of 5 % it is neither
+    answered nor kept, and reported."""
+    frf, modes = beam_frf(tau=TAU, noise_rel=1e-3, seed=4)
+    guess = 1.10 * modes.fn_hz[1]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        res = identify(frf, expect_hz=[guess])
+    assert not [w for w in caught if "not found" in str(w.message)]
+    np.testing.assert_allclose(res.fn_hz, modes.fn_hz[[1]], rtol=1e-4)
+    strict = replace(SelectionThresholds(), expect_tol=0.05)
+    with pytest.warns(UserWarning, match=f"not found within 5 % of {guess:g} Hz"):
+        res5 = identify(frf, expect_hz=[guess], thresholds=strict)
+    assert res5.fn_hz.size == 0 or np.all(np.abs(res5.fn_hz - guess) >= 0.05 * guess)
 
 
 # ------------------------------------------------------------------ bad input

@@ -34,6 +34,10 @@ from test_identification_hard import (  # noqa: E402
     scores,
 )
 
+from ema_pipeline.identification.thresholds import SelectionThresholds
+
+TH = SelectionThresholds()  # the tuned defaults
+
 SEEDS = (1, 2, 3, 4, 5, 6)
 BACKGROUND = {f"hard:{f}": SEEDS for f in hardcases.COMPLEX_FAMILIES}
 
@@ -121,7 +125,7 @@ def test_residual_drop_ignores_the_phase_of_the_residues() -> None:
     for phase in (np.zeros(3), np.deg2rad([0.0, 70.0, -50.0])):
         a = np.array([1.0, -2.0, 0.5]) * np.exp(1j * phase)
         H = a[:, None] * term[None] + np.conj(a)[:, None] / (jw - lam[0].conj())[None] + noise
-        drops.append(residual_drop(f, H, lam, "receptance"))
+        drops.append(residual_drop(f, H, lam, "receptance", thresholds=TH))
     turned = np.array([1.0, -2.0, 0.5]) * np.exp(1j * np.deg2rad([0.0, 70.0, -50.0]))
     assert mpc(turned[:, None])[0] < 0.7
     assert drops[0][0] > 100 and abs(drops[1][0] / drops[0][0] - 1) < 0.05, drops

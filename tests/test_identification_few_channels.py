@@ -5,8 +5,8 @@ With fewer than three channels no shape tells two close modes from one
 (``SelectionThresholds.min_shape_channels``), so a pole is kept as a second
 mode beside a close partner only on evidence one channel can give: two poles
 fit the pair's local problem better than one beyond what the noise explains
-(``acceptance.pair_significance``, an F test) or the FRFs show two peaks
-(``acceptance.peaks_apart``); otherwise the weaker pole is dropped and the
+(``pairs.pair_significance``, an F test) or the FRFs show two peaks
+(``pairs.peaks_apart``); otherwise the weaker pole is dropped and the
 mode marked ``second_pole_not_significant``. Two poles kept under one peak
 are marked ``pair_under_one_peak`` (doubtful, kept).
 
@@ -40,14 +40,16 @@ from ema_pipeline.identification import (  # noqa: E402
     doubtful_reasons,
     identify,
 )
-from ema_pipeline.identification.selection.acceptance import (  # noqa: E402
+from ema_pipeline.identification.selection.pairs import (  # noqa: E402
     close_pairs,
-    close_partners,
     f_quantile,
     pair_significance,
     peaks_apart,
     unsupported_partners,
 )
+from ema_pipeline.identification.selection.partners import close_partners  # noqa: E402
+
+TH = SelectionThresholds()  # the tuned defaults
 
 SEEDS = (1, 2, 3)
 BACKGROUND = {f"hard:{f}": SEEDS for f in hardcases.FEW_CHANNEL_FAMILIES}
@@ -94,18 +96,18 @@ def test_one_channel_keeps_a_pair_only_on_evidence() -> None:
     peaks. With three channels nothing is dropped here (their shapes are
     judged by the final tests instead)."""
     f, H, lam = _one_channel([99.0, 99.8], [1.0, 0.0])
-    assert pair_significance(f, H, lam, 0, 1, "receptance") < 1.0
-    drop, merged = unsupported_partners(f, H, lam, "receptance")
+    assert pair_significance(f, H, lam, 0, 1, "receptance", thresholds=TH) < 1.0
+    drop, merged = unsupported_partners(f, H, lam, "receptance", thresholds=TH)
     assert drop.tolist() == [False, True] and merged.tolist() == [True, False]
     f, H, lam = _one_channel([99.0, 99.8], [1.0, 0.6])
-    assert not peaks_apart(f, H, lam[0], lam[1])
-    assert pair_significance(f, H, lam, 0, 1, "receptance") > 100
-    assert not unsupported_partners(f, H, lam, "receptance")[0].any()
+    assert not peaks_apart(f, H, lam[0], lam[1], thresholds=TH)
+    assert pair_significance(f, H, lam, 0, 1, "receptance", thresholds=TH) > 100
+    assert not unsupported_partners(f, H, lam, "receptance", thresholds=TH)[0].any()
     f, H2, lam2 = _one_channel([98.0, 102.0], [1.0, 0.6])
-    assert peaks_apart(f, H2, lam2[0], lam2[1])
+    assert peaks_apart(f, H2, lam2[0], lam2[1], thresholds=TH)
     f, H, lam = _one_channel([99.0, 99.8], [1.0, 0.0])
     three = np.concatenate([H, 0.5 * H, -H])
-    assert not unsupported_partners(f, three, lam, "receptance")[0].any()
+    assert not unsupported_partners(f, three, lam, "receptance", thresholds=TH)[0].any()
 
 
 def test_window_correlation_raises_the_bar() -> None:
@@ -114,8 +116,8 @@ def test_window_correlation_raises_the_bar() -> None:
     0.05 Hz lines: about 200), so the same data are less
     significant with the window than without."""
     f, H, lam = _one_channel([99.0, 99.8], [1.0, 0.05], noise=2e-3, seed=3)
-    plain = pair_significance(f, H, lam, 0, 1, "receptance")
-    windowed = pair_significance(f, H, lam, 0, 1, "receptance", window_tau_s=0.1)
+    plain = pair_significance(f, H, lam, 0, 1, "receptance", thresholds=TH)
+    windowed = pair_significance(f, H, lam, 0, 1, "receptance", window_tau_s=0.1, thresholds=TH)
     assert plain > 1.0 and windowed < plain / 20, (plain, windowed)
 
 
@@ -141,13 +143,14 @@ def test_pair_thresholds_change_the_verdict(field: str, value: float) -> None:
     th = replace(SelectionThresholds(), **{field: value})
     if field == "pair_min_dip":
         f, H, lam = _one_channel([98.0, 102.0], [1.0, 0.6])
-        assert peaks_apart(f, H, lam[0], lam[1]) and not peaks_apart(f, H, lam[0], lam[1], th)
+        assert peaks_apart(f, H, lam[0], lam[1], thresholds=TH)
+        assert not peaks_apart(f, H, lam[0], lam[1], thresholds=th)
         return
     f, H, lam = _one_channel([99.0, 100.6], [1.0, 0.002], noise=4e-4, seed=5)
-    assert close_pairs(lam) == [(0, 1)]
-    assert not unsupported_partners(f, H, lam, "receptance")[0].any()
+    assert close_pairs(lam, thresholds=TH) == [(0, 1)]
+    assert not unsupported_partners(f, H, lam, "receptance", thresholds=TH)[0].any()
     if field == "pair_max_gap":
-        assert close_pairs(lam, th) == []
+        assert close_pairs(lam, thresholds=th) == []
         return
     assert unsupported_partners(f, H, lam, "receptance", thresholds=th)[0].tolist() == [
         False, True]
@@ -169,7 +172,7 @@ def test_one_channel_partner_is_added_where_the_test_is_calibrated() -> None:
     rng = np.random.default_rng(7)
     H = (H + 1e-3 * (rng.standard_normal(f.size) + 1j * rng.standard_normal(f.size)))[None]
     kept = lam[[0, 1, 3]]
-    found = close_partners(f, H, kept, "receptance").pole
+    found = close_partners(f, H, kept, "receptance", thresholds=TH).pole
     # the split's two poles are the pair: the extra one is either
     assert found.size == 1 and np.min(np.abs(found[0] - lam[1:3])) < 2 * np.pi * 0.05, found
     none = replace(SelectionThresholds(), partner_max_split_median=0.0)
@@ -217,10 +220,11 @@ def test_pair_under_one_peak_is_not_marked_where_the_f_test_shows_two_modes() ->
     assert np.allclose(f_hz, [75.0, 100.0, 100.8, 130.0], atol=0.02), f_hz
     assert marked == [False] * 4
     f, H = frf.freq_hz, frf.H[:, 0, :]
-    assert close_pairs(lam) == [(1, 2)] and not peaks_apart(f, H, lam[1], lam[2])
-    sig = pair_significance(f, H, lam, 1, 2, "receptance")
+    assert close_pairs(lam, thresholds=TH) == [(1, 2)]
+    assert not peaks_apart(f, H, lam[1], lam[2], thresholds=TH)
+    sig = pair_significance(f, H, lam, 1, 2, "receptance", thresholds=TH)
     assert 2000 < sig < 2e4, sig
-    assert close_partners(f, H, lam, "receptance").calibrated
+    assert close_partners(f, H, lam, "receptance", thresholds=TH).calibrated
     th = SelectionThresholds()
     for change in ({"pair_clear_significance": 1e5}, {"partner_max_split_median": 0.0}):
         _, _, marked = _marked(frf, thresholds=replace(th, **change))
@@ -238,11 +242,11 @@ def test_a_mode_whose_frequency_varies_stays_marked() -> None:
     f_hz, lam, marked = _marked(frf)
     assert np.allclose(f_hz, [74.72, 75.29, 99.60, 100.39, 129.48, 130.53], atol=0.05), f_hz
     f, H = frf.freq_hz, frf.H[:, 0, :]
-    pairs = close_pairs(lam)
+    pairs = close_pairs(lam, thresholds=TH)
     assert pairs == [(0, 1), (2, 3), (4, 5)]
-    sig = [pair_significance(f, H, lam, i, j, "receptance") for i, j in pairs]
+    sig = [pair_significance(f, H, lam, i, j, "receptance", thresholds=TH) for i, j in pairs]
     assert min(sig) > 100 * SelectionThresholds().pair_clear_significance, sig
-    assert not close_partners(f, H, lam, "receptance").calibrated
+    assert not close_partners(f, H, lam, "receptance", thresholds=TH).calibrated
     assert marked == [True] * 6
 
 

@@ -28,6 +28,9 @@ import hardcases  # noqa: E402
 from conftest import Background  # noqa: E402
 
 from ema_pipeline.identification import doubtful_reasons, identify  # noqa: E402
+from ema_pipeline.identification.thresholds import SelectionThresholds
+
+TH = SelectionThresholds()  # the tuned defaults
 
 SEEDS = (1, 2, 3)
 #: the dense families take 5-11 s a file; two seeds (55-75 modes each) keep
@@ -169,7 +172,7 @@ def test_true_modes_have_real_local_shapes(family: str, seed: int) -> None:
     sub = frf.band(*case.band_hz)
     H = sub.H.reshape(-1, sub.H.shape[-1])
     lam = hardcases.modal_poles(case.fn_hz, case.zeta)
-    local = mpc(local_shapes(sub.freq_hz, H, lam, quantity=sub.quantity).T)
+    local = mpc(local_shapes(sub.freq_hz, H, lam, quantity=sub.quantity, thresholds=TH).T)
     assert np.all(local > 0.98), local
 
 
@@ -190,8 +193,9 @@ def test_complex_modes_generator_and_their_strong_modes_are_found() -> None:
     sub = case.frf.band(*case.band_hz)
     H = sub.H.reshape(-1, sub.H.shape[-1])
     lam = hardcases.modal_poles(case.fn_hz, case.zeta)
-    assert np.median(mpc(local_shapes(sub.freq_hz, H, lam, quantity=sub.quantity).T)) < 0.97
-    _, peak, _ = quick_significance(sub.freq_hz, H, lam)
+    shapes = local_shapes(sub.freq_hz, H, lam, quantity=sub.quantity, thresholds=TH)
+    assert np.median(mpc(shapes.T)) < 0.97
+    _, peak, _ = quick_significance(sub.freq_hz, H, lam, thresholds=TH)
     strong = set(np.flatnonzero(peak >= SelectionThresholds().weak_peak_ratio).tolist())
     assert len(strong) >= 4
     with warnings.catch_warnings():

@@ -349,11 +349,13 @@ def test_the_alternates_gate_has_thresholds_of_its_own():
     H = np.tile(1 / (jw - lam) + 1 / (jw - np.conj(lam)), (2, 1))  # 2 FRFs show it
     poles = np.array([lam])
     th = SelectionThresholds()
-    assert shown_by_the_frfs(f, H, poles, th).tolist() == [True]
-    assert shown_by_the_frfs(f, H, poles, replace(th, min_frfs=3, peak_lines=0.1)).tolist() \
-        == [True]
-    assert shown_by_the_frfs(f, H, poles, replace(th, alternate_min_frfs=3)).tolist() == [False]
+    assert shown_by_the_frfs(f, H, poles, thresholds=th).tolist() == [True]
+    assert shown_by_the_frfs(f, H, poles,
+                             thresholds=replace(th, min_frfs=3, peak_lines=0.1)).tolist() == [True]
+    assert shown_by_the_frfs(f, H, poles,
+                             thresholds=replace(th, alternate_min_frfs=3)).tolist() == [False]
     # a peak 1 line off the pole's frequency: inside 1.5 lines, outside 0.5
     off = np.array([-0.5 + 2j * np.pi * 40.25])
-    assert shown_by_the_frfs(f, H, off, th).tolist() == [True]
-    assert shown_by_the_frfs(f, H, off, replace(th, alternate_peak_lines=0.5)).tolist() == [False]
+    assert shown_by_the_frfs(f, H, off, thresholds=th).tolist() == [True]
+    assert shown_by_the_frfs(f, H, off,
+                             thresholds=replace(th, alternate_peak_lines=0.5)).tolist() == [False]

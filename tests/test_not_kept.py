@@ -14,6 +14,8 @@ from ema_pipeline.identification.selection.not_kept import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 
+TH = SelectionThresholds()  # the tuned defaults
+
 MIN_FRF_SHARE = SelectionThresholds().min_frf_share
 
 FREQ = np.linspace(0.0, 200.0, 801)  # 0.25 Hz lines
@@ -50,10 +52,10 @@ def test_a_rejected_resonance_seen_by_enough_frfs_is_listed() -> None:
     kept = np.array([pole(100.0)])
     rejected = np.array([pole(110.2)])  # the rejected candidate, a little off the peak
     need = int(np.ceil(MIN_FRF_SHARE * n_ch))
-    f_hz, n = resonances_not_kept(FREQ, frfs(n_ch, need), rejected, kept)
+    f_hz, n = resonances_not_kept(FREQ, frfs(n_ch, need), rejected, kept, thresholds=TH)
     assert f_hz.size == 1 and n.tolist() == [need]
     assert f_hz[0] == pytest.approx(110.2, abs=0.01)
-    f_hz, n = resonances_not_kept(FREQ, frfs(n_ch, need - 1), rejected, kept)
+    f_hz, n = resonances_not_kept(FREQ, frfs(n_ch, need - 1), rejected, kept, thresholds=TH)
     assert f_hz.size == 0  # seen by fewer than MIN_FRF_SHARE of the FRFs
 
 
@@ -62,16 +64,16 @@ def test_peaks_of_kept_modes_never_count() -> None:
     is not a resonance of its own, though all FRFs peak there."""
     H = frfs(8, 0)
     kept = np.array([pole(100.0)])
-    f_hz, _ = resonances_not_kept(FREQ, H, np.array([pole(100.3, 0.01)]), kept)
+    f_hz, _ = resonances_not_kept(FREQ, H, np.array([pole(100.3, 0.01)]), kept, thresholds=TH)
     assert f_hz.size == 0
     # without the kept mode, every FRF has that peak
-    assert visible_peaks(FREQ, H, np.array([100.3]), 1.0).tolist() == [8]
+    assert visible_peaks(FREQ, H, np.array([100.3]), 1.0, thresholds=TH).tolist() == [8]
 
 
 def test_one_entry_per_resonance() -> None:
     """Two rejected poles on one peak: one entry."""
     f_hz, n = resonances_not_kept(FREQ, frfs(6, 3), np.array([pole(110.0), pole(110.2)]),
-                                  np.array([pole(100.0)]))
+                                  np.array([pole(100.0)]), thresholds=TH)
     assert f_hz.size == 1 and n.tolist() == [3]
 
 

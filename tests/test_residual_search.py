@@ -23,6 +23,8 @@ from ema_pipeline.identification.selection.residual_search import (  # noqa: E40
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds  # noqa: E402
 
+TH = SelectionThresholds()  # the tuned defaults
+
 RESIDUAL_PEAK_RATIO = SelectionThresholds().residual_peak_ratio
 
 
@@ -52,7 +54,7 @@ def test_missed_mode_is_the_residual_peak(seed: int) -> None:
     zeta = rng.uniform(0.003, 0.02, 4)
     H, lam = _modes(rng, f, fn, zeta, 4, 25.0)
     miss = int(rng.integers(4))
-    start, _ = residual_peaks(f, H, np.delete(lam, miss), "accelerance")
+    start, _ = residual_peaks(f, H, np.delete(lam, miss), "accelerance", thresholds=TH)
     assert start.size == 1, start / (2 * np.pi)
     hw = abs(lam[miss].real)  # half-power half-width, rad/s
     assert abs(start[0].imag - lam[miss].imag) < 0.5 * hw
@@ -69,7 +71,7 @@ def test_noise_gives_no_residual_peak(seed: int) -> None:
     fn = np.array([40.0, 90.0, 150.0]) * rng.uniform(0.95, 1.05, 3)
     zeta = rng.uniform(0.003, 0.02, 3)
     H, lam = _modes(rng, f, fn, zeta, int(rng.integers(2, 7)), 30.0)
-    assert residual_peaks(f, H, lam, "accelerance")[0].size == 0
+    assert residual_peaks(f, H, lam, "accelerance", thresholds=TH)[0].size == 0
     R = rng.standard_normal((1, 1901)) + 1j * rng.standard_normal((1, 1901))
     ratio = residual_ratio(R)
     assert abs(np.mean(ratio) - 1 / np.log(2)) < 0.1
@@ -95,7 +97,7 @@ def test_tail_of_a_mode_above_the_band_is_no_mode(seed: int) -> None:
     H, lam = _modes(rng, f, fn, zeta, int(rng.integers(4, 9)), 35.0)
     res = identify(_frf(f, H))
     np.testing.assert_allclose(res.fn_hz, fn[:3], rtol=1e-3)
-    start, from_edge = residual_peaks(f, H, lam[[0, 2]], "accelerance")
+    start, from_edge = residual_peaks(f, H, lam[[0, 2]], "accelerance", thresholds=TH)
     plain = start[~from_edge]
     assert np.min(np.abs(plain - lam[1])) < abs(lam[1].real)
 
@@ -112,7 +114,7 @@ def test_heavily_damped_mode_at_the_band_top_is_found(seed: int) -> None:
     fn = np.array([40.0, 90.0, 200.0 * rng.uniform(0.95, 0.97)])
     zeta = np.array([0.02, 0.03, rng.uniform(0.05, 0.08)])
     H, lam = _modes(rng, f, fn, zeta, 5, 35.0)
-    start, from_edge = residual_peaks(f, H, lam[:2], "accelerance")
+    start, from_edge = residual_peaks(f, H, lam[:2], "accelerance", thresholds=TH)
     assert start.size >= 1 and from_edge[np.argmin(np.abs(start - lam[2]))]
     res = identify(_frf(f, H))
     assert res.fn_hz.size == 3
@@ -177,8 +179,8 @@ def test_refining_some_modes_gives_them_the_numbers_of_refining_all() -> None:
     fn, zeta = np.array([70.0, 100.0, 125.0]), np.array([0.01, 0.008, 0.012])
     H, lam = _modes(rng, f, fn, zeta, n_ch=3, snr_db=40.0)
     start = lam * (1 + 0.002)
-    every = refine_poles(f, H, start)
-    some = refine_poles(f, H, start, modes=[1])
+    every = refine_poles(f, H, start, thresholds=TH)
+    some = refine_poles(f, H, start, modes=[1], thresholds=TH)
     assert some.pole[1] == every.pole[1] and np.array_equal(some.cov[1], every.cov[1])
     assert np.array_equal(some.noise_std[1], every.noise_std[1])
     assert some.pole[0] == start[0] and np.isnan(some.cov[[0, 2]]).all()

@@ -12,6 +12,7 @@ from ema_pipeline.cli import main
 from ema_pipeline.data import ConfigError, FRFSet, ModalParameters
 from ema_pipeline.identification import core
 from ema_pipeline.identification.core import identify
+from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.threads import (
     BLAS_THREADS_ENV,
     WORKERS_ENV,
@@ -20,6 +21,8 @@ from ema_pipeline.threads import (
     thread_environment,
     worker_count,
 )
+
+TH = SelectionThresholds()  # the tuned defaults
 
 
 def _blas_counts() -> set[int]:
@@ -253,10 +256,11 @@ def test_windows_go_to_the_workers_longest_first_and_come_back_in_order(monkeypa
             return [func(item) for item in items]
 
     monkeypatch.setattr(order_search, "search_window", one_pole_at_the_middle)
-    search = order_search.OrderSearch(None, 0.0, 0.05, 0.3, expect=False, map_=Recorded())
+    search = order_search.OrderSearch(None, 0.0, 0.05, 0.3, expect=False, map_=Recorded(),
+                                      thresholds=TH)
     _, searched = order_search.add_window_modes(sel, search, freq, np.ones((1, 1, freq.size)),
                                                 (5.0, 1000.0))
-    windows = order_search.mode_windows(np.imag(lam) / (2 * np.pi), (5.0, 1000.0))
+    windows = order_search.mode_windows(np.imag(lam) / (2 * np.pi), (5.0, 1000.0), thresholds=TH)
     assert len(windows) >= 3
     widths = [hi - lo for lo, hi in Recorded.seen]
     assert sorted(Recorded.seen) == sorted(windows)

@@ -17,6 +17,9 @@ from ema_pipeline.identification.refinement.uncertainty import (
     noise_model,
     toeplitz_apply,
 )
+from ema_pipeline.identification.thresholds import SelectionThresholds
+
+TH = SelectionThresholds()  # the tuned defaults
 
 # one mode at 100 Hz on 0.1 Hz lines, half-power band 0.3 Hz = 3 lines
 FREQ = np.linspace(97.0, 103.0, 61)
@@ -84,7 +87,8 @@ def test_damping_sigma_of_a_narrow_resonance_matches_monte_carlo() -> None:
     rng = np.random.default_rng(1)
 
     def one() -> tuple[np.ndarray, np.ndarray]:
-        ref = refine_poles(FREQ, noisy(rng).T, np.array([LAM]), quantity="receptance")
+        ref = refine_poles(FREQ, noisy(rng).T, np.array([LAM]), quantity="receptance",
+                           thresholds=TH)
         return ref.pole, ref.cov
 
     ratio_z, ratio_f, z, f = scatter_over_sigma(one, 400)
@@ -124,7 +128,7 @@ def test_sigma_of_a_mode_that_the_exponential_window_dominates_matches_monte_car
         e = np.fft.rfft(rng.standard_normal((2, t.size)) * np.exp(-t / tau), axis=-1)
         H = H0 + 0.01 * np.max(np.abs(H0)) * e[:, band] / np.sqrt(t.size)
         ref = refine_poles(freq[band], H, np.array([lw]), quantity="receptance",
-                           window_tau_s=tau)
+                           window_tau_s=tau, thresholds=TH)
         return ref.pole + 1 / tau, ref.cov  # the window's shift removed
 
     ratio_z, ratio_f, _, _ = scatter_over_sigma(one, 150)

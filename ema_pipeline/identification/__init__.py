@@ -32,7 +32,8 @@ order) and ``sdypy_backend``. Then the three steps of ``plscf_backend``:
   their candidates), ``narrower_searches`` (a wide band's lowest part, a
   dense band's windows), ``resources`` (the order cap, the memory estimate);
 * ``selection``: ``trajectories`` (pole trajectories and the automatic
-  choice), ``acceptance`` (the final tests, close partners),
+  choice), ``acceptance`` (the final tests), ``partners`` (close partners),
+  ``pairs`` (close pairs with few channels),
   ``residual_search`` (modes the diagrams missed), ``expect`` (guesses),
   ``picks`` (modes picked by hand), ``not_kept`` (resonances the FRFs show
   that no mode was kept for);

@@ -139,7 +139,8 @@ def identify(
         if note:
             warnings.warn(f"{where}{note}", stacklevel=2)
     if expect_hz.size:  # a guess no mode answers: say so (UserWarning)
-        message = not_found_message(expect_hz, match_expected(result.fn_hz, expect_hz))
+        tol = result.settings.thresholds.expect_tol  # the selection's tolerance
+        message = not_found_message(expect_hz, match_expected(result.fn_hz, expect_hz, tol), tol)
         if message:
             warnings.warn(f"{where}{message}", stacklevel=2)
     return result

@@ -148,13 +148,18 @@ class IdentificationOptions:
         whatever this says.
     tol_freq, tol_zeta, tol_mac : stabilization tolerances (relative frequency,
         relative damping, 1 - MAC of participation vectors; in (0, 1], (0, 10]
-        and (0, 1]). A value given is
-        used by both the pole linking of the selection
+        and (0, 1]). Each sets two numbers at once: ``tol_freq`` replaces
+        ``thresholds.link_tol_freq`` and ``thresholds.diagram_tol_freq``,
+        ``tol_zeta`` ``link_tol_zeta`` and ``diagram_tol_zeta``, ``tol_mac``
+        ``link_tol_mac`` and ``diagram_tol_mac``: the pole linking of the
+        selection
         (:func:`~ema_pipeline.identification.selection.trajectories.track_poles`: looser
-        tolerances join more poles into a trajectory) and the stabilization
-        diagram's flags. ``None`` (default): each uses its tuned default,
+        tolerances join more poles into a trajectory; :meth:`link_tolerances`)
+        and the stabilization diagram's flags (:meth:`diagram_tolerances`).
+        ``None`` (default): each uses its tuned default,
         ``thresholds.link_tol_*`` (1 %, 30 %, 0.05) and
-        ``thresholds.diagram_tol_*`` (1 %, 5 %, 0.02).
+        ``thresholds.diagram_tol_*`` (1 %, 5 %, 0.02). To change one of the
+        two alone, change that field of ``thresholds`` and leave these unset.
     min_fraction : (0, 1]; a pole trajectory must hold poles of at least this fraction
         of the computed orders (and at least 6) to count as a physical mode;
         where in the diagram it starts does not matter (a mode that

@@ -87,19 +87,20 @@ from ema_pipeline.identification.result import (
 )
 from ema_pipeline.identification.selection.acceptance import (
     Candidates,
-    SplitCalibration,
     add_found,
-    close_pairs,
-    close_partners,
     decay_determined,
     final_tests,
     inside_band,
-    pair_significance,
-    peaks_apart,
     refit_kept,
-    unsupported_partners,
 )
 from ema_pipeline.identification.selection.not_kept import resonances_not_kept
+from ema_pipeline.identification.selection.pairs import (
+    close_pairs,
+    pair_significance,
+    peaks_apart,
+    unsupported_partners,
+)
+from ema_pipeline.identification.selection.partners import SplitCalibration, close_partners
 from ema_pipeline.identification.selection.residual_search import residual_peaks
 from ema_pipeline.identification.selection.trajectories import (
     SelectedPoles,
@@ -252,7 +253,7 @@ def search_diagrams(data: BandData, options: IdentificationOptions,
     part and (``options.window_searches``) of the windows of a dense band;
     the chosen diagram's stabilization flags with the diagram tolerances."""
     n_in, n_freq = data.Hn.shape[1], data.Hn.shape[2]
-    cap = order_cap(n_freq, n_in)
+    cap = order_cap(n_freq, n_in, data.thresholds.max_poles)
     fixed = options.max_order is not None
     p = min(default_max_order(n_in, n_freq), cap)
     if options.max_order is not None:
@@ -364,7 +365,7 @@ class Retest:
         d, th = self.data, self.data.thresholds
         ok = final_tests(d.freq_hz, d.Hc, d.Hn_c, ref, d.quantity, n_members,
                          partner=partner, strict=strict, thresholds=th)
-        self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, th)])
+        self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, thresholds=th)])
         return ok
 
     def could_pass(self, candidates: SelectedPoles, indices: np.ndarray) -> np.ndarray:
@@ -384,8 +385,8 @@ class Retest:
                            window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
                            thresholds=th, map_=self.map_, modes=indices)
         pole, cov = ref.pole[indices], ref.cov[indices]
-        determined = decay_determined(pole, cov, th)
-        ok = determined & inside_band(d.freq_hz, pole, th)
+        determined = decay_determined(pole, cov, thresholds=th)
+        ok = determined & inside_band(d.freq_hz, pole, thresholds=th)
         if not ok.any():
             self.rejected.append(pole[determined])
         return ok
@@ -414,7 +415,7 @@ def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
     (:func:`shown_by_the_frfs`)."""
     d = retest.data
     alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
-    alt = alt[shown_by_the_frfs(d.freq_hz, d.Hc, alt, d.thresholds)]
+    alt = alt[shown_by_the_frfs(d.freq_hz, d.Hc, alt, thresholds=d.thresholds)]
     return add_found(found, alt, partner=False, strict=np.zeros(alt.size, bool),
                      retest=retest, found_by="alternate", screen=retest.could_pass)
 
@@ -422,7 +423,7 @@ def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
 def add_close_partners(found: Candidates,
                        retest: Retest) -> tuple[Candidates, SplitCalibration]:
     """Stage 5c: close modes hidden in a kept resonance
-    (:func:`~ema_pipeline.identification.selection.acceptance.close_partners`).
+    (:func:`~ema_pipeline.identification.selection.partners.close_partners`).
     Returns the candidates and, with fewer than ``min_shape_channels``
     channels, whether the two-poles-against-one F test is calibrated on the
     band's data (``ClosePartners.calibration``, evaluated when
@@ -454,7 +455,7 @@ def merge_unsupported_pairs(found: Candidates,
     """Stage 5e, with fewer than ``min_shape_channels`` channels: of a close
     pair of kept poles that one channel cannot support (not significant, its
     peaks not apart:
-    :func:`~ema_pipeline.identification.selection.acceptance.unsupported_partners`),
+    :func:`~ema_pipeline.identification.selection.pairs.unsupported_partners`),
     the weaker is dropped and the rest refitted
     (:func:`~ema_pipeline.identification.selection.acceptance.refit_kept`).
     Returns the candidates and the poles of the partners that stayed (before
@@ -590,7 +591,8 @@ def with_band_support(result: IdentificationResult, auto: IdentificationResult |
                     support[i] = auto.band_support[same[0]]
         return replace(result, band_support=support)
     if searched:
-        return replace(result, band_support=band_support(pole, list(searched), thresholds))
+        support = band_support(pole, list(searched), thresholds=thresholds)
+        return replace(result, band_support=support)
     return result
 
 
@@ -600,11 +602,11 @@ def with_pair_flags(result: IdentificationResult, data: BandData, judged: np.nda
     """Stage 7c, with fewer than ``min_shape_channels`` channels: which kept
     modes (refined poles ``judged``, result order) one channel cannot support
     as two (``IdentificationResult.pair_flags``): a close pair
-    (:func:`~ema_pipeline.identification.selection.acceptance.close_pairs`) whose
+    (:func:`~ema_pipeline.identification.selection.pairs.close_pairs`) whose
     peaks do not show apart (:data:`PAIR_UNDER_ONE_PEAK`), unless the F test
     is calibrated on these data (``calibration``, :func:`add_close_partners`) and prefers
     the two poles to one clearly
-    (:func:`~ema_pipeline.identification.selection.acceptance.pair_significance`
+    (:func:`~ema_pipeline.identification.selection.pairs.pair_significance`
     with the window's line correlation, at least ``pair_clear_significance``);
     and the mode nearest each pole of ``merged`` (:func:`merge_unsupported_pairs`:
     a second pole beside it was dropped, :data:`SECOND_POLE_DROPPED`)."""
@@ -612,8 +614,8 @@ def with_pair_flags(result: IdentificationResult, data: BandData, judged: np.nda
     if data.Hc.shape[0] >= th.min_shape_channels or judged.size == 0:
         return result
     flags = np.zeros(judged.size, dtype=int)
-    for i, j in close_pairs(judged, th):
-        if peaks_apart(data.freq_hz, data.Hc, judged[i], judged[j], th):
+    for i, j in close_pairs(judged, thresholds=th):
+        if peaks_apart(data.freq_hz, data.Hc, judged[i], judged[j], thresholds=th):
             continue
         if calibration is not None and calibration.calibrated and pair_significance(
                 data.freq_hz, data.Hc, judged, i, j, data.quantity,
@@ -634,5 +636,5 @@ def with_not_kept(result: IdentificationResult, data: BandData, rejected: list[n
         return result
     not_kept_hz, not_kept_frfs = resonances_not_kept(data.freq_hz, data.Hc,
                                                      np.concatenate(rejected), kept,
-                                                     data.thresholds)
+                                                     thresholds=data.thresholds)
     return replace(result, not_kept_hz=not_kept_hz, not_kept_frfs=not_kept_frfs)

@@ -44,7 +44,7 @@ from ema_pipeline.identification.result import (
     ResolvedSettings,
     StabilizationData,
 )
-from ema_pipeline.identification.selection.expect import EXPECT_TOL_PCT, match_expected
+from ema_pipeline.identification.selection.expect import match_expected
 from ema_pipeline.modal import pole_fd_hz
 
 
@@ -125,11 +125,12 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         )
     poles = np.where(poles.imag < 0, poles.conj(), poles)
     poles = poles[(poles.real + decay < 0) & (poles.imag > 0)]  # structural damping > 0
-    match = match_expected(pole_fd_hz(poles), guesses, EXPECT_TOL_PCT)
+    tol = options.thresholds.expect_tol
+    match = match_expected(pole_fd_hz(poles), guesses, tol)
     poles = poles[np.unique(match[match >= 0])]
     if poles.size == 0:
         raise DataError(
-            f"{where}sdypy-lscf found no stable pole within {EXPECT_TOL_PCT:g} % of "
+            f"{where}sdypy-lscf found no stable pole within {100 * tol:g} % of "
             f"{', '.join(f'{g:g}' for g in guesses)} Hz; raise max_order or check the guesses"
         )
     if np.any(np.abs(poles.imag) < 2 * np.pi * lo):

@@ -1,16 +1,18 @@
 """Every tuned threshold of the ``"plscf"`` identification, in one place.
 
-:class:`SelectionThresholds` is one frozen record of the numbers that the
-automatic selection depends on: the tolerances that link poles into
-trajectories, the screens of the adaptive order search, the final tests of a
-refined pole, the residual check, the list of resonances not kept, the local
-band of the pole refinement and the rule that marks a mode ``doubtful``. Each
+:class:`SelectionThresholds` is one frozen record of the tuned numbers of
+the identification: the diagram's tolerances and those that link poles into
+trajectories, the tolerance of an expected frequency, the screens of the
+adaptive order search and its order cap, the local band of the pole
+refinement, the final tests of a refined pole, the residual check, the list
+of resonances not kept and the rule that marks a mode ``doubtful``. Each
 field says what it was chosen on (the measured beam of ``../shared/data`` and
 the hard families of ``tests/hardcases.py``).
 
 It is a field of :class:`~ema_pipeline.identification.IdentificationOptions`
-(``options.thresholds``) and is passed down the chain from there, never
-imported as module constants: a study of one threshold is
+(``options.thresholds``) and is passed down the chain from there as a
+required keyword (no function inside the package has a default record of
+its own), never imported as module constants: a study of one threshold is
 ``identify(frf, thresholds=replace(SelectionThresholds(), max_rel_decay_std=0.3))``.
 The result keeps the record it was made with
 (``result.settings.thresholds``). Every field is checked when the record is
@@ -36,6 +38,8 @@ _ABOVE_ZERO = frozenset({
     "min_members", "expect_min_members", "young_min_members", "diagram_orders",
     "window_modes", "window_step", "window_min_lines", "local_min_lines", "min_frfs",
     "alternate_min_frfs", "alternate_peak_lines", "pair_significance_level", "pair_max_gap",
+    "max_poles", "local_max_fraction", "local_cap_min_lines", "local_band_min_lines",
+    "residual_contrast_widths",
 })
 #: Fields that are fractions, levels of the MAC or the MPC, or damping ratios: at most 1.
 _AT_MOST_ONE = frozenset({
@@ -139,9 +143,14 @@ class SelectionThresholds:
     fragment_tol_zeta: float = 0.3
     #: ... and one starts within this many computed orders of the other's end.
     fragment_max_gap: int = 3
-    #: An expected frequency is answered by the candidate nearest to it within
-    #: this relative distance
-    #: (:func:`~ema_pipeline.identification.selection.trajectories.select_expected`).
+    #: An expected frequency (``expect_hz``) is answered by the candidate
+    #: nearest to it within this relative distance
+    #: (:func:`~ema_pipeline.identification.selection.trajectories.select_expected`),
+    #: and a guess that no kept mode answers within it is reported not found
+    #: (:func:`~ema_pipeline.identification.selection.expect.match_expected`: the
+    #: warning and the empty row of the modes table; the sdypy-lscf backend
+    #: keeps only the poles that answer a guess within it). One tolerance for
+    #: both: a guess whose kept mode lies within it is never also "not found".
     expect_tol: float = 0.15
 
     # ------------------------------------------------ adaptive order search
@@ -176,6 +185,11 @@ class SelectionThresholds:
     #: A diagram holds at most this many orders, evenly spaced (the companion
     #: eigenvalues, O(sum n^3), dominate the cost at high order).
     diagram_orders: int = 40
+    #: The companion matrix of a pLSCF diagram has at most this many rows
+    #: (poles): the order is held to max_poles / n_in
+    #: (:func:`~ema_pipeline.identification.diagram.resources.order_cap`, which
+    #: also bounds the adaptive search and the memory check).
+    max_poles: int = 480
     #: A band whose top is more than this times its bottom is searched once more
     #: in its lowest 1/zoom_ratio (pLSCF's time step follows the band top, so
     #: the poles of low modes in a wide band crowd near z = 1 and are poorly
@@ -210,6 +224,16 @@ class SelectionThresholds:
     #: the refinement on half of it).
     local_half_width: float = 12.0
     local_min_lines: int = 40
+    #: ... but at most this fraction of the mode's frequency on each side (a
+    #: low mode's band stays clear of 0 Hz) ...
+    local_max_fraction: float = 0.2
+    #: ... where that cap still leaves more than this many lines (else the
+    #: band of ``local_half_width`` and ``local_min_lines`` stands) ...
+    local_cap_min_lines: int = 13
+    #: ... and a local band of fewer than this many lines is not fitted (the
+    #: mode has no local problem:
+    #: :func:`~ema_pipeline.identification.refinement.local_band.local_problem`).
+    local_band_min_lines: int = 12
     #: The split fit of a close partner uses +-this many half-power bandwidths.
     split_half_width: float = 6.0
     #: A refined pole that moves by more than this many decay rates (plus one
@@ -248,7 +272,7 @@ class SelectionThresholds:
     #: drops 14-150; a spurious pole beside a mode of zeta 7 %: SNR 20).
     complex_min_snr: float = 50.0
     complex_min_residual_drop: float = 4.0
-    #: A close mode hidden in a kept mode's resonance (``acceptance.close_partners``):
+    #: A close mode hidden in a kept mode's resonance (``partners.close_partners``):
     #: one pole more in that mode's local fit must leave at most
     #: partner_max_residual_ratio of the residual variance, both poles must be
     #: determined, apart by more than half the sum of their decay rates, and
@@ -269,9 +293,9 @@ class SelectionThresholds:
     #: With fewer channels (impact tests with one or two accelerometers, issue
     #: 42) a pole is a second mode beside a close partner only on evidence one
     #: channel can give: two poles fit the pair's local problem better than
-    #: one beyond what the noise explains (``acceptance.pair_significance``:
+    #: one beyond what the noise explains (``pairs.pair_significance``:
     #: an F test at this significance level), or its peak shows apart from the
-    #: partner's (``acceptance.peaks_apart``). Otherwise the weaker pole is
+    #: partner's (``pairs.peaks_apart``). Otherwise the weaker pole is
     #: dropped and the mode marked (``second_pole_not_significant``); the
     #: pairs of the diagrams are judged as if the noise were white (both
     #: poles passed the diagrams' and the final tests), a close partner of
@@ -283,7 +307,7 @@ class SelectionThresholds:
     #: pairs 20-1e4 (model error, not noise: hence the mark below) ...
     pair_significance_level: float = 1e-3
     #: ... a close partner of the split fit is added with fewer channels
-    #: (``acceptance.close_partners``) only where the F test is calibrated:
+    #: (``partners.close_partners``) only where the F test is calibrated:
     #: the median significance of every kept mode's split fit (with or
     #: without a partner) below this. In the impact families the noise is
     #: all the split fits see (medians 0.2-1.0, a missed partner 2.7-1.2e4);
@@ -305,7 +329,7 @@ class SelectionThresholds:
     #: A pair under one peak is not marked (``plscf_backend.with_pair_flags``)
     #: when the F test that adds close partners (``pair_significance``, the
     #: window's correction applied) is calibrated on the file
-    #: (``acceptance.f_test_calibrated``) and prefers the two poles by at
+    #: (``pairs.f_test_calibrated``) and prefers the two poles by at
     #: least this. Measured on seeds 300-339 of impact_1ch, impact_2ch and
     #: impact_close (99 files with one or two channels, all calibrated:
     #: medians 0.20-0.995): a second pole beside a mode with no true mode
@@ -350,10 +374,13 @@ class SelectionThresholds:
     #: peaks of a few thousand lines; missed modes of the hard cases 10-60.
     residual_peak_ratio: float = 8.0
     #: ... and at least this many times the median of its surroundings (the
-    #: lines 1-4 peak widths plus 20 lines away): missed modes of the hard cases
+    #: lines 1 to ``residual_contrast_widths`` peak widths plus
+    #: ``residual_contrast_lines`` lines away): missed modes of the hard cases
     #: stand 5-30 times above theirs, the spikes of a noisy stretch (the top of
     #: the paper's simulated axis, at the anti-alias filter) 1.3-1.8 times.
     residual_peak_contrast: float = 3.0
+    residual_contrast_widths: int = 4
+    residual_contrast_lines: int = 20
     #: At most this many residual peaks (the highest) are tried per band.
     max_residual_peaks: int = 6
 

@@ -182,11 +182,12 @@ def identify_file(
         if note:
             outcome.warnings.append(f"{path}: {note}")
         if options.expect_hz:  # one row per guess; guesses not found with empty values
-            table = with_expected_rows(table.to_frame(), options.expect_hz)
+            tol = result.settings.thresholds.expect_tol  # the selection's tolerance
+            table = with_expected_rows(table.to_frame(), options.expect_hz, tol)
             for column in ("found_by", "selection"):  # a guess not found: empty
                 table[column] = table[column].fillna("")
             message = not_found_message(options.expect_hz, match_expected(
-                result.fn_hz, options.expect_hz))
+                result.fn_hz, options.expect_hz, tol), tol)
             if message:
                 outcome.warnings.append(f"{path}: {message}")
         io.write_csv(table, modes_csv)

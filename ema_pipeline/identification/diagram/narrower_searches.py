@@ -64,7 +64,7 @@ def uncovered_alternates(kept: np.ndarray, alternates: list[SelectedPoles | None
 
 
 def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
-                      thresholds: SelectionThresholds | None = None) -> np.ndarray:
+                      *, thresholds: SelectionThresholds) -> np.ndarray:
     """Per pole: at least ``alternate_min_frfs`` of the FRFs ``H`` (n_ch, n_freq)
     show a peak of their own within ``alternate_peak_lines`` lines of its natural frequency
     (:func:`~ema_pipeline.identification.selection.not_kept.visible_peaks`). An
@@ -75,14 +75,15 @@ def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(0.0, 100.0, 401)
     >>> jw = 2j * np.pi * f
     >>> lam = -0.5 + 2j * np.pi * 40.0
     >>> H = np.tile(1 / (jw - lam) + 1 / (jw - np.conj(lam)), (2, 1))
-    >>> shown_by_the_frfs(f, H, np.array([lam, -0.5 + 2j * np.pi * 70.0])).tolist()
+    >>> shown_by_the_frfs(f, H, np.array([lam, -0.5 + 2j * np.pi * 70.0]), thresholds=th).tolist()
     [True, False]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     pole = np.asarray(pole, dtype=complex)
     if pole.size == 0:
         return np.zeros(0, dtype=bool)
@@ -93,7 +94,7 @@ def shown_by_the_frfs(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray,
 
 
 def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
-                 thresholds: SelectionThresholds | None = None) -> np.ndarray:
+                 *, thresholds: SelectionThresholds) -> np.ndarray:
     """Per pole (n, 2) int: how many of the narrower searches ``searched``
     (their bands in Hz and candidates: the first two entries of each
     :data:`~ema_pipeline.identification.diagram.order_search.SearchedBand`) hold it
@@ -105,13 +106,15 @@ def band_support(pole: np.ndarray, searched: Sequence[SearchedBand],
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> cand = SelectedPoles(np.array([-1 + 2j * np.pi * 100.2]), np.zeros(1, int),
     ...                      np.ones(1, int), np.zeros(1), np.zeros(1), np.zeros(1, int))
     >>> lam = np.array([-2 + 2j * np.pi * 100.0, -2 + 2j * np.pi * 150.0])
-    >>> band_support(lam, [((50.0, 200.0), cand, None), ((90.0, 160.0), None, None)]).tolist()
+    >>> searched = [((50.0, 200.0), cand, None), ((90.0, 160.0), None, None)]
+    >>> band_support(lam, searched, thresholds=th).tolist()
     [[2, 1], [2, 0]]
     """
-    margin = (thresholds or SelectionThresholds()).band_support_margin
+    margin = thresholds.band_support_margin
     fd = pole_fd_hz(np.asarray(pole))
     out = np.zeros((fd.size, 2), dtype=int)
     for entry in searched:
@@ -159,7 +162,7 @@ def searches_turned_off(options: IdentificationOptions, band_hz: tuple[float, fl
     what = []
     if hi >= th.zoom_ratio * lo:
         what.append(f"the band's lowest 1/{th.zoom_ratio:g}")
-    dense = bool(mode_windows(np.asarray(fn_hz, float), (lo, hi), th))
+    dense = bool(mode_windows(np.asarray(fn_hz, float), (lo, hi), thresholds=th))
     fixed = options.max_order is not None
     if options.window_searches and (dense or fixed):
         what.append("the windows of a dense band")

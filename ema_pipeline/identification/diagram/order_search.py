@@ -10,9 +10,10 @@ Order (unless ``max_order`` fixes it): the first diagram is computed at
 doubled while the diagram may be short of modes -- when physical
 trajectories that the data determine are still young at its last order
 (:func:`young_trajectories`: a mode that stabilised late), or when it has
-fewer than 4 pole pairs per mode found plus 16 to spare (noise and the modes
-outside the band take poles too) -- and stops after two doublings without a
-gain in determined modes, or at
+fewer than ``room_pairs_per_mode`` (4) pole pairs per mode found plus
+``room_spare_pairs`` (16) to spare (noise and the modes outside the band take
+poles too) -- and stops after two doublings without a gain in determined
+modes (:meth:`OrderSearch.grows`), or at
 :func:`~ema_pipeline.identification.diagram.resources.order_cap`, which depends on the number
 of lines and references only. "Determined" is the screen
 :func:`~ema_pipeline.identification.refinement.local_fits.quick_significance`
@@ -69,7 +70,7 @@ from ema_pipeline.modal import pole_fd_hz, poles_overlap
 from ema_pipeline.threads import Mapper, SerialMap, map_costliest_first
 
 
-def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarray:
+def diagram_orders(p: int, n_in: int, max_orders: int) -> np.ndarray:
     """Orders of one diagram: every order (every second for one reference, whose
     odd orders only add a real pole) up to ``max_orders`` of them (default
     ``SelectionThresholds.diagram_orders``), else that many evenly spaced up to
@@ -77,11 +78,9 @@ def diagram_orders(p: int, n_in: int, max_orders: int | None = None) -> np.ndarr
 
     Examples
     --------
-    >>> diagram_orders(10, 1).tolist(), diagram_orders(200, 2, 4).tolist()
+    >>> diagram_orders(10, 1, 40).tolist(), diagram_orders(200, 2, 4).tolist()
     ([2, 4, 6, 8, 10], [1, 67, 134, 200])
     """
-    if max_orders is None:
-        max_orders = SelectionThresholds().diagram_orders
     step = 2 if n_in == 1 else 1
     orders = np.arange(step, p + 1, step)
     if orders.size > max_orders:
@@ -96,7 +95,8 @@ def young_trajectories(
     selected: SelectedPoles,
     band_hz: tuple[float, float],
     window_decay_rate: float,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """Last poles of the trajectories that are still young: alive at the last
     order, at least ``young_min_members`` members, physical (0 < zeta <
@@ -106,15 +106,17 @@ def young_trajectories(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> order = np.array([2, 4, 6, 6])
     >>> lam = np.array([-1 + 300j, -1 + 300j, -1 + 300j, -1 + 600j])
     >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((4, 1), complex),
     ...              orders=np.array([2, 4, 6]), dt=1 / 400)
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> young_trajectories(ps, track_poles(ps), none, (1.0, 190.0), 0.0).size
+    >>> traj = track_poles(ps, thresholds=th)
+    >>> young_trajectories(ps, traj, none, (1.0, 190.0), 0.0, thresholds=th).size
     1
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     p = int(poles.orders[-1])
     last = np.flatnonzero(poles.order == p)
     ids, counts = np.unique(traj, return_counts=True)
@@ -147,7 +149,7 @@ class OrderSearch:
     min_peak: float
     min_fraction: float
     expect: bool
-    thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
+    thresholds: SelectionThresholds
     tolerances: tuple[float, float, float] | None = None
     #: worker processes for the diagrams' eigenvalues and the windows'
     #: searches (:func:`ema_pipeline.threads.process_map`; None: this process)
@@ -165,91 +167,150 @@ class OrderSearch:
     ) -> tuple[SelectedPoles, np.ndarray, PoleSet]:
         """Selected candidates, trajectory labels and poles of the chosen diagram.
         ``Hn`` (n_out, n_in, n_freq) normalised FRFs on the lines ``freq``; the
-        search starts at order ``p`` and grows up to ``cap``, or computes
-        order ``p`` alone when ``fixed``."""
-        lo, hi = band
-        n_in = Hn.shape[1]
+        search starts at order ``p`` and grows up to ``cap``
+        (:meth:`grows`), or computes order ``p`` alone when ``fixed``
+        (:meth:`screened`). Of the grown diagrams (:meth:`count`) the one
+        with the most determined modes is chosen, with the others'
+        determined resonances that it does not cover (:meth:`chosen`)."""
         Hn_c = Hn.reshape(-1, Hn.shape[-1])
-        decay, min_peak, weights = self.window_decay_rate, self.min_peak, self.weights
-        expect, th = self.expect, self.thresholds
-        # a guess needs fewer members than an automatic pick
-        min_fraction, min_members = ((0.0, th.expect_min_members) if expect
-                                     else (self.min_fraction, th.min_members))
-        history: list[tuple[int, int]] = []
-        resolved: list[SelectedPoles] = []
-        best: tuple[SelectedPoles, np.ndarray, PoleSet] | None = None
+        counts: list[DiagramCount] = []
+        best: Diagram | None = None
         best_at = 0
         while True:
-            orders = diagram_orders(p, n_in, th.diagram_orders)
-            try:
-                poles = plscf(freq, Hn, max_order=p, orders=orders, weights=weights,
-                              map_=self.map_)
-            except (np.linalg.LinAlgError, DataError):
+            diagram = self.diagram(freq, Hn, band, p)
+            if diagram is None:  # singular normal equations
                 if best is None:
                     raise DataError(
                         f"pLSCF normal equations at order {p} are singular; give a lower "
                         "max_order or a wider band"
-                    ) from None
+                    )
                 break  # too ill-conditioned to grow further: keep the last diagram
-            # a band of few lines allows few orders (46 lines at one reference:
-            # orders 2-10): a mode stable from the second of them on still counts
-            members = min(min_members, max(orders.size - 1, 2))
-            traj = link_fragments(poles, track_poles(poles, self.tolerances, th), decay,
-                                  min_fraction=min_fraction, min_members=members,
-                                  thresholds=th)
-            sel = select_trajectories(
-                poles, traj, (lo, hi), decay,
-                min_fraction=min_fraction,
-                min_members=members,
-                thresholds=th,
-            )
-            sel = merge_coincident(sel, th)
             if fixed:
-                rel, peak, snr = quick_significance(freq, Hn_c, sel.pole, thresholds=th)
-                screen = peak > min_peak
-                if expect:  # a guess is answered by a determined resonance
-                    screen &= (rel < th.max_rel_sigma_std) & (
-                        (peak >= th.weak_peak_ratio) | (snr >= th.min_weak_peak_snr))
-                best = (sel.subset(screen), traj, poles)
-                break
-            # count only the modes the data determine (cheap screen, one linear fit)
-            young = young_trajectories(poles, traj, sel, (lo, hi), decay, th)
-            rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]),
-                                                thresholds=th)
-            ok = (rel < th.max_rel_sigma_std) & (peak > min_peak)
-            # determined resonances (the peak test of acceptance.resonant):
-            # what answers an expected frequency
-            counted = ok & ((peak >= th.weak_peak_ratio) | (snr >= th.min_weak_peak_snr))
-            # mature: stable over at least the last quarter of the orders (a
-            # trajectory born later is confirmed by the next, larger diagram)
-            mature = (sel.first_order < th.mature_fraction * p) | (p >= cap)
-            n_modes = int(np.sum(ok[: sel.pole.size] & mature))
-            ok_young = (rel < th.young_max_rel_sigma_std) & (peak > th.young_min_peak_ratio)
-            n_young = int(np.sum(ok_young[sel.pole.size :]))
-            history.append((p, n_modes))
-            # determined resonances of every diagram: a mode that one diagram
-            # resolves and the best one (more modes in all) lost is kept
-            resolved.append(sel.subset(counted[: sel.pole.size] & mature))
-            if best is None or n_modes > history[best_at][1]:
-                keep = (peak[: sel.pole.size] > min_peak) & mature
-                if expect:  # a guess is answered by a determined resonance
-                    keep = counted[: sel.pole.size]
-                best, best_at = (sel.subset(keep), traj, poles), len(history) - 1
-            room = p * n_in / 2 >= th.room_pairs_per_mode * n_modes + th.room_spare_pairs
-            grow = n_young > 0 or not room
-            if len(history) >= 3 and n_modes <= history[-2][1] <= history[-3][1]:
-                grow = False  # two doublings without a gain: the data hold no more
-            if p >= cap or not grow:
+                return self.screened(freq, Hn_c, diagram)
+            count = self.count(freq, Hn_c, band, p, cap, diagram)
+            counts.append(count)
+            if best is None or count.n_modes > counts[best_at].n_modes:
+                best, best_at = (count.offered, diagram[1], diagram[2]), len(counts) - 1
+            if p >= cap or not self.grows(counts, Hn.shape[1]):
                 break
             p = min(2 * p, cap)
         assert best is not None
-        if not expect:
-            chosen = best[0]
-            for k, other in enumerate(resolved):
-                if k != best_at:
-                    chosen = add_uncovered(chosen, other, "other_order")
-            best = (chosen, best[1], best[2])
-        return best
+        return self.chosen(best, best_at, counts)
+
+    def diagram(self, freq: np.ndarray, Hn: np.ndarray, band: tuple[float, float],
+                p: int) -> Diagram | None:
+        """The diagram of order ``p`` (up to ``thresholds.diagram_orders``
+        orders, :func:`diagram_orders`), its pole trajectories (linked,
+        fragments joined) and the trajectories selected as candidates (the
+        coincident ones merged); None when pLSCF's normal equations are
+        singular. A guess (``expect``) needs fewer members than an automatic
+        pick, and any fraction of the orders."""
+        th = self.thresholds
+        min_fraction, min_members = ((0.0, th.expect_min_members) if self.expect
+                                     else (self.min_fraction, th.min_members))
+        orders = diagram_orders(p, Hn.shape[1], th.diagram_orders)
+        try:
+            poles = plscf(freq, Hn, max_order=p, orders=orders, weights=self.weights,
+                          map_=self.map_)
+        except (np.linalg.LinAlgError, DataError):
+            return None
+        # a band of few lines allows few orders (46 lines at one reference:
+        # orders 2-10): a mode stable from the second of them on still counts
+        members = min(min_members, max(orders.size - 1, 2))
+        decay = self.window_decay_rate
+        traj = link_fragments(poles, track_poles(poles, self.tolerances, thresholds=th), decay,
+                              min_fraction=min_fraction, min_members=members, thresholds=th)
+        sel = select_trajectories(poles, traj, band, decay, min_fraction=min_fraction,
+                                  min_members=members, thresholds=th)
+        return merge_coincident(sel, thresholds=th), traj, poles
+
+    def screened(self, freq: np.ndarray, Hn_c: np.ndarray, diagram: Diagram) -> Diagram:
+        """A fixed order's diagram with the candidates whose own peak is above
+        ``min_peak``; for a guess (``expect``) only the determined
+        resonances (the peak test of
+        :func:`~ema_pipeline.identification.selection.acceptance.resonant`)."""
+        th = self.thresholds
+        sel, traj, poles = diagram
+        rel, peak, snr = quick_significance(freq, Hn_c, sel.pole, thresholds=th)
+        screen = peak > self.min_peak
+        if self.expect:  # a guess is answered by a determined resonance
+            screen &= (rel < th.max_rel_sigma_std) & (
+                (peak >= th.weak_peak_ratio) | (snr >= th.min_weak_peak_snr))
+        return sel.subset(screen), traj, poles
+
+    def count(self, freq: np.ndarray, Hn_c: np.ndarray, band: tuple[float, float], p: int,
+              cap: int, diagram: Diagram) -> DiagramCount:
+        """What the cheap screen
+        (:func:`~ema_pipeline.identification.refinement.local_fits.quick_significance`,
+        one linear fit) finds determined in the diagram of order ``p``: the
+        mature candidates it determines, the young trajectories
+        (:func:`young_trajectories`) that ask for a higher order, the
+        determined resonances and the candidates the diagram offers if it is
+        the best."""
+        th = self.thresholds
+        sel, traj, poles = diagram
+        young = young_trajectories(poles, traj, sel, band, self.window_decay_rate,
+                                   thresholds=th)
+        rel, peak, snr = quick_significance(freq, Hn_c, np.concatenate([sel.pole, young]),
+                                            thresholds=th)
+        n = sel.pole.size
+        ok = (rel < th.max_rel_sigma_std) & (peak > self.min_peak)
+        # determined resonances (the peak test of acceptance.resonant):
+        # what answers an expected frequency
+        counted = ok & ((peak >= th.weak_peak_ratio) | (snr >= th.min_weak_peak_snr))
+        # mature: stable over at least the last quarter of the orders (a
+        # trajectory born later is confirmed by the next, larger diagram)
+        mature = (sel.first_order < th.mature_fraction * p) | (p >= cap)
+        ok_young = (rel < th.young_max_rel_sigma_std) & (peak > th.young_min_peak_ratio)
+        # a guess is answered by a determined resonance
+        offer = counted[:n] if self.expect else (peak[:n] > self.min_peak) & mature
+        return DiagramCount(
+            p=p, n_modes=int(np.sum(ok[:n] & mature)), n_young=int(np.sum(ok_young[n:])),
+            # determined resonances of every diagram: a mode that one diagram
+            # resolves and the best one (more modes in all) lost is kept
+            resolved=sel.subset(counted[:n] & mature), offered=sel.subset(offer))
+
+    def grows(self, counts: list[DiagramCount], n_in: int) -> bool:
+        """Whether the search doubles the order after ``counts[-1]``: while
+        young trajectories ask for it or the diagram has fewer than
+        ``room_pairs_per_mode`` pole pairs per determined mode plus
+        ``room_spare_pairs``, and not after two doublings without a gain in
+        determined modes (the data hold no more)."""
+        th, last = self.thresholds, counts[-1]
+        room = last.p * n_in / 2 >= th.room_pairs_per_mode * last.n_modes + th.room_spare_pairs
+        if len(counts) >= 3 and last.n_modes <= counts[-2].n_modes <= counts[-3].n_modes:
+            return False
+        return last.n_young > 0 or not room
+
+    def chosen(self, best: Diagram, best_at: int, counts: list[DiagramCount]) -> Diagram:
+        """The best diagram's candidates plus, without a guess, the determined
+        resonances of the other diagrams that none of them covers
+        (:func:`add_uncovered`, ``"other_order"``)."""
+        if self.expect:
+            return best
+        sel = best[0]
+        for k, count in enumerate(counts):
+            if k != best_at:
+                sel = add_uncovered(sel, count.resolved, "other_order")
+        return sel, best[1], best[2]
+
+
+#: One diagram of the search: its candidates, trajectory labels and poles.
+Diagram = tuple[SelectedPoles, np.ndarray, PoleSet]
+
+
+@dataclass(frozen=True)
+class DiagramCount:
+    """What :meth:`OrderSearch.count` found in the diagram of order ``p``:
+    ``n_modes`` mature candidates the screen determines, ``n_young`` young
+    trajectories it determines, the determined resonances (``resolved``) and
+    the candidates the diagram offers if it is the best (``offered``)."""
+
+    p: int
+    n_modes: int
+    n_young: int
+    resolved: SelectedPoles
+    offered: SelectedPoles
 
 
 def search_window(
@@ -266,7 +327,8 @@ def search_window(
 
     Examples
     --------
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
+    >>> th = SelectionThresholds()
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False, thresholds=th)
     >>> search_window(search, np.arange(10.0, 60.0), np.ones((1, 1, 50)), (10, 60)) is None
     True
     """
@@ -277,7 +339,7 @@ def search_window(
     if search.weights is not None:
         search = replace(search, weights=search.weights[..., lines])
     n_in = Hz.shape[1]
-    cap = order_cap(fz.size, n_in, window=True)
+    cap = order_cap(fz.size, n_in, search.thresholds.max_poles, window=True)
     try:
         zsel, _, _ = search.run(fz, Hz, window_hz, min(default_max_order(n_in, fz.size), cap),
                                 cap, fixed=False)
@@ -360,8 +422,9 @@ def add_zoom_modes(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False, thresholds=th)
     >>> sel, searched = add_zoom_modes(none, search, np.arange(10.0, 60.0),
     ...                                np.ones((1, 1, 50)), (10, 60))
     >>> sel.pole.size, searched
@@ -402,7 +465,7 @@ def without_merged(sel: SelectedPoles, new: SelectedPoles | None) -> SelectedPol
 
 
 def mode_windows(
-    fn_hz: np.ndarray, band: tuple[float, float], thresholds: SelectionThresholds | None = None
+    fn_hz: np.ndarray, band: tuple[float, float], *, thresholds: SelectionThresholds
 ) -> list[tuple[float, float]]:
     """Windows of ``window_modes`` consecutive candidate frequencies
     ``fn_hz`` inside ``band``, shifted by ``window_step``, each reaching to
@@ -412,10 +475,11 @@ def mode_windows(
 
     Examples
     --------
-    >>> mode_windows(np.arange(1.0, 15.0) * 10, (5.0, 145.0))
+    >>> th = SelectionThresholds()
+    >>> mode_windows(np.arange(1.0, 15.0) * 10, (5.0, 145.0), thresholds=th)
     [(5.0, 105.0), (45.0, 145.0)]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     lo, hi = band
     f = np.sort(fn_hz[(fn_hz > lo) & (fn_hz < hi)])
     n = f.size
@@ -445,14 +509,15 @@ def add_window_modes(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> none = SelectedPoles(*(np.zeros(0) for _ in range(5)))
-    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False)
+    >>> search = OrderSearch(None, 0.0, 0.05, 0.3, expect=False, thresholds=th)
     >>> f = np.arange(10.0, 60.0)
     >>> sel, searched = add_window_modes(none, search, f, np.ones((1, 1, 50)), (10, 60))
     >>> sel.pole.size, searched
     (0, [])
     """
-    windows = mode_windows(pole_fd_hz(sel.pole), band, search.thresholds)
+    windows = mode_windows(pole_fd_hz(sel.pole), band, thresholds=search.thresholds)
     # the windows' searches are independent: side by side in the worker
     # processes of search.map_, folded in in the windows' order as a serial
     # loop would

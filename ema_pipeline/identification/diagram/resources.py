@@ -32,19 +32,17 @@ DEFAULT_MEMORY_LIMIT_GB = 4.0
 MEMORY_LIMIT_ENV = "EMA_MEMORY_LIMIT_GB"
 #: Fewest frequency lines in the band.
 MIN_BAND_LINES = 16
-#: Largest companion matrix (poles) of a fixed-order pLSCF run.
-MAX_POLES = 480
 _GIB = 1 << 30
 
 
-def order_cap(n_lines: int, n_in: int, max_poles: int = MAX_POLES, *,
-              window: bool = False) -> int:
+def order_cap(n_lines: int, n_in: int, max_poles: int, *, window: bool = False) -> int:
     """Highest fixed ``max_order`` the lines in the band support.
 
     The model of order p has p n_in poles and (p + 1) n_in real numerator
     coefficients per output; the 2 n_lines real equations of each output must
     outnumber them about 4:1 (p <= (n_lines / 2 - 1) / n_in), and the
-    companion matrix stays below ``max_poles`` rows (p <= max_poles / n_in).
+    companion matrix stays below ``max_poles`` rows (p <= max_poles / n_in;
+    ``SelectionThresholds.max_poles``).
     For one reference a whole band is held to p <= n_lines / 4 (8:1): on the
     measured beam's 1000 lines and 30 outputs the 4:1 rule lets the order grow
     to 480, and poles of the model error come in (10 of the 14 published modes
@@ -55,8 +53,10 @@ def order_cap(n_lines: int, n_in: int, max_poles: int = MAX_POLES, *,
 
     Examples
     --------
-    >>> order_cap(8000, 1), order_cap(8000, 3), order_cap(400, 1), order_cap(86, 1, window=True)
-    (480, 160, 100, 42)
+    >>> order_cap(8000, 1, 480), order_cap(8000, 3, 480), order_cap(400, 1, 480)
+    (480, 160, 100)
+    >>> order_cap(86, 1, 480, window=True)
+    42
     """
     by_lines = (n_lines // 2 - 1) // max(n_in, 1) if n_in > 1 or window else n_lines // 4
     return int(max(2, min(by_lines, max_poles // max(n_in, 1))))
@@ -155,7 +155,7 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
     method = str(options.method)
     identified = single_reference(frf)  # the set identify() works on
     n_in, n_out = identified.n_in, identified.n_out
-    cap = order_cap(n_lines, n_in)
+    cap = order_cap(n_lines, n_in, options.thresholds.max_poles)
     p = options.max_order
     if p is not None:
         if method == "plscf" and p > cap:

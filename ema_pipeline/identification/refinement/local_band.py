@@ -31,6 +31,7 @@ from ema_pipeline.identification.refinement.lsfd import (
     real_stack,
     solve_r,
 )
+from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
 
@@ -242,6 +243,8 @@ def local_problem(
     half_width: float,
     min_lines: int,
     a_all: np.ndarray | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> tuple | None:
     """Lines, data, member poles and background of mode r's local band
     (less the terms of the other modes with residues ``a_all`` (m, n_ch)).
@@ -249,17 +252,22 @@ def local_problem(
     Returns (f, Y, members, background, k, (lo, hi)): the lines (Hz), the
     real-stacked data (2n, n_ch), the indices of the member poles, the complex
     quadratic background (n, 3), the position of r among the members and the
-    band; None when the band holds fewer than 12 lines. The default band
-    (``half_width``, ``min_lines``) is ``SelectionThresholds.local_half_width``
-    and ``local_min_lines``, passed in by the callers."""
+    band; None when the band holds fewer than
+    ``thresholds.local_band_min_lines`` lines. The band is +-``half_width``
+    half-power bandwidths, at least ``min_lines`` lines (the default band:
+    ``thresholds.local_half_width`` and ``local_min_lines``, passed in by the
+    callers), at most ``thresholds.local_max_fraction`` of the mode's
+    frequency on each side where that leaves more than
+    ``thresholds.local_cap_min_lines`` lines."""
     df = freq_hz[1] - freq_hz[0]
     f_r = pole_fd_hz(poles)
     hpb = 2 * pole_half_width_hz(poles)  # half-power bandwidth in Hz
     width = max(half_width * hpb[r], 0.5 * min_lines * df)
-    width = min(width, 0.2 * f_r[r]) if 0.2 * f_r[r] > 6.5 * df else width  # >= 13 lines
+    cap = thresholds.local_max_fraction * f_r[r]
+    width = min(width, cap) if cap > 0.5 * thresholds.local_cap_min_lines * df else width
     lo, hi = f_r[r] - width, f_r[r] + width
     sel = (freq_hz >= lo) & (freq_hz <= hi)
-    if sel.sum() < 12:
+    if sel.sum() < thresholds.local_band_min_lines:
         return None
     f = freq_hz[sel]
     # the member mask, r included: its indices are the sorted union, the rest

@@ -42,7 +42,7 @@ def quick_significance(
     H: np.ndarray,
     poles: np.ndarray,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Cheap screen of candidate poles: std(sigma_r)/sigma_r, peak ratio and peak SNR.
 
@@ -61,16 +61,17 @@ def quick_significance(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
     >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
-    >>> rel, peak, snr = quick_significance(f, H, lam)
+    >>> rel, peak, snr = quick_significance(f, H, lam, thresholds=th)
     >>> bool(rel[0] < 0.01), bool(peak[0] > 1), bool(snr[0] > 1e3)
     (True, True, True)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     half_width, min_lines = th.local_half_width, th.local_min_lines
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
@@ -78,7 +79,7 @@ def quick_significance(
     peak = np.zeros(poles.size)
     snr = np.zeros(poles.size)
     for r in range(poles.size):
-        local = local_problem(freq_hz, H, poles, r, half_width, min_lines)
+        local = local_problem(freq_hz, H, poles, r, half_width, min_lines, thresholds=th)
         if local is None:
             continue
         f, Y, members, background, k, _ = local
@@ -120,7 +121,7 @@ def local_shapes(
     poles: np.ndarray,
     *,
     quantity: str | None = "accelerance",
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """(n_modes, n_ch) complex residues of each pole from its own local
     problem (the band, member poles and quadratic background of
@@ -135,22 +136,24 @@ def local_shapes(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 401)
     >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
     >>> jw = 2j * np.pi * f
     >>> H = np.array([[1.0], [-2.0]]) * (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None]
-    >>> a = local_shapes(f, H, lam, quantity=None)
+    >>> a = local_shapes(f, H, lam, quantity=None, thresholds=th)
     >>> np.round(a[0] / a[0, 0], 6).tolist()
     [(1+0j), (-2+0j)]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     half_width, min_lines = th.local_half_width, th.local_min_lines
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
     out = np.full((poles.size, H.shape[0]), np.nan + 0j)
     a_all = global_residues(freq_hz, H, poles, quantity)
     for r in range(poles.size):
-        local = local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all)
+        local = local_problem(freq_hz, H, poles, r, half_width, min_lines, a_all,
+                              thresholds=th)
         if local is None:
             continue
         f, Y, members, background, k, _ = local
@@ -185,7 +188,7 @@ def split_fit(
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
     residues: np.ndarray | None = None,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> SplitFit | None:
     """Refit pole r's local problem (as
     :func:`~ema_pipeline.identification.refinement.refine.refine_poles`, on
@@ -202,21 +205,23 @@ def split_fit(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(80.0, 120.0, 801)
     >>> lam = np.array([-3.0 + 2j * np.pi * 100.0, -3.0 + 2j * np.pi * 100.6])
     >>> jw = 2j * np.pi * f
     >>> H = np.stack([1 / (jw - lam[0]) + 0.5 / (jw - lam[1]),
     ...               1 / (jw - lam[0]) - 0.5 / (jw - lam[1])])
     >>> H = H + 1e-5 * np.random.default_rng(0).standard_normal(H.shape)
-    >>> fit = split_fit(f, H, lam[:1], 0, quantity=None)
+    >>> fit = split_fit(f, H, lam[:1], 0, quantity=None, thresholds=th)
     >>> np.sort(fit.pole.imag / (2 * np.pi)).round(2).tolist(), fit.residual_ratio < 0.01
     ([100.0, 100.6], True)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     freq_hz = np.asarray(freq_hz, dtype=float)
     H = np.asarray(H)
     a_all = residues if residues is not None else global_residues(freq_hz, H, poles, quantity)
-    local = local_problem(freq_hz, H, poles, r, th.split_half_width, th.local_min_lines, a_all)
+    local = local_problem(freq_hz, H, poles, r, th.split_half_width, th.local_min_lines, a_all,
+                          thresholds=th)
     if local is None:
         return None
     f, Y, members, background, k, _ = local

@@ -326,7 +326,7 @@ def refine_poles(
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
     map_: Mapper | None = None,
     modes: Sequence[int] | np.ndarray | None = None,
 ) -> RefinedPoles:
@@ -367,7 +367,7 @@ def refine_poles(
         own (the other poles are its start values), so a refined mode has the
         numbers it has when all are refined.
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     half_width = th.local_half_width if half_width is None else half_width
     return _refine(freq_hz, H, poles, half_width, max_iter, quantity, window_tau_s,
                    force_window_s, th, covariance=True, map_=map_, modes=modes)
@@ -400,7 +400,7 @@ class LocalFits:
         freq_hz, H, poles = self.freq_hz, self.H, self.poles
         df = freq_hz[1] - freq_hz[0]
         local = local_problem(freq_hz, H, poles, r, self.half_width, th.local_min_lines,
-                              self.a_all)
+                              self.a_all, thresholds=th)
         if local is None:
             return None
         f, Y, members, background, k, band = local
@@ -466,7 +466,7 @@ def local_residues(
     poles: np.ndarray,
     a_all: np.ndarray,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Each mode's residues from its own local band: a local LSFD.
 
@@ -506,6 +506,7 @@ def local_residues(
     only roughly: the global fit's shape of the 20 Hz mode has MAC 0.84 with
     the truth and MPC 0.49, the local one is exact.
 
+    >>> th = SelectionThresholds()
     >>> from ema_pipeline.identification.refinement.lsfd import lsfd, mpc
     >>> from ema_pipeline.modal import mac_pairs
     >>> f = np.arange(1.0, 281.0)
@@ -514,19 +515,19 @@ def local_residues(
     >>> jw = 2j * np.pi * f[:, None]
     >>> H = (1 / (jw - lam) @ a + 1 / (jw - lam.conj()) @ a.conj()).T  # (6, 280)
     >>> a_all = lsfd(f, H, lam[:2], "receptance").a
-    >>> a_loc, local = local_residues(f, H, lam[:2], a_all)
+    >>> a_loc, local = local_residues(f, H, lam[:2], a_all, thresholds=th)
     >>> mac_pairs(a_all.T, a[:2].T).round(2), mpc(a_all.T).round(2)
     (array([0.84, 1.  ]), array([0.49, 1.  ]))
     >>> mac_pairs(a_loc.T, a[:2].T).round(6), bool(local.all())
     (array([1., 1.]), True)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     freq_hz = np.asarray(freq_hz, dtype=float)
     a = np.array(a_all, dtype=complex, copy=True)
     local = np.zeros(poles.size, dtype=bool)
     for r in range(poles.size):
         problem = local_problem(freq_hz, H, poles, r, th.local_half_width, th.local_min_lines,
-                                a_all)
+                                a_all, thresholds=th)
         if problem is None:
             continue
         f, Y, members, background, k, _ = problem
@@ -549,7 +550,7 @@ def band_sensitivity(
     quantity: str | None = "accelerance",
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
     map_: Mapper | None = None,
 ) -> np.ndarray:
     """Model-choice covariance of refined poles, (n_modes, 2, 2) in (sigma, omega_d).
@@ -570,14 +571,16 @@ def band_sensitivity(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 801)
     >>> lam = np.array([-3.0 + 2j * np.pi * 100.0])
     >>> jw = 2j * np.pi * f
     >>> H = (1 / (jw - lam) + 1 / (jw - lam.conj()))[None] + 1e-4 * jw[None] ** 0
-    >>> float(np.abs(band_sensitivity(f, H, lam, quantity="receptance")).max()) < 1e-6
+    >>> shift = band_sensitivity(f, H, lam, quantity="receptance", thresholds=th)
+    >>> float(np.abs(shift).max()) < 1e-6
     True
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     half_width = th.local_half_width / 2 if half_width is None else half_width
     # the poles only: the narrower fit's covariance is not used
     other = _refine(freq_hz, H, poles, half_width, 10, quantity, window_tau_s, force_window_s,

@@ -1,13 +1,16 @@
 """Expected natural frequencies (``expect_hz``, ``--expect``): which mode answers which guess.
 
-A guess g is *found* by a mode of frequency f when |f - g| <= tol_pct / 100 * g
-(default :data:`EXPECT_TOL_PCT` = 5 %: more than the spread of a mode's frequency
-over the model orders and than the shift of a mode between the paper's
-configurations, far less than the spacing of the modes of a beam). A guess
-with no mode inside its tolerance is *not found*: it is reported (a warning
-and a row with empty values in the modes table), never answered by a distant
-mode. Each mode answers at most one guess; guesses and modes are paired
-nearest first.
+A guess g is *found* by a mode of frequency f when |f - g| < tol g
+(:func:`within_tolerance`), ``tol`` the field ``expect_tol`` of
+:class:`~ema_pipeline.identification.thresholds.SelectionThresholds` (15 %):
+the same tolerance by which the selection picks the candidate that answers
+a guess
+(:func:`~ema_pipeline.identification.selection.trajectories.select_expected`),
+so that a guess answered by a kept mode is never also reported not found. A
+guess with no mode inside its tolerance is *not found*: it is reported (a
+warning and a row with empty values in the modes table), never answered by
+a distant mode. Each mode answers at most one guess; guesses and modes are
+paired nearest first.
 
 This module imports only numpy (pandas where a table is made), so that the
 selection, the backends and the pipeline can all use it without an import
@@ -24,14 +27,23 @@ import numpy as np
 if TYPE_CHECKING:
     import pandas as pd
 
-#: Default tolerance of a guess, percent of the guessed frequency.
-EXPECT_TOL_PCT: float = 5.0
+def within_tolerance(fn_hz: np.ndarray | float, guess_hz: np.ndarray | float,
+                     tol: float) -> np.ndarray:
+    """True where a mode of frequency ``fn_hz`` may answer the guess
+    ``guess_hz``: |f - g| < ``tol`` g (broadcast).
+
+    Examples
+    --------
+    >>> within_tolerance(np.array([90.0, 110.0, 120.0]), 100.0, 0.15).tolist()
+    [True, True, False]
+    """
+    return np.asarray(np.abs(fn_hz - guess_hz) < tol * guess_hz)
 
 
 def match_expected(
     fn_hz: Sequence[float] | np.ndarray,
     expect_hz: Sequence[float] | np.ndarray,
-    tol_pct: float = EXPECT_TOL_PCT,
+    tol: float,
     *,
     priority: Sequence[float] | np.ndarray | None = None,
 ) -> np.ndarray:
@@ -41,7 +53,8 @@ def match_expected(
     ----------
     fn_hz : (n_modes,) candidate natural frequencies in Hz.
     expect_hz : (n_guesses,) guessed natural frequencies in Hz.
-    tol_pct : a mode answers a guess g only within ``tol_pct`` percent of g.
+    tol : a mode answers a guess g only within ``tol`` g
+        (:func:`within_tolerance`; ``SelectionThresholds.expect_tol``).
     priority : (n_modes,) optional; among modes equally near a guess (relative
         distances within 1e-4) the one of higher priority (e.g. more stable
         model orders) is taken.
@@ -53,23 +66,23 @@ def match_expected(
 
     Examples
     --------
-    >>> match_expected([18.1, 112.0, 327.5], [18.0, 115.0, 500.0, 330.0])
+    >>> match_expected([18.1, 112.0, 327.5], [18.0, 115.0, 500.0, 330.0], 0.15)
     array([ 0,  1, -1,  2])
-    >>> match_expected([18.1, 112.0], [18.0, 115.0], tol_pct=1.0)  # 112 is 2.6 % off
+    >>> match_expected([18.1, 112.0], [18.0, 115.0], tol=0.01)  # 112 is 2.6 % off
     array([ 0, -1])
-    >>> match_expected([100.0], [99.0, 101.5])  # one mode answers one guess
+    >>> match_expected([100.0], [99.0, 101.5], 0.15)  # one mode answers one guess
     array([ 0, -1])
     """
     fn = np.asarray(fn_hz, dtype=float).ravel()
     guess = np.asarray(expect_hz, dtype=float).ravel()
-    if not tol_pct > 0:
-        raise ValueError(f"tol_pct must be > 0, got {tol_pct}")
+    if not tol > 0:
+        raise ValueError(f"tol must be > 0, got {tol}")
     prio = np.zeros(fn.size) if priority is None else np.asarray(priority, dtype=float).ravel()
     match = np.full(guess.size, -1, dtype=int)
     if fn.size == 0 or guess.size == 0:
         return match
     rel = np.abs(fn[None, :] - guess[:, None]) / guess[:, None]  # (n_guesses, n_modes)
-    ok = rel <= tol_pct / 100.0
+    ok = within_tolerance(fn[None, :], guess[:, None], tol)
     span = max(float(np.ptp(prio)), 1.0)
     key = rel - 1e-4 * (prio - prio.min())[None, :] / span
     g_idx, m_idx = np.nonzero(ok)
@@ -82,25 +95,26 @@ def match_expected(
 
 
 def not_found_message(expect_hz: Sequence[float] | np.ndarray, match: np.ndarray,
-                      tol_pct: float = EXPECT_TOL_PCT) -> str:
-    """One line naming the guesses that no mode answers ("" when all are found).
+                      tol: float) -> str:
+    """One line naming the guesses that no mode answers ("" when all are
+    found); ``tol`` the tolerance :func:`match_expected` used.
 
     Examples
     --------
-    >>> not_found_message([18.0, 500.0], np.array([0, -1]))
-    'expected mode(s) not found within 5 % of 500 Hz (reported with empty values)'
+    >>> not_found_message([18.0, 500.0], np.array([0, -1]), 0.15)
+    'expected mode(s) not found within 15 % of 500 Hz (reported with empty values)'
     """
     missing = np.asarray(expect_hz, dtype=float)[np.asarray(match) < 0]
     if missing.size == 0:
         return ""
-    return (f"expected mode(s) not found within {tol_pct:g} % of "
+    return (f"expected mode(s) not found within {100 * tol:g} % of "
             f"{', '.join(f'{f:g}' for f in missing)} Hz (reported with empty values)")
 
 
 def with_expected_rows(
     table: pd.DataFrame,
     expect_hz: Sequence[float] | np.ndarray,
-    tol_pct: float = EXPECT_TOL_PCT,
+    tol: float,
 ) -> pd.DataFrame:
     """The modes table with an ``expect_hz`` column and one row per guess that
     no mode answers (every other column empty), ordered by frequency.
@@ -108,13 +122,14 @@ def with_expected_rows(
     ``table`` has one row per mode with columns ``mode`` and ``fn_hz`` (the
     table of :func:`ema_pipeline.identification.modes_table`); modes that
     answer no guess keep an empty ``expect_hz``. ``mode`` stays the number of
-    the identified mode (empty on a not-found row).
+    the identified mode (empty on a not-found row). A mode answers a guess
+    within ``tol`` of it (:func:`match_expected`).
 
     Examples
     --------
     >>> import pandas as pd
     >>> table = pd.DataFrame({"mode": [1, 2], "fn_hz": [18.1, 112.0], "zeta_pct": [0.5, 0.7]})
-    >>> with_expected_rows(table, [18.0, 60.0, 112.5])
+    >>> with_expected_rows(table, [18.0, 60.0, 112.5], 0.15)
        mode  fn_hz  zeta_pct  expect_hz
     0     1   18.1       0.5       18.0
     1  <NA>    NaN       NaN       60.0
@@ -124,7 +139,7 @@ def with_expected_rows(
 
     guess = np.asarray(expect_hz, dtype=float).ravel()
     out = table.copy()
-    match = match_expected(out["fn_hz"].to_numpy(), guess, tol_pct)
+    match = match_expected(out["fn_hz"].to_numpy(), guess, tol)
     answered = np.full(len(out), np.nan)
     answered[match[match >= 0]] = guess[match >= 0]
     out["expect_hz"] = answered

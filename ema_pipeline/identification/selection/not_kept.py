@@ -34,17 +34,18 @@ from ema_pipeline.modal import pole_fd_hz, pole_fn_hz, pole_half_width_hz
 
 
 def half_width_hz(freq_hz: np.ndarray, pole: np.ndarray,
-                  thresholds: SelectionThresholds | None = None) -> np.ndarray:
+                  *, thresholds: SelectionThresholds) -> np.ndarray:
     """The band (Hz, each side) that belongs to each pole (rad/s): its
     half-power half-width |Re lambda| / 2 pi plus ``thresholds.peak_lines`` lines.
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.arange(0.0, 101.0)
-    >>> half_width_hz(f, np.array([-2 * np.pi + 2j * np.pi * 50.0]))
+    >>> half_width_hz(f, np.array([-2 * np.pi + 2j * np.pi * 50.0]), thresholds=th)
     array([2.5])
     """
-    peak_lines = (thresholds or SelectionThresholds()).peak_lines
+    peak_lines = thresholds.peak_lines
     df = float(np.median(np.diff(freq_hz))) if freq_hz.size > 1 else 0.0
     return np.asarray(pole_half_width_hz(np.asarray(pole)) + peak_lines * df)
 
@@ -109,7 +110,8 @@ def visible_peaks(
     within_hz: float,
     exclude_hz: np.ndarray | None = None,
     exclude_within_hz: np.ndarray | None = None,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """In how many FRFs a peak of |H| stands out (log-prominence above
     ``thresholds.min_log_prominence``) within ``within_hz`` of each ``center_hz``,
@@ -118,14 +120,15 @@ def visible_peaks(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(0.0, 100.0, 201)
     >>> jw = 2j * np.pi * f
     >>> lam = -1.0 + 2j * np.pi * 40.0
     >>> H = np.array([1 / (jw - lam) + 1 / (jw - np.conj(lam)), np.ones(f.size)])
-    >>> visible_peaks(f, H, np.array([40.0, 70.0]), 1.0).tolist()
+    >>> visible_peaks(f, H, np.array([40.0, 70.0]), 1.0, thresholds=th).tolist()
     [1, 0]
     """
-    min_log_prominence = (thresholds or SelectionThresholds()).min_log_prominence
+    min_log_prominence = thresholds.min_log_prominence
     center = np.asarray(center_hz, dtype=float)
     count = np.zeros(center.size, dtype=int)
     ex = np.zeros(0) if exclude_hz is None else np.asarray(exclude_hz, dtype=float)
@@ -150,7 +153,8 @@ def resonances_not_kept(
     H: np.ndarray,
     rejected: np.ndarray,
     kept: np.ndarray,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> tuple[np.ndarray, np.ndarray]:
     """The ``rejected`` candidate poles (rad/s) at which the FRFs ``H``
     (n_ch, n_freq) show a resonance of their own: a peak that stands out in
@@ -168,6 +172,7 @@ def resonances_not_kept(
     A weak mode at 60 Hz seen by two FRFs that do not see the strong one at
     50 Hz, rejected by the fit:
 
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(0.0, 100.0, 401)
     >>> jw = 2j * np.pi * f
     >>> def mode(fn):
@@ -176,10 +181,10 @@ def resonances_not_kept(
     >>> H = np.array([mode(50.0), mode(50.0), 0.01 * mode(60.0), 0.01 * mode(60.0)])
     >>> kept = np.array([-0.5 + 2j * np.pi * 50.0])
     >>> rejected = np.array([-0.5 + 2j * np.pi * 60.0, -3.0 + 2j * np.pi * 80.0])
-    >>> resonances_not_kept(f, H, rejected, kept)
+    >>> resonances_not_kept(f, H, rejected, kept, thresholds=th)
     (array([60.]), array([2]))
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     rejected = np.asarray(rejected, dtype=complex)
     rejected = rejected[rejected.imag > 0]
     kept = np.asarray(kept, dtype=complex)
@@ -188,10 +193,10 @@ def resonances_not_kept(
     fn = pole_fn_hz(rejected)
     df = float(np.median(np.diff(freq_hz)))
     n_frfs = visible_peaks(freq_hz, H, fn, th.peak_lines * df, pole_fd_hz(kept),
-                           half_width_hz(freq_hz, kept, th), th)
+                           half_width_hz(freq_hz, kept, thresholds=th), thresholds=th)
     listed = n_frfs >= max(th.min_frfs, int(np.ceil(th.min_frf_share * np.shape(H)[0])))
     fn, n_frfs = fn[listed], n_frfs[listed]
-    width = half_width_hz(freq_hz, rejected[listed], th)
+    width = half_width_hz(freq_hz, rejected[listed], thresholds=th)
     # one entry per resonance: of candidates within each other's bands, the
     # one seen in most FRFs
     out_f: list[float] = []

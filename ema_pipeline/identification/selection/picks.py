@@ -103,7 +103,7 @@ def diagram_poles(frf: FRFSet, picks: Picks, window_decay_rate: float,
     orders = np.array(sorted(set(picks.orders)), dtype=int)
     poles = plscf(sub.freq_hz, Hn, max_order=int(orders[-1]), orders=orders, weights=weights)
     th = options.thresholds
-    traj = link_fragments(poles, track_poles(poles, options.link_tolerances(), th),
+    traj = link_fragments(poles, track_poles(poles, options.link_tolerances(), thresholds=th),
                           window_decay_rate, min_fraction=options.min_fraction,
                           min_members=th.min_members, thresholds=th)
     f_tol, z_tol, m_tol = options.diagram_tolerances()

@@ -16,7 +16,7 @@ channel over its median (the floor; a median ignores the peaks), averaged
 over the channels and over 3 lines, above ``residual_peak_ratio``,
 outside the half-power bands of the kept modes (a kept mode's misfit, and
 the part of the noise proportional to |H|, peak there; close modes hidden in
-a kept resonance are the business of ``acceptance.close_partners``), and
+a kept resonance are the business of ``partners.close_partners``), and
 at least ``residual_peak_contrast`` times its surroundings (fields of
 :class:`~ema_pipeline.identification.thresholds.SelectionThresholds`). A residual
 that rises into the band's edge is the tail of a mode outside the band or a
@@ -100,7 +100,7 @@ def residual_peaks(
     pole: np.ndarray,
     quantity: str,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Start poles (rad/s, ascending frequency) at the peaks of the residual of
     the global LSFD of the kept ``pole`` that stand
@@ -131,6 +131,7 @@ def residual_peaks(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> f = np.linspace(50.0, 150.0, 801)
     >>> lam = np.array([-2.0 + 2j * np.pi * 80.0, -1.5 + 2j * np.pi * 120.0])
     >>> jw = 2j * np.pi * f
@@ -138,11 +139,11 @@ def residual_peaks(
     >>> rng = np.random.default_rng(0)
     >>> H = np.stack([terms[0] + s * terms[1] for s in (1.0, -0.7, 0.4)])
     >>> H = H + 1e-4 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
-    >>> start, from_edge = residual_peaks(f, H, lam[:1], "receptance")
+    >>> start, from_edge = residual_peaks(f, H, lam[:1], "receptance", thresholds=th)
     >>> (start.imag / (2 * np.pi)).round(1).tolist(), from_edge.tolist()
     ([120.0], [False])
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     min_ratio, max_peaks = th.residual_peak_ratio, th.max_residual_peaks
     freq_hz = np.asarray(freq_hz, dtype=float)
     n = freq_hz.size
@@ -185,7 +186,7 @@ def residual_peaks(
             f_lam = pole_fd_hz(lam)
             j = int(np.argmin(np.abs(freq_hz - f_lam)))
             inner = freq_hz[0] < f_lam < freq_hz[-1] and not edge[j]
-            if not (is_physical(lam, th) and inner):
+            if not (is_physical(lam, thresholds=th) and inner):
                 continue
         else:
             if any(skip[j] and raw[j] > ratio[k] / 2 for j in ends) or any(
@@ -194,8 +195,11 @@ def residual_peaks(
                 # into a kept mode's zone (its misfit): a slope
                 skip[lo : hi + 1] = True
                 continue
-            around = np.zeros(n, bool)  # the surroundings: 1-4 widths (+ 20 lines) away
-            around[max(0, lo - 4 * width - 20) : min(n, hi + 4 * width + 21)] = True
+            # the surroundings: 1 to residual_contrast_widths widths (plus
+            # residual_contrast_lines lines) away
+            reach = th.residual_contrast_widths * width + th.residual_contrast_lines
+            around = np.zeros(n, bool)
+            around[max(0, lo - reach) : min(n, hi + reach + 1)] = True
             around[max(0, lo - width) : min(n, hi + width + 1)] = False
             around &= ~(excluded | skip)
             if around.any() and ratio[k] < th.residual_peak_contrast * np.median(raw[around]):
@@ -206,7 +210,7 @@ def residual_peaks(
             sl = slice(max(0, lo - width - 3), min(n, hi + width + 4))
             lam = peak_pole(freq_hz[sl], R[:, sl])
             inside = freq_hz[lo] <= pole_fd_hz(lam) <= freq_hz[hi]
-            if not (is_physical(lam, th) and inside):
+            if not (is_physical(lam, thresholds=th) and inside):
                 lam = 2 * np.pi * freq_hz[k] * (-width * df / (2 * freq_hz[k]) + 1j)
         # a half-power band of at least 2 lines (narrower is not resolved)
         start = np.append(start, complex(min(lam.real, -2 * np.pi * df), lam.imag))
@@ -216,16 +220,17 @@ def residual_peaks(
     return start[order], from_edge[order]
 
 
-def is_physical(lam: complex, thresholds: SelectionThresholds | None = None) -> bool:
+def is_physical(lam: complex, *, thresholds: SelectionThresholds) -> bool:
     """True for a decaying pole with a damping ratio below
     ``thresholds.max_zeta``.
 
     Examples
     --------
-    >>> is_physical(-1.0 + 100j), is_physical(1.0 + 100j), is_physical(-50.0 + 100j)
-    (True, False, False)
+    >>> th = SelectionThresholds()
+    >>> [is_physical(lam, thresholds=th) for lam in (-1.0 + 100j, 1.0 + 100j, -50.0 + 100j)]
+    [True, False, False]
     """
-    max_zeta = (thresholds or SelectionThresholds()).max_zeta
+    max_zeta = thresholds.max_zeta
     return bool(lam.real < 0 and -lam.real < max_zeta * abs(lam))
 
 

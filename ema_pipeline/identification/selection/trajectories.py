@@ -27,6 +27,7 @@ from ema_pipeline.identification.result import (  # light result types
     SelectedPoles,
     found_by_code,
 )
+from ema_pipeline.identification.selection.expect import within_tolerance
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, poles_overlap
 
@@ -34,7 +35,8 @@ from ema_pipeline.modal import mac, poles_overlap
 def track_poles(
     poles: PoleSet,
     tolerances: tuple[float, float, float] | None = None,
-    thresholds: SelectionThresholds | None = None,
+    *,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """Trajectory label of every pole of ``poles`` (sorted by order).
 
@@ -52,14 +54,15 @@ def track_poles(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> from ema_pipeline.identification.diagram.plscf import PoleSet
     >>> lam = np.array([-1 + 100j, -1 + 100.2j, -5 + 300j, -1 + 100.3j])
     >>> ps = PoleSet(order=np.array([2, 4, 4, 6]), pole=lam,
     ...              participation=np.ones((4, 1), complex), orders=np.array([2, 4, 6]), dt=1e-3)
-    >>> track_poles(ps).tolist()
+    >>> track_poles(ps, thresholds=th).tolist()
     [0, 0, 1, 0]
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     tol_freq, tol_zeta, tol_mac = tolerances or (th.link_tol_freq, th.link_tol_zeta,
                                                  th.link_tol_mac)
     max_gap = th.link_max_gap
@@ -110,9 +113,9 @@ def link_fragments(
     traj: np.ndarray,
     window_decay_rate: float = 0.0,
     *,
-    min_fraction: float = 0.3,
-    min_members: int = 6,
-    thresholds: SelectionThresholds | None = None,
+    min_fraction: float,
+    min_members: int,
+    thresholds: SelectionThresholds,
 ) -> np.ndarray:
     """``traj`` with the pieces of one heavily damped mode's trajectory joined.
 
@@ -132,16 +135,18 @@ def link_fragments(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> order = np.repeat(np.arange(2, 14, 2), 1)
     >>> f = np.array([100.0, 100.4, 100.2, 102.5, 102.2, 102.8])
     >>> lam = -0.05 * 2 * np.pi * f + 2j * np.pi * f
     >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((6, 1), complex),
     ...              orders=np.arange(2, 14, 2), dt=1e-3)
-    >>> tr = track_poles(ps)
-    >>> len(set(tr.tolist())), len(set(link_fragments(ps, tr).tolist()))  # 3 + 3 < 6 members
+    >>> tr = track_poles(ps, thresholds=th)
+    >>> joined = link_fragments(ps, tr, min_fraction=0.3, min_members=6, thresholds=th)
+    >>> len(set(tr.tolist())), len(set(joined.tolist()))  # 3 + 3 < 6 members
     (2, 1)
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     min_zeta, tol_zeta, max_gap = th.fragment_min_zeta, th.fragment_tol_zeta, th.fragment_max_gap
     ids, inv, counts = np.unique(traj, return_inverse=True, return_counts=True)
     if ids.size < 2:
@@ -196,9 +201,9 @@ def select_trajectories(
     band_hz: tuple[float, float],
     window_decay_rate: float = 0.0,
     *,
-    min_fraction: float = 0.1,
-    min_members: int = 6,
-    thresholds: SelectionThresholds | None = None,
+    min_fraction: float,
+    min_members: int,
+    thresholds: SelectionThresholds,
 ) -> SelectedPoles:
     """The trajectories that are physical modes, ascending frequency.
 
@@ -217,16 +222,18 @@ def select_trajectories(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> from ema_pipeline.identification.diagram.plscf import PoleSet
     >>> order = np.repeat(np.arange(2, 22, 2), 2)
     >>> lam = np.tile([-2 + 2 * np.pi * 50j, -900 + 2 * np.pi * 80j], 10)
     >>> ps = PoleSet(order=order, pole=lam, participation=np.ones((20, 1), complex),
     ...              orders=np.arange(2, 22, 2), dt=1 / 200)
-    >>> sel = select_trajectories(ps, track_poles(ps), (1.0, 100.0))
+    >>> sel = select_trajectories(ps, track_poles(ps, thresholds=th), (1.0, 100.0),
+    ...                           min_fraction=0.3, min_members=6, thresholds=th)
     >>> (sel.pole.imag / (2 * np.pi)).round(1).tolist(), sel.n_members.tolist()
     ([50.0], [10])
     """
-    th = thresholds or SelectionThresholds()
+    th = thresholds
     edge, zeta_max, max_scatter = th.band_edge, th.max_zeta, th.max_scatter
     n_orders = poles.orders.size
     need = max(min_members, int(np.ceil(min_fraction * n_orders)))
@@ -268,7 +275,7 @@ def _selected(rows: list[tuple]) -> SelectedPoles:
     )
 
 
-def merge_coincident(sel: SelectedPoles, thresholds: SelectionThresholds | None = None
+def merge_coincident(sel: SelectedPoles, *, thresholds: SelectionThresholds
                      ) -> SelectedPoles:
     """Drop a trajectory whose pole lies within ``thresholds.coincident_rel``
     of a decay rate of the
@@ -277,13 +284,14 @@ def merge_coincident(sel: SelectedPoles, thresholds: SelectionThresholds | None 
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> sel = SelectedPoles(pole=np.array([-1 + 100j, -1 + 100.1j, -1 + 110j]),
     ...                     cluster=np.arange(3), n_members=np.array([10, 4, 8]),
     ...                     scatter_fn_hz=np.zeros(3), scatter_zeta=np.zeros(3))
-    >>> merge_coincident(sel).pole.imag.tolist()
+    >>> merge_coincident(sel, thresholds=th).pole.imag.tolist()
     [100.0, 110.0]
     """
-    rel = (thresholds or SelectionThresholds()).coincident_rel
+    rel = thresholds.coincident_rel
     pole = sel.pole
     keep = np.ones(pole.size, bool)
     for a in np.argsort(-sel.n_members, kind="stable"):
@@ -300,30 +308,34 @@ def select_expected(
     expect_hz: np.ndarray,
     window_decay_rate: float = 0.0,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> SelectedPoles:
     """For each expected frequency the candidate trajectory nearest to it
-    (relative distance < ``thresholds.expect_tol``, the longer one when equally near),
+    (relative distance < ``thresholds.expect_tol``,
+    :func:`~ema_pipeline.identification.selection.expect.within_tolerance`: the
+    tolerance by which a guess is reported not found; the longer one when equally near),
     each candidate used once. A guess with no candidate that near gets none:
     :func:`ema_pipeline.identification.identify` then reports it as not
     found (a warning; an empty row in the modes table), it is never an error.
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> sel = SelectedPoles(pole=np.array([-1 + 2j * np.pi * 50, -1 + 2j * np.pi * 80]),
     ...                     cluster=np.arange(2), n_members=np.array([10, 8]),
     ...                     scatter_fn_hz=np.zeros(2), scatter_zeta=np.zeros(2))
-    >>> (select_expected(sel, np.array([78.0])).pole.imag / (2 * np.pi)).round(1).tolist()
+    >>> fn_hz = lambda s: (s.pole.imag / (2 * np.pi)).round(1).tolist()
+    >>> fn_hz(select_expected(sel, np.array([78.0]), thresholds=th))
     [80.0]
-    >>> (select_expected(sel, np.array([20.0, 52.0])).pole.imag / (2 * np.pi)).round(1).tolist()
+    >>> fn_hz(select_expected(sel, np.array([20.0, 52.0]), thresholds=th))
     [50.0]
     """
-    expect_tol = (thresholds or SelectionThresholds()).expect_tol
+    expect_tol = thresholds.expect_tol
     fn, _, _ = pole_to_modal(candidates.pole, window_decay_rate)
     chosen: list[int] = []
     for fe in np.atleast_1d(np.asarray(expect_hz, dtype=float)):
         d = np.abs(fn - fe) / fe - 1e-4 * candidates.n_members
-        ok = np.abs(fn - fe) < expect_tol * fe
+        ok = within_tolerance(fn, fe, expect_tol)
         ok[chosen] = False
         if ok.any():
             chosen.append(int(np.argmin(np.where(ok, d, np.inf))))
@@ -338,7 +350,7 @@ def expected_from_automatic(
     auto_start: np.ndarray,
     window_decay_rate: float = 0.0,
     *,
-    thresholds: SelectionThresholds | None = None,
+    thresholds: SelectionThresholds,
 ) -> tuple[SelectedPoles, np.ndarray]:
     """The expected candidates with the automatic selection's modes put in.
 
@@ -356,16 +368,17 @@ def expected_from_automatic(
 
     Examples
     --------
+    >>> th = SelectionThresholds()
     >>> lam = np.array([-1 + 2j * np.pi * 50.0, -1 + 2j * np.pi * 81.0])
     >>> sel = SelectedPoles(pole=lam, cluster=np.arange(2), n_members=np.array([10, 8]),
     ...                     scatter_fn_hz=np.zeros(2), scatter_zeta=np.zeros(2))
     >>> auto = np.array([-0.5 + 2j * np.pi * 79.0, -0.5 + 2j * np.pi * 80.0])
     >>> rows, rest = expected_from_automatic(sel, np.array([50.0, 80.0]), np.array([79.0, 80.0]),
-    ...                                      auto)
+    ...                                      auto, thresholds=th)
     >>> (rows.pole.imag / (2 * np.pi)).round(1).tolist(), rows.cluster.tolist(), rest.tolist()
     ([50.0, 80.0], [0, 1], [0])
     """
-    expect_tol = (thresholds or SelectionThresholds()).expect_tol
+    expect_tol = thresholds.expect_tol
     fn_e, _, _ = pole_to_modal(expected.pole, window_decay_rate)
     used_a = np.zeros(auto_fn_hz.size, bool)
     used_e = np.zeros(expected.pole.size, bool)
