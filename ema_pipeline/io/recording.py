@@ -184,11 +184,13 @@ def recording_from_raw(
         def name(key: str) -> str:  # positions refer to the file's channels
             return names[match_channel(key, names, str(path))]
 
+        if force_channel is not None:  # named as the force rule names it
+            force_channel = names[match_channel(force_channel, names, str(path),
+                                                "force channel")]
         chosen = {match_channel(key, names, str(path)): dof for key, dof in channels.items()}
         found = [replace(found[k], dof=dof) for k, dof in chosen.items()]
         scale = None if scale is None else {name(k): v for k, v in scale.items()}
         units = None if units is None else {name(k): v for k, v in units.items()}
-        force_channel = None if force_channel is None else name(force_channel)
     if path.suffix.lower() == ".wav":
         require_wav_settings(path, found, scale, units)
     source = Provenance(path=str(path), sha256=sha256_file(path))
