@@ -602,4 +602,9 @@ def test_sheet_reads_each_file_once_and_estimates_each_point_once(tmp_path, monk
         np.testing.assert_array_equal(frf.H[k, 0], one.frf.H[0, 0])
     page = (tmp_path / "t_hits.html").read_text(encoding="utf-8")
     assert page.count("<figcaption>Force pulse") == 12
+    reads.clear()
+    estimates.clear()  # a single recording too: read once, estimated once
+    assert main(["frf", str(files[2]), "--force-channel", "Hammer", "--out",
+                 str(tmp_path / "p3.h5"), "--report", "--quiet"]) == 0
+    assert reads == ["p3.csv"] and len(estimates) == 1
 
