@@ -12,8 +12,10 @@ Modules:
   cantilever (:func:`simulate_impact_test`, :func:`simulate_time_records`).
 * :mod:`.beam_theory`: the analytic modes of a clamped-free Euler-Bernoulli
   beam (:func:`cantilever_modes`), which the simulation uses.
-* :mod:`.hits`, :mod:`.channels`, :mod:`.sep005`: raw impact recordings (hit
-  detection and checks, channel roles, SDyPy SEP-005 channels).
+* :mod:`.hit_search`, :mod:`.hit_checks`, :mod:`.hits`, :mod:`.channels`,
+  :mod:`.sep005`: raw impact recordings (finding the hits and cutting their
+  records, the checks, the automatic window and the hit table, the units and the
+  one force-channel rule, SDyPy SEP-005 channels).
 
 The names of the first three are re-exported here
 (``from ema_pipeline.acquisition import modal_frf``).
