@@ -537,3 +537,74 @@ def test_hit_page_plots_every_response_with_units(tmp_path):
                  "--report", "--quiet"]) == 0
     page = (tmp_path / "two_hits.html").read_text(encoding="utf-8")
     assert page.count("acc [m/s^2]") >= 4 and page.count("other [m/s^2]") >= 4
+
+
+def _uneven_plate(folder: Path, monkeypatch) -> list[Path]:
+    """A roving-hammer test of three points on a lightly damped plate (the records
+    need an exponential window, of a time constant that differs per point); point 3
+    is hit every 1.2 s instead of 2.1 s, so its own records are half as long."""
+    lightly = Plate(LX, LY, MODES, FN_HZ, np.full(FN_HZ.size, 0.002))
+    rows = [impact_recordings.SHEET_HEADER]
+    for k, point in enumerate(POINTS[:3], start=1):
+        if k == 3:
+            monkeypatch.setattr(impact_recordings, "PLATE_HIT_TIMES_S", (0.5, 1.7, 2.9, 4.1))
+        force, acc = plate_hammer_signals(lightly, point, SENSOR, k, peak_n=PEAK_N)
+        rows += impact_recordings.write_plate_recording(folder, k, force, acc, "csv")
+    monkeypatch.undo()
+    (folder / "channels.csv").write_text("\n".join(rows) + "\n")
+    return [folder / "rec" / f"p{k}.csv" for k in (1, 2, 3)]
+
+
+def test_sheet_reads_each_file_once_and_estimates_each_point_once(tmp_path, monkeypatch):
+    """frf --channels on points whose own record lengths (4096, 4096, 2048 samples)
+    and automatic windows differ: the record length and the window are settled over
+    the files first (the shortest of each), then every file is read once and every
+    point estimated once; the FRFs are those of each file estimated alone with the
+    settled length and window."""
+    from ema_pipeline import acquisition
+    from ema_pipeline.io import recording as recording_io
+    from ema_pipeline.pipeline.frf import FRFSettings, frf_from_recording
+
+    files = _uneven_plate(tmp_path, monkeypatch)
+    alone = [frf_from_recording(io.read_recording(f, force_channel="Hammer")) for f in files]
+    assert [p.n_samples for p in alone] == [4096, 4096, 2048]
+    settled_length = FRFSettings(record_length_s=2048 / FS)
+    taus = [frf_from_recording(io.read_recording(f, force_channel="Hammer"),
+                               settled_length).exp_window_tau_s for f in files]
+    assert None not in taus and len(set(taus)) == 3  # each point its own window
+
+    reads, estimates = [], []
+    real_read, real_estimate = recording_io.read_raw_recording, acquisition.estimate_frf_windows
+
+    def read(path):
+        reads.append(Path(path).name)
+        return real_read(path)
+
+    def estimate(records, **kwargs):
+        estimates.append(records.source.path)
+        return real_estimate(records, **kwargs)
+
+    monkeypatch.setattr(io, "read_raw_recording", read)
+    monkeypatch.setattr(recording_io, "read_raw_recording", read)
+    monkeypatch.setattr(acquisition, "estimate_frf_windows", estimate)
+    out = tmp_path / "t.h5"
+    assert main(["frf", "--channels", str(tmp_path / "channels.csv"), "--out", str(out),
+                 "--report", "--quiet"]) == 0
+    assert sorted(reads) == ["p1.csv", "p2.csv", "p3.csv"]
+    assert sorted(Path(p).name for p in estimates) == ["p1.csv", "p2.csv", "p3.csv"]
+
+    frf = io.read_frf(out)
+    assert frf.acquisition.n_samples == 2048
+    assert frf.acquisition.exp_window_tau_s == min(taus)
+    settled = FRFSettings(record_length_s=2048 / FS, exp_window_tau=min(taus))
+    for k, f in enumerate(files):  # as if each file were estimated with the settled ones
+        one = frf_from_recording(io.read_recording(f, force_channel="Hammer"), settled)
+        np.testing.assert_array_equal(frf.H[k, 0], one.frf.H[0, 0])
+    page = (tmp_path / "t_hits.html").read_text(encoding="utf-8")
+    assert page.count("<figcaption>Force pulse") == 12
+    reads.clear()
+    estimates.clear()  # a single recording too: read once, estimated once
+    assert main(["frf", str(files[2]), "--force-channel", "Hammer", "--out",
+                 str(tmp_path / "p3.h5"), "--report", "--quiet"]) == 0
+    assert reads == ["p3.csv"] and len(estimates) == 1
+

@@ -12,6 +12,7 @@ from scipy.io import wavfile
 from ema_pipeline.acquisition import from_sep005
 from ema_pipeline.data import DataError
 from ema_pipeline.io import read_recording
+from ema_pipeline.io.channel_sheet import read_channel_sheet
 
 LBF_N = 4.4482216152605  # hand value: 1 lbf = 0.45359237 kg * 9.80665 m/s^2
 INCH_M = 0.0254
@@ -231,3 +232,73 @@ def test_different_sample_rates_refused(rec, tmp_path):
     with pytest.raises(DataError, match="different sample rates"):
         from_sep005([{"name": "f", "data": [0.0, 1.0], "unit_str": "N", "fs": 10.0},
                      {"name": "a", "data": [0.0, 1.0], "unit_str": "g", "fs": 20.0}])
+
+
+def test_one_force_channel_rule_for_files_sheets_and_recordings(tmp_path):
+    """The force channel is chosen by one rule
+    (:func:`ema_pipeline.acquisition.channels.force_channel_index`) whether the
+    channels come from a file, a channel sheet or a Recording made in Python: the
+    same choice and the same words (after the name of the source)."""
+    from ema_pipeline.data import Channel, Recording
+    from ema_pipeline.pipeline.frf import frf_from_recording, impact_channels
+    from ema_pipeline.pipeline.roving import read_sheet_recordings
+
+    t = np.arange(64) / 1000.0
+    signals = np.vstack([np.sin(t), np.cos(t), t])
+
+    def both(names: tuple[str, str, str], units: tuple[str, str, str]):
+        path = tmp_path / f"{'_'.join(names)}.csv"
+        header = ",".join(f"{n} [{u}]" for n, u in zip(names, units, strict=True))
+        rows = "\n".join(",".join(f"{v:.9g}" for v in (t[k], *signals[:, k]))
+                         for k in range(t.size))
+        path.write_text(f"time [s],{header}\n{rows}\n")
+        quantity = {"N": "force", "m/s^2": "acceleration"}
+        rec = Recording(signals, 1000.0, tuple(Channel(n, quantity[u])
+                                               for n, u in zip(names, units, strict=True)))
+        return path, rec
+
+    def words(exc: pytest.ExceptionInfo) -> str:
+        return str(exc.value).split(": ", 1)[1]
+
+    # several force channels: the one named force, first in both
+    path, rec = both(("reaction", "Force", "acc"), ("N", "N", "m/s^2"))
+    assert read_recording(path).channels[0].name == "Force"
+    chosen, _ = impact_channels(rec)
+    assert [c.name for c in chosen.channels] == ["Force", "acc"]
+    np.testing.assert_array_equal(chosen.signals[0], signals[1])
+    # named explicitly (--force-channel, a sheet's force row): that one
+    assert read_recording(path, force_channel="reaction").channels[0].name == "reaction"
+    assert impact_channels(rec, "REACTION")[0].channels[0].name == "reaction"
+    sheet = tmp_path / "channels.csv"
+    sheet.write_text("file,channel,role,node,direction,scale,unit\n"
+                     f"{path.name},reaction,force,1,-Z,,\n{path.name},acc,response,2,+Z,,\n")
+    (read,) = read_sheet_recordings(read_channel_sheet(sheet))
+    assert [c.name for c in read.channels] == ["reaction", "acc"]
+
+    # the same words for the same fault
+    for names, units, force, expected in (
+        (("f1", "f2", "acc"), ("N", "N", "m/s^2"), None,
+         "several force channels ('f1', 'f2'); choose one (force_channel / "
+         "--force-channel, or the role column of a channel sheet)"),
+        (("hammer", "a1", "a2"), ("m/s^2", "m/s^2", "m/s^2"), None,
+         "no force channel: none is in a force unit (N, kN, lbf); channels: 'hammer' "
+         "(acceleration), 'a1' (acceleration), 'a2' (acceleration)."),
+        (("hammer", "acc", "acc2"), ("N", "m/s^2", "m/s^2"), "acc",
+         "force channel 'acc' is in acceleration units, not a force (N, kN, lbf)"),
+        (("hammer", "acc", "acc2"), ("N", "m/s^2", "m/s^2"), "gauge",
+         "force channel 'gauge' names no channel; channels: 'hammer', 'acc', 'acc2'"),
+    ):
+        path, rec = both(names, units)
+        with pytest.raises(DataError) as from_file:
+            read_recording(path, force_channel=force)
+        with pytest.raises(DataError) as from_python:
+            frf_from_recording(rec, force_channel=force)
+        assert str(from_file.value).startswith(f"{path}: ")
+        assert words(from_file).startswith(expected) and words(from_python) == words(from_file)
+        if force is not None:  # a channel sheet whose force row names it
+            sheet.write_text("file,channel,role,node,direction,scale,unit\n"
+                             f"{path.name},{force},force,1,-Z,,\n"
+                             f"{path.name},acc2,response,2,+Z,,\n")
+            with pytest.raises(DataError) as from_sheet:
+                read_sheet_recordings(read_channel_sheet(sheet))
+            assert words(from_sheet) == words(from_file)

@@ -3,7 +3,8 @@
 Modules:
 
 * :mod:`.estimation`: **FRF estimation** from time records
-  (:func:`estimate_frf`): H1, H2 and Hv with ordinary coherence from repeated
+  (:func:`estimate_frf`; :func:`estimate_frf_windows` also returns the windows
+  it applied): H1, H2 and Hv with ordinary coherence from repeated
   impacts (linear averaging), a force window and an exponential window on both
   channels, whose time constant is recorded so that identification can undo it.
 * :mod:`.simulation`: **exact FRF synthesis** from modal parameters
@@ -11,8 +12,10 @@ Modules:
   cantilever (:func:`simulate_impact_test`, :func:`simulate_time_records`).
 * :mod:`.beam_theory`: the analytic modes of a clamped-free Euler-Bernoulli
   beam (:func:`cantilever_modes`), which the simulation uses.
-* :mod:`.hits`, :mod:`.channels`, :mod:`.sep005`: raw impact recordings (hit
-  detection and checks, channel roles, SDyPy SEP-005 channels).
+* :mod:`.hit_search`, :mod:`.hit_checks`, :mod:`.hits`, :mod:`.channels`,
+  :mod:`.sep005`: raw impact recordings (finding the hits and cutting their
+  records, the checks, the automatic window and the hit table, the units and the
+  one force-channel rule, SDyPy SEP-005 channels).
 
 The names of the first three are re-exported here
 (``from ema_pipeline.acquisition import modal_frf``).
@@ -23,7 +26,9 @@ from __future__ import annotations
 from ema_pipeline.acquisition.beam_theory import cantilever_beta_l, cantilever_modes
 from ema_pipeline.acquisition.estimation import (
     EXP_WINDOW_MAX_EXPONENT,
+    FRFEstimate,
     estimate_frf,
+    estimate_frf_windows,
     exponential_window,
     force_window,
     shortest_exp_window_tau,
@@ -43,12 +48,14 @@ from ema_pipeline.acquisition.simulation import (
 
 __all__ = [
     "EXP_WINDOW_MAX_EXPONENT",
+    "FRFEstimate",
     "TestSetup",
     "anti_aliasing_filter",
     "cantilever_beta_l",
     "cantilever_modes",
     "configuration_modes",
     "estimate_frf",
+    "estimate_frf_windows",
     "exponential_window",
     "force_window",
     "from_sep005",

@@ -14,11 +14,12 @@ read_recording` for UFF, TDMS, WAV and CSV, :func:`ema_pipeline.acquisition.from
   ``mm``, ...) and converted to SI. A missing or unknown unit, or one that is not
   a force, acceleration, velocity or displacement, is an error naming the channel:
   never silently SI.
-* **Force channel.** ``force_channel=NAME`` chooses it (its unit must be a force).
-  Otherwise the one channel in a force unit; when several are, the one whose
-  name contains ``force``. No force channel, or several without a way to choose,
-  is an error. Other channels in force units are left out (logged). The force
-  comes first in the recording, then the responses in their order.
+* **Force channel.** :func:`force_channel_index`, the one rule of every path:
+  ``force_channel=NAME`` chooses it (its unit must be a force); otherwise the one
+  channel in a force unit; when several are, the one whose name contains
+  ``force``. No force channel, or several without a way to choose, is an error.
+  Other channels in force units are left out (logged). The force comes first in
+  the recording, then the responses in their order.
 * **Checks.** Every channel has the same sample rate (within 1e-9), between
   :data:`MIN_SAMPLE_RATE_HZ` (1 Hz) and :data:`MAX_SAMPLE_RATE_HZ` (2e7 Hz, so that
   the FRFs' lines stay within :data:`ema_pipeline.data.MAX_AXIS_HZ`): a time step of
@@ -186,25 +187,51 @@ def _unit(ch: ChannelData, label: str | None, where: str) -> Unit:
     return unit
 
 
-def _force_index(channels: Sequence[ChannelData], kinds: list[str], force_channel: str | None,
-                 where: str) -> int:
-    names = [c.name for c in channels]
+def force_channel_index(names: Sequence[str], quantities: Sequence[str],
+                        force_channel: str | None = None, where: str = "") -> int:
+    """Index of the force channel among channels ``names`` of ``quantities``: the one
+    rule of every path (a recording read from a file, a channel sheet's file, a
+    :class:`~ema_pipeline.data.Recording` made in Python).
+
+    1. ``force_channel`` (``--force-channel``, the experiment file's
+       ``force_channel``, a channel sheet's force row) chooses it: a name (any
+       letter case) or a position (``"0"``, ``"ch0"``); it must be a force.
+    2. Otherwise the one channel that is a force (in a force unit: N, kN, lbf).
+    3. When several are, the one whose name contains ``force``.
+
+    No force channel, a named channel that is no force, or several force channels
+    without a way to choose, is a DataError naming ``where``.
+
+    Examples
+    --------
+    >>> force_channel_index(["acc", "hammer"], ["acceleration", "force"])
+    1
+    >>> force_channel_index(["Force", "reaction"], ["force", "force"])
+    0
+    >>> force_channel_index(["f1", "f2"], ["force", "force"], where="rec.csv")
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: rec.csv: several force channels ('f1', 'f2'); choose one
+    (force_channel / --force-channel, or the role column of a channel sheet)
+    """
+    names = list(names)
     if force_channel is not None:
         k = match_channel(force_channel, names, where, "force channel")
-        if kinds[k] != "force":
-            raise DataError(f"{_prefix(where)}force channel {names[k]!r} is in {kinds[k]} "
+        if quantities[k] != "force":
+            raise DataError(f"{_prefix(where)}force channel {names[k]!r} is in {quantities[k]} "
                             "units, not a force (N, kN, lbf)")
         return k
-    forces = [k for k, kind in enumerate(kinds) if kind == "force"]
+    forces = [k for k, kind in enumerate(quantities) if kind == "force"]
     if len(forces) > 1:
         named = [k for k in forces if "force" in names[k].lower()]
         if len(named) == 1:
             return named[0]
         raise DataError(f"{_prefix(where)}several force channels "
                         f"({', '.join(repr(names[k]) for k in forces)}); choose one "
-                        "(force_channel / --force-channel)")
+                        "(force_channel / --force-channel, or the role column of a channel "
+                        "sheet)")
     if not forces:
-        listed = ", ".join(f"{n!r} ({kind})" for n, kind in zip(names, kinds, strict=True))
+        listed = ", ".join(f"{n!r} ({kind})" for n, kind in zip(names, quantities, strict=True))
         raise DataError(f"{_prefix(where)}no force channel: none is in a force unit (N, kN, "
                         f"lbf); channels: {listed}. Without the hammer's force there are no "
                         "FRFs; if one of them is the hammer, give its unit (--unit NAME=N)")
@@ -273,7 +300,7 @@ def assemble_recording(
                         "truncated file?")
     if lengths[0] < 2:
         raise DataError(f"{_prefix(where)}no samples (a recording needs at least 2)")
-    force = _force_index(channels, kinds, force_channel, where)
+    force = force_channel_index(names, kinds, force_channel, where)
     order = [force] + [k for k in range(len(channels)) if k != force and kinds[k] != "force"]
     dropped = [names[k] for k in range(len(channels)) if k != force and kinds[k] == "force"]
     if dropped:

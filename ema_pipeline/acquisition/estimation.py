@@ -14,6 +14,8 @@ a force window; sdypy-EMA identifies but does not acquire.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ema_pipeline.data import AcquisitionInfo, DataError, FRFSet, TimeRecords
@@ -71,6 +73,21 @@ def shortest_exp_window_tau(n_samples: int, sample_rate_hz: float, t0_s: float =
     return max(after, t0_s) / EXP_WINDOW_MAX_EXPONENT
 
 
+@dataclass(frozen=True)
+class FRFEstimate:
+    """What :func:`estimate_frf_windows` made: the FRFs ``frf``, the windows it
+    applied, each one value per sample of the records (``exp_window``: the
+    exponential window on force and responses; ``force_window``: the force window
+    alone, which multiplies the force on top of it; ones where there is none),
+    and ``force_autospectrum``, the windowed force's autospectrum averaged over
+    the records (one value per frequency line)."""
+
+    frf: FRFSet
+    exp_window: np.ndarray
+    force_window: np.ndarray
+    force_autospectrum: np.ndarray
+
+
 def estimate_frf(
     records: TimeRecords,
     *,
@@ -78,6 +95,29 @@ def estimate_frf(
     exp_window_tau_s: float | None = None,
     estimator: str = "H1",
 ) -> FRFSet:
+    """FRFs from repeated impacts by linear averaging of auto and cross spectra:
+    the ``frf`` of :func:`estimate_frf_windows` (which also returns the windows
+    applied and the force autospectrum).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> force = rng.standard_normal((4, 64))
+    >>> records = TimeRecords(force=force, response=2.0 * force, sample_rate_hz=64.0)
+    >>> [float(abs(estimate_frf(records, estimator=e).H[0, 0, 5])) for e in ("H1", "H2", "Hv")]
+    [2.0, 2.0, 2.0]
+    """
+    return estimate_frf_windows(records, force_window_s=force_window_s,
+                                exp_window_tau_s=exp_window_tau_s, estimator=estimator).frf
+
+
+def estimate_frf_windows(
+    records: TimeRecords,
+    *,
+    force_window_s: float | None = None,
+    exp_window_tau_s: float | None = None,
+    estimator: str = "H1",
+) -> FRFEstimate:
     """FRFs from repeated impacts by linear averaging of auto and cross spectra.
 
     H1 = sum X F* / sum |F|^2 (noise on the response), H2 = sum |X|^2 / sum F X*
@@ -104,13 +144,20 @@ def estimate_frf(
         ``FRFSet.acquisition`` so that identification can undo it.
     estimator : "H1", "H2" or "Hv".
 
+    Returns
+    -------
+    FRFEstimate : the FRFs, with the windows applied and the force autospectrum.
+
     Examples
     --------
-    >>> rng = np.random.default_rng(0)
-    >>> force = rng.standard_normal((4, 64))
-    >>> records = TimeRecords(force=force, response=2.0 * force, sample_rate_hz=64.0)
-    >>> [float(abs(estimate_frf(records, estimator=e).H[0, 0, 5])) for e in ("H1", "H2", "Hv")]
-    [2.0, 2.0, 2.0]
+    >>> force = np.zeros((2, 64))
+    >>> force[:, 1] = 1.0
+    >>> records = TimeRecords(force=force, response=3.0 * force, sample_rate_hz=64.0)
+    >>> out = estimate_frf_windows(records, force_window_s=0.5, exp_window_tau_s=0.25)
+    >>> float(abs(out.frf.H[0, 0, 3])), out.force_window[[0, 40, 63]].tolist()
+    (3.0, [1.0, 0.0, 0.0])
+    >>> round(float(out.exp_window[16]), 4), out.force_autospectrum.shape  # exp(-1)
+    (0.3679, (33,))
     """
     if estimator not in ("H1", "H2", "Hv"):
         raise DataError(f"unknown FRF estimator {estimator!r}; use 'H1', 'H2' or 'Hv'")
@@ -127,8 +174,10 @@ def estimate_frf(
                 f"(1e-16 to 1e16); give at least {shortest:.4g} s, or none")
         w_exp = exponential_window(n_samples, fs, exp_window_tau_s, records.trigger_s)
     w_force = w_exp.copy()
+    w_force_alone = np.ones(n_samples)
     if force_window_s:
-        w_force *= force_window(n_samples, fs, force_window_s)
+        w_force_alone = force_window(n_samples, fs, force_window_s)
+        w_force *= w_force_alone
     F = np.fft.rfft(records.force * w_force, axis=-1)  # (n_avg, n_freq)
     X = np.fft.rfft(records.response * w_exp, axis=-1)  # (n_avg, n_out, n_freq)
     Sff = np.sum(np.abs(F) ** 2, axis=0)
@@ -153,7 +202,7 @@ def estimate_frf(
         exp_window_tau_s=exp_window_tau_s,
         estimator=estimator,
     )
-    return FRFSet(
+    frf = FRFSet(
         freq_hz=np.fft.rfftfreq(n_samples, 1.0 / fs),
         H=H[:, None, :],
         coherence=np.clip(coherence, 0.0, 1.0)[:, None, :],
@@ -164,3 +213,6 @@ def estimate_frf(
         configuration=records.configuration,
         source=records.source,
     )
+    force_auto = np.mean(np.abs(F) ** 2, axis=0)
+    return FRFEstimate(frf=frf, exp_window=w_exp, force_window=w_force_alone,
+                       force_autospectrum=force_auto)

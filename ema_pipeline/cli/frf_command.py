@@ -94,7 +94,8 @@ def add_frf_parser(sub: Any) -> None:
     p.add_argument("--keep-all", action="store_true",
                    help="average every hit that has a record, even rejected ones")
     p.add_argument("--force-channel", default=None, metavar="NAME",
-                   help="name of the force channel (default: the channel in N)")
+                   help="name or position of the force channel (default: the one channel "
+                        "in a force unit; of several, the one named force)")
     p.add_argument("--scale", action="append", default=None, metavar="CHANNEL=FACTOR",
                    help="multiply a channel by FACTOR (e.g. WAV counts to units; repeatable)")
     p.add_argument("--unit", action="append", default=None, metavar="CHANNEL=UNIT",

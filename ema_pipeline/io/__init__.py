@@ -82,7 +82,14 @@ from ema_pipeline.io.hdf5 import (
     write_results_h5,
 )
 from ema_pipeline.io.picks import picks_toml, read_picks, write_picks
-from ema_pipeline.io.recording import RECORDING_SUFFIXES, is_recording, read_recording
+from ema_pipeline.io.recording import (
+    RECORDING_SUFFIXES,
+    RawRecording,
+    is_recording,
+    read_raw_recording,
+    read_recording,
+    recording_from_raw,
+)
 from ema_pipeline.io.uff import (
     UFF_SUFFIXES,
     read_frf_uff,
@@ -235,6 +242,7 @@ __all__ = [
     "SCHEMA_RESULTS",
     "SCHEMA_VERSION",
     "RECORDING_SUFFIXES",
+    "RawRecording",
     "UFF_SUFFIXES",
     "MAX_DATASET_BYTES",
     "atomic_folder",
@@ -269,7 +277,9 @@ __all__ = [
     "read_identification_result",
     "read_picks",
     "read_results_h5",
+    "read_raw_recording",
     "read_recording",
+    "recording_from_raw",
     "read_time_uff",
     "read_uff",
     "recover_interrupted",

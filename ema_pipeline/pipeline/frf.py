@@ -6,8 +6,13 @@ window, estimate the FRFs, find the usable band of the force spectrum);
 :func:`frf_from_files` reads the input files (several files are segments of one
 recording: pre-cut records or recordings of the same test), runs it and writes
 the FRF file (``.h5`` or ``.uff`` by suffix) and ``<stem>_hits.csv`` beside it.
-Both return an :class:`ImpactFRF` (FRFs, hit table, record length, tau, band), so
-that a report or a batch run can use them.
+Both return an :class:`ImpactFRF` (FRFs, hit table, record length, tau, band, the
+windows applied), so that a report or a batch run can use them. The work runs in
+one direction, each step once: the channels, the hits, the accepted records and
+their window, the FRFs; a channel sheet's test
+(:mod:`ema_pipeline.pipeline.roving`) settles the record length and the window
+over its files between these steps. Where the outputs go:
+:mod:`ema_pipeline.pipeline.frf_outputs` (its names are re-exported here).
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ import numpy as np
 
 from ema_pipeline import acquisition, io
 from ema_pipeline.acquisition import hits as hitlib
-from ema_pipeline.acquisition.channels import check_sample_rate
+from ema_pipeline.acquisition.channels import check_sample_rate, force_channel_index
 from ema_pipeline.acquisition.frf_settings import FRF_SETTING_RULES
 from ema_pipeline.data import (
     ConfigError,
@@ -37,6 +42,13 @@ from ema_pipeline.data import (
     TimeRecords,
 )
 from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.pipeline.frf_outputs import (
+    check_output,
+    frf_output_paths,
+    hits_csv_path,
+    hits_report_path,
+    write_frf_outputs,
+)
 from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
 
 if TYPE_CHECKING:
@@ -45,8 +57,14 @@ if TYPE_CHECKING:
 __all__ = [
     "AUTO_FORCE_WINDOW_S",
     "DEFAULT_PRETRIGGER_S",
+    "CutHits",
     "FRFSettings",
     "ImpactFRF",
+    "check_output",
+    "cut_impact_hits",
+    "estimate_impact_frf",
+    "find_impact_hits",
+    "impact_channels",
     "concatenate_recordings",
     "frf_from_files",
     "frf_from_recording",
@@ -126,6 +144,11 @@ class ImpactFRF:
     warnings: list[str] = field(default_factory=list)
     #: The hits averaged were chosen by hand (``chosen``, ``--hits``), not by the checks.
     chosen_by_hand: bool = False
+    #: The windows the estimate applied, one value per record sample (ones: none): the
+    #: exponential window (force and responses) and the force window alone
+    #: (:class:`~ema_pipeline.acquisition.estimation.FRFEstimate`).
+    exp_window: np.ndarray | None = None
+    force_window: np.ndarray | None = None
 
     @property
     def n_accepted(self) -> int:
@@ -144,22 +167,164 @@ class ImpactFRF:
         return Table({name: np.asarray(col) for name, col in columns.items()})
 
 
-def _force_index(recording: Recording, force_channel: str | None, where: str) -> int:
-    if force_channel is not None:
-        names = [ch.name for ch in recording.channels]
-        if force_channel not in names:
-            raise DataError(f"{where}: no channel named {force_channel!r} (channels: "
-                            f"{', '.join(names)})")
-        return names.index(force_channel)
-    forces = recording.channel_index("force")
-    if not forces:
-        raise DataError(f"{where}: no force channel (a channel in N, or name one with "
-                        "--force-channel)")
-    if len(forces) > 1:
-        listed = ", ".join(recording.channels[k].name for k in forces)
-        raise DataError(f"{where}: several force channels ({listed}); choose one with "
-                        "--force-channel")
-    return forces[0]
+def impact_channels(recording: Recording, force_channel: str | None = None
+                    ) -> tuple[Recording, Quantity]:
+    """``recording`` with the force first and the responses after it, and the FRFs'
+    quantity (acceleration: accelerance, velocity: mobility, displacement:
+    receptance). The force channel is chosen by the one rule
+    (:func:`~ema_pipeline.acquisition.channels.force_channel_index`); other force
+    channels are left out; the responses must be of one quantity. Errors name the
+    source.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import Channel
+    >>> rec = Recording(np.zeros((2, 8)), 100.0, (Channel("acc", "velocity"),
+    ...                                           Channel("hammer", "force")))
+    >>> out, quantity = impact_channels(rec)
+    >>> [c.name for c in out.channels], quantity
+    (['hammer', 'acc'], 'mobility')
+    """
+    where = recording.source.path or "recording"
+    names = [ch.name for ch in recording.channels]
+    k_force = force_channel_index(names, [ch.quantity for ch in recording.channels],
+                                  force_channel, where)
+    keep = [k_force] + [k for k, ch in enumerate(recording.channels)
+                        if k != k_force and ch.quantity != "force"]
+    if len(keep) < 2:
+        raise DataError(f"{where}: no response channel beside the force")
+    quantities = {recording.channels[k].quantity for k in keep[1:]}
+    if len(quantities) > 1:
+        raise DataError(f"{where}: responses mix quantities {sorted(quantities)}; an FRF set "
+                        "needs one")
+    rec = replace(recording, signals=recording.signals[keep],
+                  channels=tuple(recording.channels[k] for k in keep))
+    return rec, _QUANTITY_OF_RESPONSE[quantities.pop()]
+
+
+def find_impact_hits(recording: Recording, settings: FRFSettings) -> hitlib.HitSearch:
+    """The hits of ``recording`` (force first: :func:`impact_channels`) and their
+    records' place, with the pretrigger and record length of ``settings``
+    (:func:`ema_pipeline.acquisition.hits.find_hits`)."""
+    return hitlib.find_hits(recording, 0, pretrigger_s=settings.pretrigger_s,
+                            record_length_s=settings.record_length_s)
+
+
+@dataclass
+class CutHits:
+    """A recording's hits checked and the accepted ones cut, before the FRFs are
+    estimated (:func:`cut_impact_hits`): the ``recording`` (force first), what
+    :func:`find_impact_hits` ``found``, the checked ``hits``, the accepted
+    ``records``, the exponential window's time constant these records call for
+    (``tau_s``: the automatic one for ``"auto"``, the one given, or None), the FRFs'
+    ``quantity`` and the ``warnings`` (channels skipped, force channel)."""
+
+    recording: Recording
+    found: hitlib.HitSearch
+    hits: tuple[hitlib.Hit, ...]
+    accepted: list[int]
+    records: TimeRecords
+    tau_s: float | None
+    quantity: Quantity
+    warnings: list[str]
+    chosen_by_hand: bool = False
+
+
+def cut_impact_hits(
+    recording: Recording,
+    found: hitlib.HitSearch,
+    settings: FRFSettings,
+    quantity: Quantity,
+    *,
+    skipped: Sequence[str] = (),
+    configuration: str = "",
+    chosen: Sequence[int] | None = None,
+) -> CutHits:
+    """Check the hits ``found`` on ``recording`` (force first), keep the accepted
+    ones (``chosen``: exactly these hit numbers, 1-based, by hand), cut their records
+    and find the exponential window they call for (``settings.exp_window_tau``
+    ``"auto"``: :func:`ema_pipeline.acquisition.hits.auto_exp_window_tau`).
+    ``skipped``: the channels the reader skipped, first of the warnings. Every hit
+    rejected, or an automatic window that would overflow before the trigger: a
+    DataError naming the source."""
+    where = recording.source.path or "recording"
+    hits = hitlib.check_hits(recording, 0, found,
+                             exp_window=settings.exp_window_tau is not None,
+                             keep_all=settings.keep_all)
+    if chosen is not None:
+        hits = choose_hits(hits, chosen, where)
+    accepted = [h.index - 1 for h in hits if h.accepted]
+    warnings = [*skipped, *hitlib.force_warnings(hits, recording.channels[0].name)]
+    if not accepted:
+        summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {h.reasons_text()}"
+                            for h in hits)
+        hint = "".join(f"; {w}" for w in warnings if "double hits" in w)
+        raise DataError(f"{where}: every hit rejected ({summary}){hint}")
+    records = hitlib.cut_records(recording, 0, found, accepted)
+    records = replace(records, configuration=configuration)
+    fs, n = recording.sample_rate_hz, found.n_samples
+    tau: float | None
+    if settings.exp_window_tau == "auto":
+        tau = hitlib.auto_exp_window_tau(records, found.trigger_offsets(accepted),
+                                         int(round(settings.pretrigger_s * fs)))
+        shortest = acquisition.shortest_exp_window_tau(n, fs, records.trigger_s)
+        if tau is not None and not tau >= shortest:
+            raise DataError(f"{where}: the automatic exponential window (tau {tau:.4g} s) "
+                            f"would overflow before the trigger: the pretrigger "
+                            f"({records.trigger_s:g} s) takes most of the {n / fs:g} s records; "
+                            "give a shorter --pretrigger-s or --exp-window-tau")
+    else:
+        tau = None if settings.exp_window_tau is None else float(settings.exp_window_tau)
+    return CutHits(recording=recording, found=found, hits=hits, accepted=accepted,
+                   records=records, tau_s=tau, quantity=quantity, warnings=warnings,
+                   chosen_by_hand=chosen is not None)
+
+
+def estimate_impact_frf(cut: CutHits, settings: FRFSettings,
+                        tau_s: float | None) -> ImpactFRF:
+    """The FRFs of the records ``cut``, estimated once with the exponential window
+    ``tau_s`` (s, None: none) and the force window of ``settings`` (checked not to
+    cut a force pulse), with the usable band of the force spectrum
+    (:func:`ema_pipeline.acquisition.hits.force_band`) and the windows applied."""
+    rec, found, records = cut.recording, cut.found, cut.records
+    where = rec.source.path or "recording"
+    force_window_s = settings.force_window_s
+    if force_window_s is None:
+        force_window_s = records.trigger_s + AUTO_FORCE_WINDOW_S  # the pretrigger used
+    force_window_s = force_window_s or None
+    if force_window_s is not None:
+        pulse_end = hitlib.pulse_end_s(rec, 0, found, cut.accepted)
+        if force_window_s < pulse_end:
+            what = ("--force-window-s" if settings.force_window_s is not None else
+                    f"the default force window (the pretrigger + {AUTO_FORCE_WINDOW_S:g} s)")
+            raise DataError(f"{where}: {what} {force_window_s:g} s ends before the force pulse "
+                            f"does ({pulse_end:.4g} s into the record, pretrigger "
+                            f"{records.trigger_s:g} s): it would cut the pulse; give at least "
+                            f"{pulse_end:.4g} s, or 0 for no force window")
+    estimate = acquisition.estimate_frf_windows(records, force_window_s=force_window_s,
+                                                exp_window_tau_s=tau_s,
+                                                estimator=settings.estimator)
+    frf = estimate.frf
+    band = hitlib.force_band(frf.freq_hz, estimate.force_autospectrum)
+    frf = replace(frf, quantity=cut.quantity,
+                  acquisition=replace(frf.acquisition, force_band_hz=band))
+    n, fs = found.n_samples, rec.sample_rate_hz
+    return ImpactFRF(
+        frf=frf,
+        hits=cut.hits,
+        n_samples=n,
+        record_length_s=n / fs,
+        exp_window_tau_s=tau_s,
+        force_window_s=force_window_s,
+        force_band_hz=band,
+        records=records,
+        recording=rec,
+        settings=settings,
+        warnings=cut.warnings,
+        chosen_by_hand=cut.chosen_by_hand,
+        exp_window=estimate.exp_window,
+        force_window=estimate.force_window,
+    )
 
 
 def frf_from_recording(
@@ -172,13 +337,15 @@ def frf_from_recording(
 ) -> ImpactFRF:
     """Find and check the hits of ``recording``, and average the accepted ones
     (``chosen``: exactly these hit numbers, 1-based, as chosen by hand on the hit
-    page: :mod:`ema_pipeline.io.hit_choice`).
+    page: :mod:`ema_pipeline.io.hit_choice`), in one direction: the channels
+    (:func:`impact_channels`), the hits (:func:`find_impact_hits`), the records
+    (:func:`cut_impact_hits`), the FRFs estimated once (:func:`estimate_impact_frf`).
 
-    The force is the channel named ``force_channel`` or else the only channel of
-    quantity ``force``; the responses are the channels of another quantity (all
-    of one: acceleration gives accelerance, velocity mobility, displacement
-    receptance). Rules of the checks: :mod:`ema_pipeline.acquisition.hits`. No
-    force channel, no hit, or every hit rejected: a DataError naming the source.
+    The force channel is chosen by the one rule of
+    :func:`~ema_pipeline.acquisition.channels.force_channel_index` (``force_channel``
+    first); the responses are the channels of another quantity (all of one).
+    Rules of the checks: :mod:`ema_pipeline.acquisition.hits`. No force channel, no
+    hit, or every hit rejected: a DataError naming the source.
 
     Examples
     --------
@@ -197,85 +364,12 @@ def frf_from_recording(
     (4, 1024, (1, 1, 513))
     """
     settings = FRFSettings() if settings is None else settings
-    where = recording.source.path or "recording"
     check_sample_rate(recording.sample_rate_hz, recording.source.path)
-    k_force = _force_index(recording, force_channel, where)
-    keep = [k_force] + [k for k, ch in enumerate(recording.channels)
-                        if k != k_force and ch.quantity != "force"]
-    if len(keep) < 2:
-        raise DataError(f"{where}: no response channel beside the force")
-    quantities = {recording.channels[k].quantity for k in keep[1:]}
-    if len(quantities) > 1:
-        raise DataError(f"{where}: responses mix quantities {sorted(quantities)}; an FRF set "
-                        "needs one")
-    rec = replace(recording, signals=recording.signals[keep],
-                  channels=tuple(recording.channels[k] for k in keep))
-    found = hitlib.find_hits(rec, 0, pretrigger_s=settings.pretrigger_s,
-                             record_length_s=settings.record_length_s)
-    hits = hitlib.check_hits(rec, 0, found, exp_window=settings.exp_window_tau is not None,
-                             keep_all=settings.keep_all)
-    if chosen is not None:
-        hits = choose_hits(hits, chosen, where)
-    accepted = [h.index - 1 for h in hits if h.accepted]
-    warnings = [*recording.skipped, *hitlib.force_warnings(hits, rec.channels[0].name)]
-    if not accepted:
-        summary = "; ".join(f"hit {h.index} at {h.time_s:.3f} s: {h.reasons_text()}"
-                            for h in hits)
-        hint = "".join(f"; {w}" for w in warnings if "double hits" in w)
-        raise DataError(f"{where}: every hit rejected ({summary}){hint}")
-    records = hitlib.cut_records(rec, 0, found, accepted)
-    records = replace(records, configuration=configuration)
-    fs, n = rec.sample_rate_hz, found.n_samples
-    tau: float | None
-    if settings.exp_window_tau == "auto":
-        tau = hitlib.auto_exp_window_tau(records, found.trigger_offsets(accepted),
-                                         int(round(settings.pretrigger_s * fs)))
-        shortest = acquisition.shortest_exp_window_tau(n, fs, records.trigger_s)
-        if tau is not None and not tau >= shortest:
-            raise DataError(f"{where}: the automatic exponential window (tau {tau:.4g} s) "
-                            f"would overflow before the trigger: the pretrigger "
-                            f"({records.trigger_s:g} s) takes most of the {n / fs:g} s records; "
-                            "give a shorter --pretrigger-s or --exp-window-tau")
-    else:
-        tau = None if settings.exp_window_tau is None else float(settings.exp_window_tau)
-    force_window_s = settings.force_window_s
-    if force_window_s is None:
-        force_window_s = records.trigger_s + AUTO_FORCE_WINDOW_S  # the pretrigger used
-    force_window_s = force_window_s or None
-    if force_window_s is not None:
-        pulse_end = hitlib.pulse_end_s(rec, 0, found, accepted)
-        if force_window_s < pulse_end:
-            what = ("--force-window-s" if settings.force_window_s is not None else
-                    f"the default force window (the pretrigger + {AUTO_FORCE_WINDOW_S:g} s)")
-            raise DataError(f"{where}: {what} {force_window_s:g} s ends before the force pulse "
-                            f"does ({pulse_end:.4g} s into the record, pretrigger "
-                            f"{records.trigger_s:g} s): it would cut the pulse; give at least "
-                            f"{pulse_end:.4g} s, or 0 for no force window")
-    frf = acquisition.estimate_frf(records, force_window_s=force_window_s,
-                                   exp_window_tau_s=tau, estimator=settings.estimator)
-    w = np.ones(n)
-    if tau is not None:
-        w = acquisition.exponential_window(n, fs, tau, records.trigger_s)
-    if force_window_s:
-        w = w * acquisition.force_window(n, fs, force_window_s)
-    force_auto = np.mean(np.abs(np.fft.rfft(records.force * w, axis=-1)) ** 2, axis=0)
-    band = hitlib.force_band(frf.freq_hz, force_auto)
-    frf = replace(frf, quantity=_QUANTITY_OF_RESPONSE[quantities.pop()],
-                  acquisition=replace(frf.acquisition, force_band_hz=band))
-    return ImpactFRF(
-        frf=frf,
-        hits=hits,
-        n_samples=n,
-        record_length_s=n / fs,
-        exp_window_tau_s=tau,
-        force_window_s=force_window_s,
-        force_band_hz=band,
-        records=records,
-        recording=rec,
-        settings=settings,
-        warnings=warnings,
-        chosen_by_hand=chosen is not None,
-    )
+    rec, quantity = impact_channels(recording, force_channel)
+    found = find_impact_hits(rec, settings)
+    cut = cut_impact_hits(rec, found, settings, quantity, skipped=recording.skipped,
+                          configuration=configuration, chosen=chosen)
+    return estimate_impact_frf(cut, settings, cut.tau_s)
 
 
 def choose_hits(hits: tuple[hitlib.Hit, ...], chosen: Sequence[int],
@@ -341,95 +435,6 @@ def concatenate_recordings(recordings: list[Recording]) -> Recording:
         source=Provenance(path=", ".join(r.source.path for r in recordings)),
         skipped=tuple(m for r in recordings for m in r.skipped),
     )
-
-
-def hits_csv_path(out: str | os.PathLike[str]) -> Path:
-    """``<stem>_hits.csv`` beside the FRF file ``out``.
-
-    Examples
-    --------
-    >>> hits_csv_path("out/test.h5").as_posix()
-    'out/test_hits.csv'
-    """
-    out = Path(out)
-    return out.with_name(f"{out.stem}_hits.csv")
-
-
-def write_frf_outputs(frf: FRFSet, hits: pd.DataFrame | Table, page: str | None,
-                      out: str | os.PathLike[str], fmt: str) -> None:
-    """The outputs of one ``frf`` command, replaced together or not at all
-    (:func:`ema_pipeline.io.replace_together`): the hit table
-    (:func:`hits_csv_path`), the FRF file ``out`` in format ``fmt`` and, when
-    given, the hit page ``page`` (:func:`hits_report_path`)."""
-    with io.replace_together():
-        io.write_csv(hits, hits_csv_path(out))
-        io.write_frf(frf, out, fmt)
-        if page is not None:
-            io.write_text(page, hits_report_path(out))
-
-
-def hits_report_path(out: str | os.PathLike[str]) -> Path:
-    """``<stem>_hits.html`` beside the FRF file ``out`` (the hit page of ``--report``).
-
-    Examples
-    --------
-    >>> hits_report_path("out/test.h5").as_posix()
-    'out/test_hits.html'
-    """
-    out = Path(out)
-    return out.with_name(f"{out.stem}_hits.html")
-
-
-def frf_output_paths(out: str | os.PathLike[str], report: bool = False) -> dict[str, Path]:
-    """What ``frf --out OUT`` writes, as {what it is: path}: the FRF file, the hit
-    table and (``report``) the hit page.
-
-    Examples
-    --------
-    >>> sorted(p.name for p in frf_output_paths("o/t.h5", report=True).values())
-    ['t.h5', 't_hits.csv', 't_hits.html']
-    """
-    out = Path(out)
-    paths = {"--out": out, f"the hit table of --out {out}": hits_csv_path(out)}
-    if report:
-        paths[f"the hit page of --out {out}"] = hits_report_path(out)
-    return paths
-
-
-def check_output(
-    out: str | os.PathLike[str],
-    inputs: list[str | os.PathLike[str]] | list[Path] | tuple[Path, ...] = (),
-    *,
-    report: bool = False,
-) -> str:
-    """The FRF format of ``out`` (by suffix), refused before any work when the
-    suffix is unknown, when ``out``, its hit table or (``report``) its hit page is
-    a folder, or is one of the ``inputs`` (the same file by resolved path or hard
-    link: :func:`ema_pipeline.io.same_file`), so that no input is ever overwritten.
-
-    Examples
-    --------
-    >>> check_output("a/rec.uff", ["a/rec.uff"])
-    Traceback (most recent call last):
-    ...
-    ema_pipeline.data.DataError: a/rec.uff: --out would overwrite the input a/rec.uff; ...
-    >>> check_output("a/rec.h5", ["a/rec_hits.csv"])
-    Traceback (most recent call last):
-    ...
-    ema_pipeline.data.DataError: a/rec_hits.csv: the hit table of --out a/rec.h5 would
-    overwrite the input a/rec_hits.csv; ...
-    """
-    out = Path(out)
-    fmt = io.frf_format_for_writing(out)
-    targets = frf_output_paths(out, report)
-    for what, path in targets.items():
-        if path.is_dir():
-            raise DataError(f"{path}: is a folder; {what} must be a file (choose another "
-                            "--out)")
-    if out.parent.exists() and not out.parent.is_dir():
-        raise DataError(f"{out.parent}: not a folder")
-    io.check_not_inputs(targets, [Path(p) for p in inputs])
-    return fmt
 
 
 def impact_frf(

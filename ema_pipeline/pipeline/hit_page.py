@@ -12,7 +12,6 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ema_pipeline import acquisition
 from ema_pipeline.acquisition import hits as hitlib
 from ema_pipeline.data import Channel, DataError
 from ema_pipeline.pipeline.frf import FRFSettings, ImpactFRF
@@ -56,10 +55,9 @@ def _hit_view(result: ImpactFRF, hit: hitlib.Hit, by_dof: bool) -> HitView:
         a = max(cross - n_pre, int(seg_starts[k]))
         b = min(cross - n_pre + n, int(seg_starts[k + 1]))
     m = b - a
-    tau, fw = result.exp_window_tau_s, result.force_window_s
-    w_exp = (np.ones(m) if tau is None
-             else acquisition.exponential_window(m, fs, tau, result.records.trigger_s))
-    w_force = np.ones(m) if not fw else acquisition.force_window(m, fs, fw)
+    assert result.exp_window is not None and result.force_window is not None
+    w_exp = result.exp_window[:m]  # the windows the estimate applied (past_end: cut short)
+    w_force = result.force_window[:m]
     idx = np.maximum(np.arange(a, b), a + (hit.padded if hit.record_start >= 0 else 0))
     force = rec.signals[0, idx]
     responses = rec.signals[1:, idx]

@@ -2,11 +2,12 @@
 ``ema-pipeline frf --channels SHEET.csv`` runs.
 
 Each file of the sheet (:mod:`ema_pipeline.io.channel_sheet`) is one point of the
-test: its hits are found, checked and averaged by
+test, read once: its hits are found, checked and averaged by the steps of
 :func:`ema_pipeline.pipeline.frf.frf_from_recording`, with the record length and
 the exponential window common to every file (the shortest record and the
 shortest automatic time constant over the files, so that the FRFs share one
-frequency axis and one window the identification undoes). The FRFs of all files
+frequency axis and one window the identification undoes). Both are settled
+before any FRF is estimated, so each point is estimated once. The FRFs of all files
 are assembled into one :class:`~ema_pipeline.data.FRFSet` with the DOFs of the
 sheet: responses x references.
 
@@ -26,7 +27,8 @@ pair measured twice (a DOF named twice); an incomplete FRF matrix.
 from __future__ import annotations
 
 import os
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -34,16 +36,20 @@ import numpy as np
 import pandas as pd
 
 from ema_pipeline import io
+from ema_pipeline.acquisition.channels import check_sample_rate
 from ema_pipeline.data import DOF, DataError, FRFSet, Provenance, Recording
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.io.channel_sheet import ChannelSheet, read_channel_sheet
-from ema_pipeline.io.recording import recording_channels
 from ema_pipeline.pipeline.frf import (
+    CutHits,
     FRFSettings,
     ImpactFRF,
     check_output,
-    frf_from_recording,
+    cut_impact_hits,
+    estimate_impact_frf,
+    find_impact_hits,
     identify_recording,
+    impact_channels,
     write_frf_outputs,
 )
 from ema_pipeline.pipeline.single import FileOutcome
@@ -118,8 +124,9 @@ def read_sheet_recordings(sheet: ChannelSheet) -> list[Recording]:
     for file in sheet.files():
         rows = sheet.rows_of(file)
         force_row = next(r for r in rows if r.role == "force")
-        rec = io.read_recording(
-            file, force_channel=force_row.channel,
+        raw = io.read_raw_recording(file)  # each file read once
+        rec = io.recording_from_raw(
+            raw, force_channel=force_row.channel,
             scale={r.channel: r.scale for r in rows if r.scale != 1.0} or None,
             units={r.channel: r.unit for r in rows if r.unit} or None,
             channels={r.channel: r.dof for r in rows},
@@ -129,10 +136,7 @@ def read_sheet_recordings(sheet: ChannelSheet) -> list[Recording]:
             if r.role == "response" and r.dof not in read_dofs:
                 raise DataError(f"{sheet.where(r)}: channel {r.channel!r} of {file.name} has "
                                 "a force unit but the role response; check its unit or role")
-        label = force_row.unit
-        if not label:
-            names = recording_channels(file)
-            label = next((u for n, u, _ in names if n == rec.channels[0].name), "") or "N"
+        label = force_row.unit or raw.unit_labels().get(rec.channels[0].name, "") or "N"
         force_units.append((label, _unit_factor(label, sheet.where(force_row))))
         first = recordings[0] if recordings else rec
         if rec.sample_rate_hz != first.sample_rate_hz:
@@ -147,16 +151,53 @@ def read_sheet_recordings(sheet: ChannelSheet) -> list[Recording]:
     return recordings
 
 
-def _point_frf(sheet: ChannelSheet, rec: Recording, settings: FRFSettings,
-               configuration: str, chosen: Sequence[int] | None = None) -> ImpactFRF:
-    force = rec.channels[0]
+@contextmanager
+def _at_point(sheet: ChannelSheet, rec: Recording) -> Iterator[None]:
+    """A DataError of one point's work, named by the sheet, the point and its file."""
     try:
-        return frf_from_recording(rec, settings, force_channel=force.name,
-                                  configuration=configuration, chosen=chosen)
+        yield
     except DataError as exc:
+        force = rec.channels[0]
         point = force.dof.label() if force.dof is not None else "?"
         raise DataError(f"{sheet.source}: point {point} (hammer at {point}, "
                         f"{Path(rec.source.path).name}): {exc}") from None
+
+
+def _sheet_points(sheet: ChannelSheet, recordings: list[Recording], settings: FRFSettings,
+                  configuration: str, picks: list[Sequence[int] | None]) -> list[ImpactFRF]:
+    """Every file's FRFs, in one direction: the hits of every file, then the record
+    length (the shortest over the files), the records and their windows, then the
+    exponential window (the shortest automatic time constant over the files), and
+    only then the FRFs, once per file."""
+    points = []
+    for rec in recordings:
+        with _at_point(sheet, rec):
+            check_sample_rate(rec.sample_rate_hz, rec.source.path)
+            channels, quantity = impact_channels(rec, rec.channels[0].name)
+            points.append((rec, channels, quantity, find_impact_hits(channels, settings)))
+    n = min(found.n_samples for *_, found in points)
+    cut_settings = settings
+    if any(found.n_samples != n for *_, found in points):  # one axis: the shortest record
+        cut_settings = replace(settings, record_length_s=n / recordings[0].sample_rate_hz)
+        for k, (rec, channels, quantity, found) in enumerate(points):
+            if found.n_samples != n:
+                with _at_point(sheet, rec):
+                    points[k] = (rec, channels, quantity,
+                                 find_impact_hits(channels, cut_settings))
+    cuts: list[CutHits] = []
+    for (rec, channels, quantity, found), pick in zip(points, picks, strict=True):
+        with _at_point(sheet, rec):
+            cuts.append(cut_impact_hits(channels, found, cut_settings, quantity,
+                                        skipped=rec.skipped, configuration=configuration,
+                                        chosen=pick))
+    taus = [c.tau_s for c in cuts if c.tau_s is not None]
+    out = []
+    for rec, cut in zip(recordings, cuts, strict=True):
+        # one window: the shortest automatic time constant (a given one is common)
+        tau = (min(taus) if taus else None) if settings.exp_window_tau == "auto" else cut.tau_s
+        with _at_point(sheet, rec):
+            out.append(estimate_impact_frf(cut, settings, tau))
+    return out
 
 
 def _assemble(sheet: ChannelSheet, points: list[ImpactFRF]) -> FRFSet:
@@ -239,21 +280,7 @@ def sheet_frf(sheet: ChannelSheet | str | os.PathLike[str], settings: FRFSetting
         raise DataError(f"{sheet.source}: the hit choice (--hits) names file(s) "
                         f"{', '.join(unknown)}, which the sheet does not")
     picks = [choice.get(f) for f in files]
-    points = [_point_frf(sheet, rec, settings, configuration, pick)
-              for rec, pick in zip(recordings, picks, strict=True)]
-    fs = recordings[0].sample_rate_hz
-    n = min(p.n_samples for p in points)
-    if any(p.n_samples != n for p in points):  # one frequency axis: the shortest record
-        settings = replace(settings, record_length_s=n / fs)
-        points = [p if p.n_samples == n else _point_frf(sheet, rec, settings, configuration, k)
-                  for p, rec, k in zip(points, recordings, picks, strict=True)]
-    if settings.exp_window_tau == "auto":  # one window: the shortest automatic tau
-        taus = [p.exp_window_tau_s for p in points if p.exp_window_tau_s is not None]
-        if taus and any(p.exp_window_tau_s != min(taus) for p in points):
-            settings = replace(settings, exp_window_tau=min(taus))
-            points = [p if p.exp_window_tau_s == min(taus)
-                      else _point_frf(sheet, rec, settings, configuration, k)
-                      for p, rec, k in zip(points, recordings, picks, strict=True)]
+    points = _sheet_points(sheet, recordings, settings, configuration, picks)
     frf = _assemble(sheet, points)
     layout = "roving sensor"
     if frf.n_in > frf.n_out:
