@@ -205,6 +205,7 @@ IDENTIFY_FLAGS = {
     "exp_window_tau_s": "--exp-window-tau",
     "window_searches": "--no-window-search",
     "accept": "--no-accept",
+    "memory_limit_gb": "--memory-limit-gb",
 }
 
 
@@ -216,7 +217,6 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
     from ema_pipeline.data import OptionError
     from ema_pipeline.identification.options import IdentificationOptions
 
-    _memory_limit(args)
     try:
         return IdentificationOptions(
             band_hz=None if args.band is None else (args.band[0], args.band[1]),
@@ -226,6 +226,7 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
             exp_window_tau_s=args.exp_window_tau,
             window_searches=not args.no_window_search,
             accept=not args.no_accept,
+            memory_limit_gb=_memory_limit(args),
         )
     except OptionError as exc:
         raise ConfigError(f"{IDENTIFY_FLAGS.get(exc.field, exc.field)} {exc.reason}") from None
@@ -249,21 +250,12 @@ def _geometry(args: argparse.Namespace) -> Geometry | None:
 def cmd_identify(args: argparse.Namespace) -> int:
     """``identify``: modal parameters of each FRF file, several files side by
     side in worker processes (:mod:`ema_pipeline.pipeline.many`), printed in
-    their order.
+    their order, each with the warnings of its result
+    (``IdentificationResult.warnings``).
 
-    Inputs that are not readable files are reported before the readers and the
-    identification chain are imported, so a mistyped name fails right away."""
-    from ema_pipeline.paths import FRF_FILE_KIND, check_readable
-
-    readable = []
-    for path in args.files:
-        try:
-            check_readable(path, FRF_FILE_KIND)
-            readable.append(path)
-        except DataError as exc:
-            print(f"ema-pipeline identify: error: {exc}", file=sys.stderr)
-    if not readable:
-        return EXIT_USAGE
+    Each file is checked once, where it is read: an input that is not a
+    readable FRF file is a failed file (its one-line error), and the others
+    go on."""
     from ema_pipeline.pipeline.many import FileJob, identify_files
     from ema_pipeline.report.wording import plural
 
@@ -277,8 +269,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         picks = io.read_picks(args.picks)
     job = FileJob(args.out, options, report=args.report, figures=not args.no_figures,
                   uff=args.uff, picks=picks, geometry=geometry)
-    failed, runtime = len(args.files) - len(readable), 0
-    for outcome, page in identify_files(readable, job):
+    failed, runtime = 0, 0
+    for outcome, page in identify_files(list(args.files), job):
         if outcome.status == "failed":
             failed += 1
             runtime += outcome.runtime
@@ -297,15 +289,26 @@ def cmd_identify(args: argparse.Namespace) -> int:
     return EXIT_RUNTIME if runtime else EXIT_USAGE if failed else EXIT_OK
 
 
-def _memory_limit(args: argparse.Namespace) -> None:
-    """``--memory-limit-gb``: checked, and passed on (also to batch workers) as
-    ``$EMA_MEMORY_LIMIT_GB``."""
-    from ema_pipeline.identification.diagram.resources import MEMORY_LIMIT_ENV, memory_limit_bytes
+def _memory_limit(args: argparse.Namespace) -> float:
+    """The memory limit of ``identify``, ``batch`` and ``run`` (GiB, for
+    ``IdentificationOptions.memory_limit_gb``): ``--memory-limit-gb``, else
+    ``$EMA_MEMORY_LIMIT_GB`` (read here, the one place that reads it), else the
+    default. A bad value is a usage error naming where it came from."""
+    from ema_pipeline.data import OptionError
+    from ema_pipeline.identification.diagram.resources import MEMORY_LIMIT_ENV
+    from ema_pipeline.identification.options import DEFAULT_MEMORY_LIMIT_GB, check_option
 
     limit = getattr(args, "memory_limit_gb", None)
-    memory_limit_bytes(limit)  # refuse a bad value (or a bad environment variable) now
     if limit is not None:
-        os.environ[MEMORY_LIMIT_ENV] = repr(float(limit))
+        return float(limit)  # checked with the options (an error names --memory-limit-gb)
+    text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    if not text:
+        return DEFAULT_MEMORY_LIMIT_GB
+    try:
+        return float(check_option("memory_limit_gb", float(text)))
+    except (OptionError, ValueError):
+        raise ConfigError(f"{MEMORY_LIMIT_ENV}={text!r} is not a positive number of GiB"
+                          ) from None
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
@@ -354,8 +357,9 @@ def cmd_run(args: argparse.Namespace) -> int:
 
     experiment_path = args.experiment or args.raw / "experiment.toml"
     check_output_dir(args.results, "--results")
-    _memory_limit(args)
+    limit = _memory_limit(args)
     experiment = study.load_experiment(experiment_path)
+    experiment = _with_memory_limit(experiment, limit)
     geometry = _geometry(args)  # --geometry: the report's wireframe instead of [geometry]
     if geometry is not None:
         import dataclasses
@@ -394,6 +398,20 @@ def cmd_run(args: argparse.Namespace) -> int:
         for problem in result.problems:
             print(f"ema-pipeline run: {problem}", file=sys.stderr)
     return EXIT_OK if result.ok else EXIT_INPUT
+
+
+def _with_memory_limit(experiment: Experiment, limit_gb: float) -> Experiment:
+    """``experiment`` whose identification options carry the memory limit
+    ``limit_gb`` (GiB; :func:`_memory_limit`), refused when not positive."""
+    import dataclasses
+
+    from ema_pipeline.data import OptionError
+
+    try:
+        options = dataclasses.replace(experiment.identification, memory_limit_gb=limit_gb)
+    except OptionError as exc:
+        raise ConfigError(f"--memory-limit-gb {exc.reason}") from None
+    return dataclasses.replace(experiment, identification=options)
 
 
 def cmd_init(args: argparse.Namespace) -> int:
