@@ -89,10 +89,10 @@ def test_identify_file_runs_each_check_once(name: str, example_dir: Path, tmp_pa
     """``identify FILE`` (UFF and HDF5): the window override and the
     reciprocity rule are applied once, the data checks (order cap, memory) run
     once, the file is hashed once (the hash reaches the result file from the
-    reader's provenance). The file's readability is checked twice: by
-    ``read_frf`` before it looks at the content, and by the format's own
-    reader (``read_frf_uff`` / ``read_frf_h5``, public readers that check
-    their file themselves)."""
+    reader's provenance). The file's readability (a stat) is checked by the
+    command line before anything is imported, by ``read_frf`` before it
+    looks at the content, and by the format's own reader (``read_frf_uff`` /
+    ``read_frf_h5``, public readers that check their file themselves)."""
     from ema_pipeline.identification.common import single_reference
     from ema_pipeline.identification.diagram.resources import check_identification
     from ema_pipeline.io.files import sha256_file
@@ -114,7 +114,7 @@ def test_identify_file_runs_each_check_once(name: str, example_dir: Path, tmp_pa
                       "--exp-window-tau", "2.0"], capsys)
     assert code == 0, err
     assert calls == {"apply_window": 1, "single_reference": 1, "check_identification": 1,
-                     "sha256_file": 1, "check_readable": 2}, calls
+                     "sha256_file": 1, "check_readable": 3}, calls
     stored = io.completed_result_sha256(tmp_path / f"{path.stem}_result.h5")
     assert stored == sha256_file(path)
 

@@ -253,9 +253,20 @@ def cmd_identify(args: argparse.Namespace) -> int:
     their order, each with the warnings of its result
     (``IdentificationResult.warnings``).
 
-    Each file is checked once, where it is read: an input that is not a
-    readable FRF file is a failed file (its one-line error), and the others
-    go on."""
+    Inputs that are not readable files are reported before the readers and the
+    identification chain are imported, so a mistyped name fails right away
+    and two unreadable files of the same stem do not stop the others."""
+    from ema_pipeline.paths import FRF_FILE_KIND, check_readable
+
+    readable = []
+    for path in args.files:
+        try:
+            check_readable(path, FRF_FILE_KIND)
+            readable.append(path)
+        except DataError as exc:
+            print(f"ema-pipeline identify: error: {exc}", file=sys.stderr)
+    if not readable:
+        return EXIT_USAGE
     from ema_pipeline.pipeline.many import FileJob, identify_files
     from ema_pipeline.report.wording import plural
 
@@ -269,8 +280,8 @@ def cmd_identify(args: argparse.Namespace) -> int:
         picks = io.read_picks(args.picks)
     job = FileJob(args.out, options, report=args.report, figures=not args.no_figures,
                   uff=args.uff, picks=picks, geometry=geometry)
-    failed, runtime = 0, 0
-    for outcome, page in identify_files(list(args.files), job):
+    failed, runtime = len(args.files) - len(readable), 0
+    for outcome, page in identify_files(readable, job):
         if outcome.status == "failed":
             failed += 1
             runtime += outcome.runtime
