@@ -131,8 +131,13 @@ def identify_file(
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
-    With ``force=False`` a file whose content hash already has a complete result
-    in ``out_dir`` is skipped. With ``keep=True`` the outcome keeps the FRFs and
+    The file is read once (:func:`ema_pipeline.io.read_frf`, which checks it
+    and records its content hash in ``frf.source.sha256``, the hash the
+    outputs carry; ``sha256`` given: that one); every other check is
+    :func:`~ema_pipeline.identification.check_input`'s, and the warnings are
+    the result's (``IdentificationResult.warnings``). With ``force=False`` the
+    file is hashed first, and a file whose content hash already has a
+    complete result in ``out_dir`` is skipped. With ``keep=True`` the outcome keeps the FRFs and
     the identification result (for a report). Problems with the file (unreadable, NaN, no modes)
     are returned as ``status="failed"`` with the reason, never raised. With
     ``picks`` (a picks file, :func:`ema_pipeline.io.read_picks`) exactly those
