@@ -30,7 +30,7 @@ WARNED = {"max_order": 40, "band_hz": (5.0, 700.0), "expect_hz": (18.0, 60.0, 11
 WARNED_ARGS = ["--max-order", "40", "--band", "5", "700", "--expect", "18,60,112"]
 
 
-def _cli(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, list[str]]:
+def _cli(argv: list[Any], capsys: pytest.CaptureFixture[str]) -> tuple[int, list[str]]:
     """``ema-pipeline ARGV`` in this process: exit status and the lines on stderr."""
     capsys.readouterr()
     code = main([str(a) for a in argv])
