@@ -608,7 +608,7 @@ def test_memory_limit_refuses_before_any_work(two_mode_folder: Path, tmp_path: P
     lets the same settings run. Without --max-order the adaptive order search is
     estimated at the highest order it may reach, so the limit refuses it too."""
     src = two_mode_folder / "two.uff"
-    # the option is passed on (to batch workers too) as $EMA_MEMORY_LIMIT_GB: restored after
+    # the option travels in the options (to batch workers too) and wins over the variable
     monkeypatch.setenv("EMA_MEMORY_LIMIT_GB", "4")
     assert _run(["identify", src, "--out", tmp_path / "ok", "--max-order", "40", "--quiet"],
                 capsys)[0] == 0

@@ -216,6 +216,7 @@ IDENTIFY_FLAGS = {
     "exp_window_tau_s": "--exp-window-tau",
     "window_searches": "--no-window-search",
     "accept": "--no-accept",
+    "memory_limit_gb": "--memory-limit-gb",
 }
 
 
@@ -227,7 +228,6 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
     from ema_pipeline.data import OptionError
     from ema_pipeline.identification.options import IdentificationOptions
 
-    _memory_limit(args)
     try:
         return IdentificationOptions(
             band_hz=None if args.band is None else (args.band[0], args.band[1]),
@@ -237,6 +237,7 @@ def _identify_options(args: argparse.Namespace) -> IdentificationOptions:
             exp_window_tau_s=args.exp_window_tau,
             window_searches=not args.no_window_search,
             accept=not args.no_accept,
+            memory_limit_gb=_memory_limit(args),
         )
     except OptionError as exc:
         raise ConfigError(f"{IDENTIFY_FLAGS.get(exc.field, exc.field)} {exc.reason}") from None
@@ -260,10 +261,12 @@ def _geometry(args: argparse.Namespace) -> Geometry | None:
 def cmd_identify(args: argparse.Namespace) -> int:
     """``identify``: modal parameters of each FRF file, several files side by
     side in worker processes (:mod:`ema_pipeline.pipeline.many`), printed in
-    their order.
+    their order, each with the warnings of its result
+    (``IdentificationResult.warnings``).
 
     Inputs that are not readable files are reported before the readers and the
-    identification chain are imported, so a mistyped name fails right away."""
+    identification chain are imported, so a mistyped name fails right away
+    and two unreadable files of the same stem do not stop the others."""
     from ema_pipeline.paths import FRF_FILE_KIND, check_readable
 
     readable = []
@@ -308,15 +311,26 @@ def cmd_identify(args: argparse.Namespace) -> int:
     return EXIT_RUNTIME if runtime else EXIT_INPUT if failed else EXIT_OK
 
 
-def _memory_limit(args: argparse.Namespace) -> None:
-    """``--memory-limit-gb``: checked, and passed on (also to batch workers) as
-    ``$EMA_MEMORY_LIMIT_GB``."""
-    from ema_pipeline.identification.diagram.resources import MEMORY_LIMIT_ENV, memory_limit_bytes
+def _memory_limit(args: argparse.Namespace) -> float:
+    """The memory limit of ``identify``, ``batch`` and ``run`` (GiB, for
+    ``IdentificationOptions.memory_limit_gb``): ``--memory-limit-gb``, else
+    ``$EMA_MEMORY_LIMIT_GB`` (read here, the one place that reads it), else the
+    default. A bad value is a usage error naming where it came from."""
+    from ema_pipeline.data import OptionError
+    from ema_pipeline.identification.diagram.resources import MEMORY_LIMIT_ENV
+    from ema_pipeline.identification.options import DEFAULT_MEMORY_LIMIT_GB, check_option
 
     limit = getattr(args, "memory_limit_gb", None)
-    memory_limit_bytes(limit)  # refuse a bad value (or a bad environment variable) now
     if limit is not None:
-        os.environ[MEMORY_LIMIT_ENV] = repr(float(limit))
+        return float(limit)  # checked with the options (an error names --memory-limit-gb)
+    text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    if not text:
+        return DEFAULT_MEMORY_LIMIT_GB
+    try:
+        return float(check_option("memory_limit_gb", float(text)))
+    except (OptionError, ValueError):
+        raise ConfigError(f"{MEMORY_LIMIT_ENV}={text!r} is not a positive number of GiB"
+                          ) from None
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
@@ -369,8 +383,9 @@ def cmd_run(args: argparse.Namespace) -> int:
                           "writes the example study (then `cd DIR && ema-pipeline run`), "
                           "`ema-pipeline init DIR` an experiment file for your test")
     check_output_dir(args.results, "--results")
-    _memory_limit(args)
+    limit = _memory_limit(args)
     experiment = study.load_experiment(experiment_path)
+    experiment = _with_memory_limit(experiment, limit)
     geometry = _geometry(args)  # --geometry: the report's wireframe instead of [geometry]
     if geometry is not None:
         import dataclasses
@@ -409,6 +424,20 @@ def cmd_run(args: argparse.Namespace) -> int:
         for problem in result.problems:
             print(f"ema-pipeline run: {problem}", file=sys.stderr)
     return EXIT_OK if result.ok else EXIT_RUNTIME
+
+
+def _with_memory_limit(experiment: Experiment, limit_gb: float) -> Experiment:
+    """``experiment`` whose identification options carry the memory limit
+    ``limit_gb`` (GiB; :func:`_memory_limit`), refused when not positive."""
+    import dataclasses
+
+    from ema_pipeline.data import OptionError
+
+    try:
+        options = dataclasses.replace(experiment.identification, memory_limit_gb=limit_gb)
+    except OptionError as exc:
+        raise ConfigError(f"--memory-limit-gb {exc.reason}") from None
+    return dataclasses.replace(experiment, identification=options)
 
 
 def cmd_init(args: argparse.Namespace) -> int:

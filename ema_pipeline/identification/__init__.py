@@ -20,7 +20,8 @@ reference, ``method="sdypy-lscf"``, and test against):
   exponential window's added damping, and clear errors on bad input.
 
 The package reads as the pipeline. At the top, the public entry:
-``core`` (:func:`identify` and the method table :data:`METHODS`), ``options``
+``core`` (:func:`identify`, its checks :func:`check_input` and warnings,
+and the method table :data:`METHODS`), ``options``
 (:class:`IdentificationOptions`), ``thresholds``
 (:class:`SelectionThresholds`), ``result`` (the result types), ``picked``
 (the picks as data) -- these four light, no scipy -- ``common`` (band checks
@@ -62,7 +63,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checkers)
     from ema_pipeline.identification.common import default_max_order, single_reference
-    from ema_pipeline.identification.core import METHODS, identify
+    from ema_pipeline.identification.core import METHODS, CheckedInput, check_input, identify
     from ema_pipeline.identification.diagram.plscf import PoleSet, plscf_normal_matrix
     from ema_pipeline.identification.diagram.stabilization import pole_to_modal
     from ema_pipeline.identification.options import IdentificationOptions
@@ -97,6 +98,7 @@ __all__ = [
     "STABLE_DAMP",
     "STABLE_FREQ",
     "STABLE_VECTOR",
+    "CheckedInput",
     "IdentificationOptions",
     "IdentificationResult",
     "PoleSet",
@@ -104,6 +106,7 @@ __all__ = [
     "SelectedPoles",
     "SelectionThresholds",
     "StabilizationData",
+    "check_input",
     "default_max_order",
     "doubtful_reasons",
     "found_by_names",
@@ -127,6 +130,8 @@ __all__ = [
 EXPORTS: dict[str, str] = {
     "METHODS": "core",
     "identify": "core",
+    "CheckedInput": "core",
+    "check_input": "core",
     "default_max_order": "common",
     "single_reference": "common",
     "frac": "refinement.lsfd",

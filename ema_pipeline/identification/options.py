@@ -52,6 +52,9 @@ MIN_ORDER: dict[str, int] = {"plscf": 12, "sdypy-lscf": 10}
 #: Highest ``max_order`` (the data may support less:
 #: :func:`ema_pipeline.identification.diagram.resources.order_cap`).
 MAX_ORDER = 1000
+#: Default ``memory_limit_gb``: the largest estimated memory of one
+#: identification, GiB.
+DEFAULT_MEMORY_LIMIT_GB = 4.0
 
 
 def _frequencies(name: str, value: Any) -> tuple[float, ...]:
@@ -87,6 +90,7 @@ _RULES: dict[str, Rule] = {
     "upper_residual": flag,
     "window_searches": flag,
     "thresholds": _thresholds,
+    "memory_limit_gb": partial(number, above=0.0, noun="number of GiB"),
 }
 
 
@@ -198,6 +202,11 @@ class IdentificationOptions:
     thresholds : the tuned thresholds of the selection and the final tests
         (:class:`~ema_pipeline.identification.thresholds.SelectionThresholds`);
         for studies of the method, not for everyday use.
+    memory_limit_gb : the largest estimated memory (GiB, > 0) of the
+        identification: settings that need more are refused before anything
+        is computed
+        (:func:`~ema_pipeline.identification.diagram.resources.check_identification`);
+        default :data:`DEFAULT_MEMORY_LIMIT_GB`. It changes no result.
 
     Examples
     --------
@@ -224,6 +233,7 @@ class IdentificationOptions:
     upper_residual: bool = True
     window_searches: bool = True
     thresholds: SelectionThresholds = field(default_factory=SelectionThresholds)
+    memory_limit_gb: float = DEFAULT_MEMORY_LIMIT_GB
 
     def __post_init__(self) -> None:
         # every field checked, sequences normalised (options compare and hash by value)

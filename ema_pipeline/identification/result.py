@@ -223,6 +223,12 @@ class IdentificationResult:
         not show apart) and :data:`SECOND_POLE_DROPPED` (a second pole beside
         it was dropped: the data did not prefer two); empty when not judged
         (three or more channels, picks, ``expect_hz``, the sdypy backend).
+    warnings : tuple of str  what the user should know about this result, one
+        line each, prefixed with the FRF file's path when the set has one:
+        resonances no mode was kept for, a band past the hammer's usable band,
+        narrower searches a fixed order turned off, expected modes not found
+        (:func:`~ema_pipeline.identification.identify` makes them, issues each
+        as a ``UserWarning`` too, and ``ema-pipeline identify`` prints them).
     """
 
     modes: ModalParameters
@@ -246,6 +252,7 @@ class IdentificationResult:
     not_kept_frfs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     band_support: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
     pair_flags: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    warnings: tuple[str, ...] = ()
 
     def __repr__(self) -> str:
         """Short: configuration, modes, band, method and order, mean fit error."""

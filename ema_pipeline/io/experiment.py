@@ -60,9 +60,11 @@ from ema_pipeline.validation import (
 SAFE_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_\-.]{0,63}")
 #: The fields of :class:`IdentificationOptions` the ``[identification]`` table
 #: may set (the window's time constant is per configuration; the tuned
-#: thresholds are for studies of the method, in Python).
+#: thresholds are for studies of the method, in Python; the memory limit is the
+#: machine's: ``run --memory-limit-gb``).
 IDENTIFICATION_KEYS = tuple(f.name for f in fields(IdentificationOptions)
-                            if f.name not in ("exp_window_tau_s", "thresholds"))
+                            if f.name not in ("exp_window_tau_s", "thresholds",
+                                              "memory_limit_gb"))
 
 def name_is_safe(name: str) -> bool:
     """Whether ``name`` may be a configuration name (it becomes part of file names).

@@ -24,19 +24,13 @@ from ema_pipeline.data import MIN_FRF_LINES, DataError, EMAError, FRFSet
 from ema_pipeline.identification import (
     IdentificationOptions,
     IdentificationResult,
+    check_input,
     identify,
     modes_columns,
 )
 from ema_pipeline.identification.common import ends_at_usable_top, single_reference
-from ema_pipeline.identification.diagram.narrower_searches import searches_turned_off
-from ema_pipeline.identification.diagram.resources import check_identification
 from ema_pipeline.identification.picked import Picks
-from ema_pipeline.identification.selection.expect import (
-    match_expected,
-    not_found_message,
-    with_expected_rows,
-)
-from ema_pipeline.identification.selection.not_kept import not_kept_message
+from ema_pipeline.identification.selection.expect import with_expected_rows
 from ema_pipeline.report.wording import model_text
 
 
@@ -49,7 +43,7 @@ class FileOutcome:
     configuration: str = ""
     status: str = "ok"  # ok | skipped | failed
     reason: str = ""
-    warnings: list[str] = field(default_factory=list)  # e.g. an expected mode not found
+    warnings: list[str] = field(default_factory=list)  # the result's (IdentificationResult)
     runtime: bool = False  # failed for a runtime reason (disk full, ...), not the input
     n_modes: int = 0
     fn_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
@@ -113,7 +107,7 @@ def output_paths(path: Path, out_dir: Path) -> tuple[Path, Path]:
 
 
 def load_frf(path: Path, options: IdentificationOptions) -> FRFSet:
-    """Read an FRF file for identification (fewer than
+    """Read an FRF file for identification as ``run`` does (fewer than
     :data:`ema_pipeline.data.MIN_FRF_LINES` lines is a :class:`DataError` naming
     the file), apply the window override (``options.exp_window_tau_s``), and
     make roving-hammer sets single-reference
@@ -137,8 +131,13 @@ def identify_file(
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
-    With ``force=False`` a file whose content hash already has a complete result
-    in ``out_dir`` is skipped. With ``keep=True`` the outcome keeps the FRFs and
+    The file is read once (:func:`ema_pipeline.io.read_frf`, which checks it
+    and records its content hash in ``frf.source.sha256``, the hash the
+    outputs carry; ``sha256`` given: that one); every other check is
+    :func:`~ema_pipeline.identification.check_input`'s, and the warnings are
+    the result's (``IdentificationResult.warnings``). With ``force=False`` the
+    file is hashed first, and a file whose content hash already has a
+    complete result in ``out_dir`` is skipped. With ``keep=True`` the outcome keeps the FRFs and
     the identification result (for a report). Problems with the file (unreadable, NaN, no modes)
     are returned as ``status="failed"`` with the reason, never raised. With
     ``picks`` (a picks file, :func:`ema_pipeline.io.read_picks`) exactly those
@@ -150,46 +149,32 @@ def identify_file(
     outcome = FileOutcome(path=path)
     modes_csv, result_h5 = output_paths(path, out_dir)
     try:
-        outcome.sha256 = sha256 or io.sha256_file(path)
-        if not force and io.completed_result_sha256(result_h5) == outcome.sha256:
-            outcome.status = "skipped"
-            outcome.reason = "complete result with the same content hash exists"
-            outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
-            return outcome
-        out_dir.mkdir(parents=True, exist_ok=True)  # an unusable output folder fails now
-        frf = load_frf(path, options)
+        if not force:  # the content hash decides before the file is read
+            outcome.sha256 = sha256 or io.sha256_file(path)
+            if io.completed_result_sha256(result_h5) == outcome.sha256:
+                outcome.status = "skipped"
+                outcome.reason = "complete result with the same content hash exists"
+                outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
+                return outcome
+        frf = io.read_frf(path, min_lines=MIN_FRF_LINES)  # checks the file, hashes it once
+        outcome.sha256 = outcome.sha256 or sha256 or frf.source.sha256
         outcome.configuration = frf.configuration
-        check_identification(frf, options, source=str(path))
-        result = identify(frf, options, picks=picks)
+        checked = check_input(frf, options, picks=picks)  # every other check, once
+        frf = checked.frf  # as identified: the FRFs kept with the result match its shapes
+        out_dir.mkdir(parents=True, exist_ok=True)  # an unusable output folder fails now
+        result = identify(checked)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_columns(result)  # its found_by column: diagram, ..., expected, picked
         if picks is not None and picks.source:
             outcome.picks_path = picks.source
             outcome.picks_sha256 = io.sha256_file(picks.source)
-        message = not_kept_message(result.not_kept_hz, result.not_kept_frfs,
-                                   frf.n_out * frf.n_in)
-        if message:
-            outcome.warnings.append(f"{path}: {message}")
-        force_band = frf.acquisition.force_band_hz  # FRFs from `ema-pipeline frf`
-        if force_band is not None and result.settings.band_hz[1] > force_band[1] * (1 + 1e-9):
-            outcome.warnings.append(
-                f"{path}: the identification band ends at {result.settings.band_hz[1]:.5g} Hz, "
-                f"past the usable band of the hammer: the force spectrum is 20 dB below its "
-                f"low-frequency level from {force_band[1]:.5g} Hz")
-        note = (searches_turned_off(options, result.settings.band_hz, result.fn_hz)
-                if result.settings.method == "plscf" else "")
-        if note:
-            outcome.warnings.append(f"{path}: {note}")
+        outcome.warnings = list(result.warnings)
         if options.expect_hz:  # one row per guess; guesses not found with empty values
             tol = result.settings.thresholds.expect_tol  # the selection's tolerance
             table = with_expected_rows(table.to_frame(), options.expect_hz, tol)
             for column in ("found_by", "selection"):  # a guess not found: empty
                 table[column] = table[column].fillna("")
-            message = not_found_message(options.expect_hz, match_expected(
-                result.fn_hz, options.expect_hz, tol), tol)
-            if message:
-                outcome.warnings.append(f"{path}: {message}")
         io.write_csv(table, modes_csv)
         if uff:  # <stem>_modes.uff beside <stem>_modes.csv
             write_result_uff(result, frf, modes_csv.with_suffix(".uff"))
@@ -229,4 +214,9 @@ def identify_file(
         outcome.runtime = isinstance(exc, MemoryError)  # else: the input's fault
     finally:
         outcome.seconds = time.perf_counter() - start
+    if outcome.status == "failed" and not outcome.sha256:  # not read: its hash for the record
+        try:
+            outcome.sha256 = io.sha256_file(path)
+        except (EMAError, OSError):
+            pass
     return outcome

@@ -1,13 +1,16 @@
 """Resource guard and plausibility of the identification settings, checked up front.
 
-:func:`check_identification` is called by the pipeline (``identify``, ``batch``,
-``run``) once the size of the FRF set is known and *before* the identification
-allocates anything: it refuses orders the data cannot support (more
-unknowns than equations, fewer than six diagram orders), a band outside the
-frequency axis or with too few lines, and settings whose estimated memory
-(:func:`estimate_memory_bytes`) exceeds a limit (default
-:data:`DEFAULT_MEMORY_LIMIT_GB` GiB; ``--memory-limit-gb`` or the environment
-variable ``EMA_MEMORY_LIMIT_GB``). Every refusal is a
+:func:`check_identification` is called by
+:func:`~ema_pipeline.identification.identify` (and by ``run`` for every
+configuration before the study starts) once the size of the FRF set is known
+and *before* the identification allocates anything: it refuses orders the data
+cannot support (more unknowns than equations, fewer than six diagram orders),
+a band outside the frequency axis or with too few lines, and settings whose
+estimated memory (:func:`estimate_memory_bytes`) exceeds
+``options.memory_limit_gb`` (default
+:data:`~ema_pipeline.identification.options.DEFAULT_MEMORY_LIMIT_GB` GiB; on
+the command line ``--memory-limit-gb`` or the environment variable
+:data:`MEMORY_LIMIT_ENV`, read by the command line only). Every refusal is a
 :class:`~ema_pipeline.data.ConfigError` with the number and a hint.
 
 The estimate is a plain operation count of the arrays the methods build (see
@@ -18,17 +21,14 @@ allocation it is meant to prevent.
 from __future__ import annotations
 
 import math
-import os
 
 import numpy as np
 
 from ema_pipeline.data import ConfigError, FRFSet
-from ema_pipeline.identification.common import single_reference
-from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.options import DEFAULT_MEMORY_LIMIT_GB, IdentificationOptions
 
-#: Default memory limit of one identification, GiB.
-DEFAULT_MEMORY_LIMIT_GB = 4.0
-#: Environment variable that overrides the default limit (GiB).
+#: Environment variable the command line reads for its ``--memory-limit-gb``
+#: default (GiB); the library never reads it.
 MEMORY_LIMIT_ENV = "EMA_MEMORY_LIMIT_GB"
 #: Fewest frequency lines in the band.
 MIN_BAND_LINES = 16
@@ -62,23 +62,14 @@ def order_cap(n_lines: int, n_in: int, max_poles: int, *, window: bool = False) 
     return int(max(2, min(by_lines, max_poles // max(n_in, 1))))
 
 
-def memory_limit_bytes(limit_gb: float | None = None) -> int:
-    """The memory limit in bytes: ``limit_gb``, else ``$EMA_MEMORY_LIMIT_GB``, else 4 GiB.
+def memory_limit_bytes(limit_gb: float = DEFAULT_MEMORY_LIMIT_GB) -> int:
+    """The memory limit ``limit_gb`` (GiB, finite and positive) in bytes.
 
     Examples
     --------
     >>> memory_limit_bytes(0.5)
     536870912
     """
-    if limit_gb is None:
-        text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
-        if text:
-            try:
-                limit_gb = float(text)
-            except ValueError:
-                raise ConfigError(f"{MEMORY_LIMIT_ENV}={text!r} is not a number (GiB)") from None
-        else:
-            limit_gb = DEFAULT_MEMORY_LIMIT_GB
     if not (math.isfinite(limit_gb) and limit_gb > 0):
         raise ConfigError(f"memory limit must be a positive number of GiB, got {limit_gb!r}")
     return int(limit_gb * _GIB)
@@ -113,14 +104,17 @@ def estimate_memory_bytes(n_lines: int, n_in: int, n_out: int, max_order: int,
 
 
 def check_identification(frf: FRFSet, options: IdentificationOptions, *,
-                         memory_limit_gb: float | None = None, source: str = "") -> None:
+                         source: str = "") -> None:
     """Refuse settings that cannot work on ``frf`` before identifying it.
 
-    Checks what depends on the data (the options themselves were checked
-    when they were made, :class:`IdentificationOptions`): the band against the
-    frequency axis (inside it, at least :data:`MIN_BAND_LINES` lines),
-    ``max_order`` against :func:`order_cap` (pLSCF), ``expect_hz`` inside the
-    band, and the memory estimate against the limit (at ``max_order``, or with
+    ``frf`` is the set :func:`~ema_pipeline.identification.identify` works on
+    (one reference for a roving-hammer test:
+    :func:`~ema_pipeline.identification.common.single_reference`). Checks what
+    depends on the data (the options themselves were checked when they were
+    made, :class:`IdentificationOptions`): the band against the frequency axis
+    (inside it, at least :data:`MIN_BAND_LINES` lines), ``max_order`` against
+    :func:`order_cap` (pLSCF), ``expect_hz`` inside the band, and the memory
+    estimate against ``options.memory_limit_gb`` (at ``max_order``, or with
     the adaptive order search at the highest order it may reach,
     :func:`order_cap`). Raises ConfigError naming ``source``.
 
@@ -132,6 +126,11 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
     Traceback (most recent call last):
     ...
     ema_pipeline.data.ConfigError: x.h5: band 5..1e+09 Hz reaches beyond the frequency axis ...
+    >>> check_identification(frf, IdentificationOptions(memory_limit_gb=1e-6))
+    ... # doctest: +ELLIPSIS
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.ConfigError: the adaptive order search up to order 50 on 200 lines ...
     """
     where = f"{source}: " if source else ""
     f = np.asarray(frf.freq_hz, dtype=float)
@@ -153,8 +152,7 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
             raise ConfigError(f"{where}expected frequency {fx:g} Hz is outside the band "
                               f"{lo:g}..{hi:g} Hz")
     method = str(options.method)
-    identified = single_reference(frf)  # the set identify() works on
-    n_in, n_out = identified.n_in, identified.n_out
+    n_in, n_out = frf.n_in, frf.n_out
     cap = order_cap(n_lines, n_in, options.thresholds.max_poles)
     p = options.max_order
     if p is not None:
@@ -169,12 +167,12 @@ def check_identification(frf: FRFSet, options: IdentificationOptions, *,
         # check holds for the highest order it can reach
         p = cap
     need = estimate_memory_bytes(n_lines, n_in, n_out, p, method)
-    limit = memory_limit_bytes(memory_limit_gb)
+    limit = memory_limit_bytes(options.memory_limit_gb)
     if need > limit:
         what = "max order" if options.max_order else "the adaptive order search up to order"
         raise ConfigError(
             f"{where}{what} {p} on {n_lines} lines x {n_out} outputs x {n_in} inputs needs "
             f"about {need / _GIB:.1f} GiB, more than the limit of {limit / _GIB:.3g} GiB; "
-            f"lower the order or narrow the band, or raise the limit (--memory-limit-gb or "
-            f"{MEMORY_LIMIT_ENV})"
+            f"lower the order or narrow the band, or raise the limit (memory_limit_gb; on the "
+            f"command line --memory-limit-gb or {MEMORY_LIMIT_ENV})"
         )
