@@ -53,7 +53,7 @@ def test_library_warnings_are_the_ones_the_cli_prints(example_dir: Path, tmp_pat
     assert len(result.warnings) == 2
     assert result.warnings[0].startswith(f"{path}: max_order (--max-order) turned off the "
                                          "narrower searches")
-    assert result.warnings[1] == (f"{path}: expected mode(s) not found within 5 % of 60 Hz "
+    assert result.warnings[1] == (f"{path}: expected mode(s) not found within 15 % of 60 Hz "
                                   "(reported with empty values)")
     assert list(result.warnings) == printed
     assert [str(w.message) for w in caught if w.category is UserWarning] == printed

@@ -167,7 +167,7 @@ def result_warnings(checked: CheckedInput, result: IdentificationResult) -> tupl
     True
     >>> for line in result.warnings:
     ...     print(line)
-    expected mode(s) not found within 5 % of 50 Hz (reported with empty values)
+    expected mode(s) not found within 15 % of 50 Hz (reported with empty values)
     """
     frf, options = checked.frf, checked.options
     where = source_prefix(frf)
