@@ -34,7 +34,7 @@ from ema_pipeline.identification.selection.expect import match_expected, not_fou
 from ema_pipeline.identification.selection.picks import identify_picks
 from ema_pipeline.threads import owned_blas_threads
 
-Backend = Callable[[FRFSet, IdentificationOptions], IdentificationResult]
+Backend = Callable[..., IdentificationResult]  # (frf, options, *, workers)
 
 #: Identification methods by name: one backend per name of
 #: :data:`~ema_pipeline.identification.options.METHOD_NAMES` (the ``Method``
@@ -47,7 +47,7 @@ METHODS: dict[str, Backend] = {
 
 def identify(
     frf: FRFSet, options: IdentificationOptions | None = None, *, picks: Picks | None = None,
-    **overrides: Any,
+    workers: int = 1, **overrides: Any,
 ) -> IdentificationResult:
     """Identify modal parameters from an FRF set (pLSCF + automatic selection + LSFD).
 
@@ -65,6 +65,11 @@ def identify(
         :func:`ema_pipeline.io.read_picks`): fit exactly these poles, with the
         file's band, orders and weighting, and run no automatic selection
         (:func:`~ema_pipeline.identification.selection.picks.identify_picks`).
+    workers : worker processes for the independent pieces of work (a large
+        diagram's eigenvalues, a dense band's windows, the modes' local fits;
+        :func:`ema_pipeline.runner.process_map`). The default 1 starts no
+        process, as scipy's ``workers``; ``ema-pipeline`` passes the cores.
+        The numbers are the same for every count.
     **overrides : fields of :class:`IdentificationOptions` replacing those of
         ``options``, e.g. ``identify(frf, band_hz=(5, 790), max_order=40)``.
 
@@ -131,7 +136,7 @@ def identify(
     checked = replace(options, band_hz=(lo, hi), expect_hz=tuple(expect_hz))
     with owned_blas_threads():  # small linear algebra: one BLAS thread (ema_pipeline.threads)
         result = (identify_picks(frf, checked, picks) if picks is not None
-                  else backend(frf, checked))
+                  else backend(frf, checked, workers=workers))
     if picks is not None:
         return result
     if options.method == "plscf":  # a fixed order or --expect turned searches off: say so

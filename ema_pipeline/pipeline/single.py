@@ -134,6 +134,7 @@ def identify_file(
     keep: bool = False,
     uff: bool = False,
     picks: Picks | None = None,
+    workers: int = 1,
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
@@ -143,6 +144,7 @@ def identify_file(
     are returned as ``status="failed"`` with the reason, never raised. With
     ``picks`` (a picks file, :func:`ema_pipeline.io.read_picks`) exactly those
     poles are fitted (:func:`ema_pipeline.identification.selection.picks.identify_picks`).
+    ``workers``: worker processes of the identification (``identify(workers=)``).
     """
     options = IdentificationOptions() if options is None else options
     path, out_dir = Path(path), Path(out_dir)
@@ -160,7 +162,7 @@ def identify_file(
         frf = load_frf(path, options)
         outcome.configuration = frf.configuration
         check_identification(frf, options, source=str(path))
-        result = identify(frf, options, picks=picks)
+        result = identify(frf, options, picks=picks, workers=workers)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_columns(result)  # its found_by column: diagram, ..., expected, picked

@@ -50,7 +50,7 @@ import numpy as np
 from scipy import linalg
 
 from ema_pipeline.data import DataError
-from ema_pipeline.threads import Mapper, map_costliest_first
+from ema_pipeline.runner import Mapper, map_costliest_first
 
 
 @dataclass(frozen=True)

@@ -48,7 +48,7 @@ from ema_pipeline.identification.refinement.uncertainty import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.numerics import MarquardtDamping, marquardt_step
-from ema_pipeline.threads import Mapper, map_each
+from ema_pipeline.runner import Mapper, map_each
 
 
 @dataclass(frozen=True)

@@ -65,7 +65,7 @@ from ema_pipeline.identification.refinement.uncertainty import exponential_windo
 from ema_pipeline.identification.result import SelectedPoles, found_by_code
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import mac, pole_fd_hz, pole_half_width_hz
-from ema_pipeline.threads import Mapper, map_each
+from ema_pipeline.runner import Mapper, map_each
 
 
 @dataclass(frozen=True)
