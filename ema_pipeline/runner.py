@@ -354,22 +354,18 @@ def process_imap(func: Callable[[T], R], items: Sequence[T], workers: int = 1, *
 
 class _LazyPool:
     """The :class:`Mapper` of :func:`process_map`: forks its workers at the
-    first map of two or more items (a file with little work forks none), if
-    :func:`fork_is_safe` says so then; else it maps in this process."""
+    first map of two or more items (a file with little work forks none) that
+    finds :func:`fork_is_safe` true; until then it maps in this process."""
 
     def __init__(self, workers: int) -> None:
         self.workers = workers
         self.pool: ProcessPool | None = None
-        self.serial = False
 
     def __call__(self, func: Callable[[T], R], items: Iterable[T]) -> list[R]:
         items = list(items)
-        if len(items) < 2 or self.serial:
+        if len(items) < 2 or (self.pool is None and not fork_is_safe()):
             return [func(item) for item in items]
         if self.pool is None:
-            if not fork_is_safe():
-                self.serial = True
-                return [func(item) for item in items]
             self.pool = ProcessPool(self.workers)
         futures = [self.pool.submit(func, item) for item in items]
         try:

@@ -320,9 +320,10 @@ class _Loop:
 class _Bar(tqdm):
     """The batch's progress bar, without tqdm's monitor thread (it is updated at
     every file): the monitor outlives the bars (tqdm 4.70), and a second thread
-    makes every later :func:`ema_pipeline.io.check_hdf5` of the process (the
-    batch report reads each file's result) start a fresh interpreter instead
-    of forking, 1-3 s per file."""
+    makes the runner's fork-safety rule refuse every later fork of the process
+    (:func:`ema_pipeline.runner.fork_is_safe`): each
+    :func:`ema_pipeline.io.check_hdf5` (the batch report reads each file's
+    result) would start a fresh interpreter, 1-3 s per file."""
 
     monitor_interval = 0
 
