@@ -249,9 +249,11 @@ class ProcessPool:
             return cf.ProcessPoolExecutor(
                 max_workers=self.workers, mp_context=multiprocessing.get_context("fork"),
                 initializer=_start_worker, initargs=(blas_threads(),))
+        context: multiprocessing.context.BaseContext
         if "forkserver" in multiprocessing.get_all_start_methods():
-            context = multiprocessing.get_context("forkserver")
-            context.set_forkserver_preload(list(self.preload))
+            server = multiprocessing.get_context("forkserver")
+            server.set_forkserver_preload(list(self.preload))
+            context = server
         else:  # pragma: no cover - no fork server on this platform
             context = multiprocessing.get_context("spawn")
         return cf.ProcessPoolExecutor(
