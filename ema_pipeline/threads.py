@@ -37,6 +37,7 @@ __all__ = [
     "owned_blas_threads",
     "positive_int_setting",
     "thread_environment",
+    "thread_variables",
 ]
 
 #: Environment variable: BLAS threads per process (a positive integer, or
@@ -113,6 +114,33 @@ def owned_blas_threads() -> Iterator[None]:
 
     with threadpool_limits(limits=n):
         yield
+
+
+@contextlib.contextmanager
+def thread_variables() -> Iterator[None]:
+    """Run the block with :func:`thread_environment` in ``os.environ`` (for the
+    libraries loaded and the processes started in it), restored after it.
+
+    Examples
+    --------
+    >>> before = dict(os.environ)
+    >>> with thread_variables():
+    ...     os.environ.get("OPENBLAS_NUM_THREADS") in (None, str(blas_threads()))
+    True
+    >>> dict(os.environ) == before
+    True
+    """
+    wanted = thread_environment()
+    before = {name: os.environ.get(name) for name in wanted}
+    os.environ.update(wanted)
+    try:
+        yield
+    finally:
+        for name, value in before.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
 
 
 def thread_environment() -> dict[str, str]:
