@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ema_pipeline.cli.support import EXIT_INPUT, EXIT_OK, EXIT_RUNTIME
+from ema_pipeline.cli.support import EXIT_INPUT, EXIT_OK, EXIT_RUNTIME, command_workers
 from ema_pipeline.data import ConfigError, DataError
 from ema_pipeline.paths import DEFAULT_RAW_FOLDER
 
@@ -292,7 +292,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     job = FileJob(args.out, options, report=args.report, figures=not args.no_figures,
                   uff=args.uff, picks=picks, geometry=geometry)
     failed, runtime = len(args.files) - len(readable), 0
-    for outcome, page in identify_files(readable, job):
+    for outcome, page in identify_files(readable, job, command_workers(args.workers)):
         if outcome.status == "failed":
             failed += 1
             runtime += outcome.runtime
@@ -339,14 +339,13 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     options = _identify_options(args)
     check_output_dir(args.out, "--out")
-    if args.workers is not None and args.workers < 1:
-        raise ConfigError(f"--workers must be at least 1, got {args.workers}")
+    workers = None if args.scheduler and args.workers is None else command_workers(args.workers)
     geometry = _geometry(args)  # read now: a bad file stops before the batch runs
     report = run_batch(
         args.folder,
         args.out,
         options=options,
-        workers=args.workers,
+        workers=workers,
         scheduler=args.scheduler,
         force=args.force,
         progress=not args.quiet,
@@ -399,7 +398,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(message, file=sys.stderr, flush=True)
 
     result = study.run_study(experiment, progress=say, progress_bars=not (args.quiet or args.json),
-                             frfs=frfs, hits=hits)
+                             frfs=frfs, hits=hits, workers=command_workers(args.workers))
     if not result.ok and Path(args.results).exists():
         for problem in result.problems:
             print(f"ema-pipeline run: {problem}", file=sys.stderr)

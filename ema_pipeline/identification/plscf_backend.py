@@ -109,10 +109,11 @@ from ema_pipeline.identification.selection.trajectories import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import poles_overlap
-from ema_pipeline.threads import Mapper, available_cores, process_map
+from ema_pipeline.runner import Mapper, process_map
 
 
-def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
+def identify_plscf(frf: FRFSet, options: IdentificationOptions, *,
+                   workers: int = 1) -> IdentificationResult:
     """Identify with this package's pLSCF chain.
 
     Called by :func:`ema_pipeline.identification.identify`, which checks the
@@ -121,10 +122,10 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     call that, not this, with unchecked input. Independent work (the
     companion eigenvalues of a large diagram, the searches of a dense band's
     windows, the local fits of the modes) is shared out among worker
-    processes (:func:`ema_pipeline.threads.process_map`: the cores, or
-    ``$EMA_PIPELINE_WORKERS``); the numbers are those of one process.
+    processes (``workers`` of them, :func:`ema_pipeline.runner.process_map`;
+    1: none); the numbers are those of one process.
     """
-    with process_map(available_cores()) as map_:
+    with process_map(workers, workers) as map_:
         return identify_with(frf, options, map_)
 
 

@@ -22,6 +22,8 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from ema_pipeline.runner import pid_alive  # re-exported: the runner owns process facts
+
 __all__ = ["atomic_folder", "partial_folder", "pid_alive", "remove_stale_partials", "swap_in"]
 
 
@@ -85,23 +87,6 @@ def swap_in(new_dir: Path, results_dir: Path) -> None:
         os.rename(old, results_dir)
         raise
     shutil.rmtree(old, ignore_errors=True)
-
-
-def pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists (another user's counts as alive).
-
-    Examples
-    --------
-    >>> pid_alive(os.getpid())
-    True
-    """
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:
-        return True
-    return True
 
 
 def remove_stale_partials(results_dir: str | os.PathLike[str]) -> int:

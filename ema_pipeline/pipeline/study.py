@@ -224,7 +224,7 @@ def prepare_study(
 
 
 def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
-                  loaded: dict[str, FRFSet] | None = None) -> None:
+                  loaded: dict[str, FRFSet] | None = None, workers: int = 1) -> None:
     loaded = loaded or {}
     turned_off: dict[str, list[str]] = {}  # a fixed order's note: the configurations
     for k, spec in enumerate(exp.configurations, start=1):
@@ -242,7 +242,7 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
             else:
                 frf = simulate_configuration(exp, spec) if path is None else map_dofs(
                     exp, replace(load_frf(path, options), configuration=spec.name), path)
-            ident = identify(frf, options)
+            ident = identify(frf, options, workers=workers)
         except DataError as exc:
             result.problems.append(f"configuration {spec.name!r}: {exc}")
             say(f"    failed: {exc}")
@@ -335,17 +335,19 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
 def run_study(
     experiment: Experiment, *, progress: Progress | None = None, progress_bars: bool = False,
     frfs: dict[str, FRFSet] | None = None, hits: dict[str, pd.DataFrame] | None = None,
+    workers: int = 1,
 ) -> StudyResult:
     """Run identification, added mass and the FE stage for an experiment
     (``frfs``: the FRF sets :func:`prepare_study` read, by configuration;
-    ``hits``: the hit tables of the recorded configurations among them)."""
+    ``hits``: the hit tables of the recorded configurations among them;
+    ``workers``: worker processes of each identification)."""
     say = progress or (lambda _msg: None)
     result = StudyResult(experiment=experiment, hits=dict(hits or {}))
     names = [c.name for c in experiment.configurations]
     if experiment.genuine_name not in names:
         raise ConfigError(f"genuine configuration {experiment.genuine_name!r} not in {names}")
     start = time.perf_counter()
-    _identify_all(experiment, result, say, frfs)
+    _identify_all(experiment, result, say, frfs, workers)
     result.tables["table1_modal_parameters"] = table1(result.measured)
     if experiment.has_beam:
         _fe_stage(experiment, result, say, progress_bars)

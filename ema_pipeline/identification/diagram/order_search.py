@@ -67,7 +67,7 @@ from ema_pipeline.identification.selection.trajectories import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, poles_overlap
-from ema_pipeline.threads import Mapper, SerialMap, map_costliest_first
+from ema_pipeline.runner import Mapper, SerialMap, map_costliest_first
 
 
 def diagram_orders(p: int, n_in: int, max_orders: int) -> np.ndarray:
@@ -152,7 +152,7 @@ class OrderSearch:
     thresholds: SelectionThresholds
     tolerances: tuple[float, float, float] | None = None
     #: worker processes for the diagrams' eigenvalues and the windows'
-    #: searches (:func:`ema_pipeline.threads.process_map`; None: this process)
+    #: searches (:func:`ema_pipeline.runner.process_map`; None: this process)
     map_: Mapper | None = field(default=None, compare=False, repr=False)
 
     def run(
