@@ -609,7 +609,7 @@ def test_memory_limit_refuses_before_any_work(two_mode_folder: Path, tmp_path: P
     estimated at the highest order it may reach, so the limit refuses it too."""
     src = two_mode_folder / "two.uff"
     # the option travels in the options (to batch workers too) and wins over the variable
-    monkeypatch.setenv("EMA_MEMORY_LIMIT_GB", "4")
+    monkeypatch.setenv("EMA_PIPELINE_MEMORY_LIMIT_GB", "4")
     assert _run(["identify", src, "--out", tmp_path / "ok", "--max-order", "40", "--quiet"],
                 capsys)[0] == 0
     code, _, err = _run(["identify", src, "--out", tmp_path / "id", "--max-order", "40",

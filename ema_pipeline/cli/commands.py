@@ -314,23 +314,33 @@ def cmd_identify(args: argparse.Namespace) -> int:
 def _memory_limit(args: argparse.Namespace) -> float:
     """The memory limit of ``identify``, ``batch`` and ``run`` (GiB, for
     ``IdentificationOptions.memory_limit_gb``): ``--memory-limit-gb``, else
-    ``$EMA_MEMORY_LIMIT_GB`` (read here, the one place that reads it), else the
+    ``$EMA_PIPELINE_MEMORY_LIMIT_GB`` (read here, the one place that reads it;
+    the former ``$EMA_MEMORY_LIMIT_GB`` with a note to rename it), else the
     default. A bad value is a usage error naming where it came from."""
     from ema_pipeline.data import OptionError
-    from ema_pipeline.identification.diagram.resources import MEMORY_LIMIT_ENV
+    from ema_pipeline.identification.diagram.resources import (
+        MEMORY_LIMIT_ENV,
+        OLD_MEMORY_LIMIT_ENV,
+    )
     from ema_pipeline.identification.options import DEFAULT_MEMORY_LIMIT_GB, check_option
 
     limit = getattr(args, "memory_limit_gb", None)
     if limit is not None:
         return float(limit)  # checked with the options (an error names --memory-limit-gb)
-    text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    name = MEMORY_LIMIT_ENV
+    text = os.environ.get(name, "").strip()
+    if not text and os.environ.get(OLD_MEMORY_LIMIT_ENV, "").strip():
+        name = OLD_MEMORY_LIMIT_ENV
+        text = os.environ[name].strip()
+        print(f"ema-pipeline: note: ${OLD_MEMORY_LIMIT_ENV} is read for now; rename it "
+              f"${MEMORY_LIMIT_ENV} (every variable of the tool starts with EMA_PIPELINE_)",
+              file=sys.stderr)
     if not text:
         return DEFAULT_MEMORY_LIMIT_GB
     try:
         return float(check_option("memory_limit_gb", float(text)))
     except (OptionError, ValueError):
-        raise ConfigError(f"{MEMORY_LIMIT_ENV}={text!r} is not a positive number of GiB"
-                          ) from None
+        raise ConfigError(f"{name}={text!r} is not a positive number of GiB") from None
 
 
 def cmd_batch(args: argparse.Namespace) -> int:

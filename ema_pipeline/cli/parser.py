@@ -210,7 +210,7 @@ def _add_memory_limit(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="GB",
         help="refuse settings whose estimated memory exceeds this (GiB; default "
-        "$EMA_MEMORY_LIMIT_GB or 4)",
+        "$EMA_PIPELINE_MEMORY_LIMIT_GB or 4)",
     )
 
 
