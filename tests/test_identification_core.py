@@ -148,7 +148,8 @@ def test_library_refuses_a_diagram_over_the_memory_limit(example_dir: Path, tmp_
     assert code == 2 and "more than the limit of 9.99e-07 GiB" in err[0]
     monkeypatch.setenv("EMA_PIPELINE_MEMORY_LIMIT_GB", "lots")
     code, err = _cli(["identify", path, "--out", tmp_path / "bad"], capsys)
-    assert code == 2 and err == ["ema-pipeline identify: error: EMA_PIPELINE_MEMORY_LIMIT_GB='lots' "
+    assert code == 2 and err == ["ema-pipeline identify: error: "
+                                 "EMA_PIPELINE_MEMORY_LIMIT_GB='lots' "
                                  "is not a positive number of GiB"], err
     # the former name: still read, with a note to rename it
     monkeypatch.delenv("EMA_PIPELINE_MEMORY_LIMIT_GB")

@@ -99,7 +99,7 @@ def add_found(
 
     ``screen(candidates, indices)`` says which of the candidates at
     ``indices`` (the new ones) can pass at all, before the fit of all of
-    them (:meth:`~ema_pipeline.identification.plscf_backend.Retest.could_pass`:
+    them (:meth:`~ema_pipeline.identification.plscf_final_tests.Retest.could_pass`:
     the tests of each pole on its own local fit); where none can, that fit
     is not made, and ``found`` stands as it would after it. On a simulated
     paper file the residual peaks of the noise, whose decay rates the data
