@@ -1,7 +1,7 @@
 """Checked access to the members and attributes of an HDF5 file read as if it
 came from an adversary.
 
-Every HDF5 file is read as if it came from an adversary (issue 15):
+Every HDF5 file is read as if it came from an adversary:
 
 * only a non-empty regular file with an HDF5 signature is handed to libhdf5
   (:func:`~ema_pipeline.io.files.check_readable`; FIFOs, devices, folders and

@@ -66,7 +66,7 @@ def write_result_uff(
     path: str | Path,
     node_coordinates: dict[int, tuple[float, float, float]] | None = None,
 ) -> Path:
-    """Write identified modes as a Universal File (issue 12 export).
+    """Write identified modes as a Universal File.
 
     Dataset 164 (SI), 15 and 82 when ``node_coordinates`` (m) are known, one
     55 per mode (fn, zeta, complex shape at the response DOFs) and 58 with the

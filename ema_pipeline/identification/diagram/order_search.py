@@ -27,7 +27,8 @@ the most determined modes is used, plus the determined resonances (the peak
 test of :func:`~ema_pipeline.identification.selection.acceptance.resonant` passed too) of the other
 diagrams that none of its candidates covers: at low SNR a mode is sometimes
 resolved at one order and a neighbour's trajectory at another, and the best
-diagram alone loses one of them (SNR hard cases, seeds 600-615: 1 -> 0 missed of 66).
+diagram alone loses one of them (measured on the SNR hard cases:
+``docs/validation.md``).
 
 Wide bands: when the band's top is more than ``zoom_ratio`` times its
 bottom, the same search runs once more on its lowest 1/``zoom_ratio``
