@@ -29,7 +29,6 @@ def load_experiment(path: str | os.PathLike[str]) -> Experiment:
         raise ConfigError(str(exc)) from exc
 
 
-
 def _check_sensors(exp: Experiment, frf: FRFSet, path: Path, experiment_file: str) -> None:
     """The FRF file's DOFs must be the experiment's sensors (or, after reciprocity
     of a roving-hammer set, the other way round)."""
@@ -43,7 +42,6 @@ def _check_sensors(exp: Experiment, frf: FRFSet, path: Path, experiment_file: st
         f"{experiment_file} [sensors] says response_nodes {want_resp}, hammer_node "
         f"{exp.hammer_node}"
     )
-
 
 
 def recorded_frf(exp: Experiment, spec: ConfigurationSpec) -> tuple[FRFSet, pd.DataFrame]:
@@ -77,7 +75,6 @@ def recorded_frf(exp: Experiment, spec: ConfigurationSpec) -> tuple[FRFSet, pd.D
     return single_reference(frf), result.hits_table()
 
 
-
 def map_dofs(exp: Experiment, frf: FRFSet, path: Path | str = "") -> FRFSet:
     """``frf`` with the experiment's ``[dofs] map`` applied (file DOF -> geometry
     DOF) and its ``[dofs] fixed`` DOFs checked: each must be one of the FRFs'
@@ -107,7 +104,6 @@ def map_dofs(exp: Experiment, frf: FRFSet, path: Path | str = "") -> FRFSet:
         raise DataError(f"{where}[dofs] fixed {', '.join(missing)}: not among the file's DOFs "
                         f"({', '.join(sorted({d.label() for d in dofs}))})")
     return frf
-
 
 
 def prepare_study(

@@ -30,7 +30,6 @@ def _is_paper_experiment(exp: Experiment) -> bool:
     return same_beam and set(c.name for c in exp.configurations) <= set(paper.CONFIGURATIONS)
 
 
-
 def report_input(result: StudyResult, experiment_file: str | os.PathLike[str] | None = None):
     """The :class:`~ema_pipeline.report.ReportInput` of a study.
 
@@ -93,7 +92,6 @@ def report_input(result: StudyResult, experiment_file: str | os.PathLike[str] | 
     )
 
 
-
 def _expanded_shapes(
     result: StudyResult, fe_x: np.ndarray | None, fe_shapes: np.ndarray | None
 ) -> dict[str, Any]:
@@ -130,7 +128,6 @@ def _expanded_shapes(
     return out
 
 
-
 def _test_info(exp: Experiment) -> dict[str, str]:
     """The report's rows of the ``[test]`` and ``[dofs]`` tables."""
     out = {key.replace("_", " "): value for key, value in exp.test}
@@ -145,7 +142,6 @@ def _test_info(exp: Experiment) -> dict[str, str]:
         out["DOF map (file -> geometry)"] = ", ".join(f"{a.label()} -> {b.label()}"
                                                       for a, b in exp.dof_map)
     return out
-
 
 
 def _settings_text(exp: Experiment) -> dict[str, str]:
@@ -169,7 +165,6 @@ def _settings_text(exp: Experiment) -> dict[str, str]:
     return out
 
 
-
 def summary(result: StudyResult) -> dict[str, Any]:
     """A JSON-able summary: modes, added mass, update, local added mass, problems."""
     out: dict[str, Any] = {
@@ -190,7 +185,6 @@ def summary(result: StudyResult) -> dict[str, Any]:
         if name in result.tables:
             out[name] = json.loads(result.tables[name].to_json(orient="records"))
     return out
-
 
 
 def write_modes_uff_files(result: StudyResult, folder: Path) -> list[Path]:
@@ -218,7 +212,6 @@ def write_modes_uff_files(result: StudyResult, folder: Path) -> list[Path]:
             write_result_uff(ident, frf, folder / f"{name}.uff", node_coordinates=coords or None)
         )
     return written
-
 
 
 def write_study(
@@ -273,7 +266,6 @@ def write_study(
             tmp_dir / "ema_results.h5",
         )
     return sorted(p for p in results_dir.rglob("*") if p.is_file())
-
 
 
 def summary_text(result: StudyResult, results_dir: Path) -> str:

@@ -25,7 +25,6 @@ from ema_pipeline.report.wording import plural
 Progress = Callable[[str], None]
 
 
-
 @dataclass
 class StudyResult:
     """Everything ``run`` computed, plus the problems met on the way."""
@@ -46,7 +45,6 @@ class StudyResult:
         return not self.problems
 
 
-
 def table1(measured: dict[str, ModalParameters]) -> pd.DataFrame:
     """Table 1 in long form: configuration, mode, fd_hz, zeta_pct (+ fn and std)."""
     rows = []
@@ -65,7 +63,6 @@ def table1(measured: dict[str, ModalParameters]) -> pd.DataFrame:
             )
     columns = ["configuration", "mode", "fd_hz", "zeta_pct", "fn_hz", "fn_std_hz", "zeta_std_pct"]
     return pd.DataFrame(rows, columns=columns)
-
 
 
 def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
@@ -123,7 +120,6 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
         say(f"    {plural(modes.n_modes, 'mode')} [{freqs}] Hz in {seconds:.1f} s")
 
 
-
 def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars: bool) -> None:
     from ema_pipeline import fe
     from ema_pipeline.pipeline.fe_stage import fe_stage_tables, run_fe_stage, update_statement
@@ -170,7 +166,6 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
     result.notes.extend(stage.messages)
     result.seconds["fe"] = time.perf_counter() - start
     say(f"    done in {result.seconds['fe']:.1f} s (update {upd.wall_time_s:.1f} s)")
-
 
 
 def run_study(
