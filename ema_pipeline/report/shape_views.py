@@ -266,8 +266,8 @@ svg.shape circle.open{fill:#fff}
 @media print{.shape-views .shape-controls{display:none}figure.shape-view{break-inside:avoid}}
 """
 
-# The animation: every .shape-views group reads its JSON and redraws its views
-# (W, H: the view size; the projections are those of _project).
+# The animation (report/js/shape_views.js): every .shape-views group reads its JSON
+# and redraws its views (W, H: the view size; the projections are those of _project).
 _SCRIPT = page_script("shape_views.js", VIEW_W=VIEW_W, VIEW_H=VIEW_H)
 
 

@@ -1,4 +1,5 @@
-"""The script of the interactive stabilization diagram (:mod:`.stab_diagram`).
+"""The script of the interactive stabilization diagram (:mod:`.stab_diagram`),
+the file ``report/js/stab_diagram.js`` (:mod:`.scripts`).
 
 It draws the diagram's poles from the page's JSON (``script.stab-poles``)
 as ``text.pole`` elements, their stability symbol in its colour; redraws

@@ -140,6 +140,6 @@ def synthesis_data(sub: FRFSet, settings: ResolvedSettings) -> dict[str, object]
 #: The page's synthesis (functions of the diagram's script, which calls
 #: ``synthesis(poles)`` with the picked poles as ``[re, im]`` in rad/s before
 #: the window correction and gets the log10 of the summed |H_synth| on the
-#: overlay's lines ``d.f0 + k d.df``, or null).
+#: overlay's lines ``d.f0 + k d.df``, or null): the file ``report/js/synthesis.js``.
 SYNTHESIS_JS = page_script("synthesis.js", CODE_0=CODE_0, MAG_LEVELS=MAG_LEVELS,
                            PHASE_LEVELS=PHASE_LEVELS)
