@@ -100,6 +100,9 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "batch folder": ("test_batch.py::test_cli_batch_good_and_bad_files",),
     "batch --out": ("test_batch.py::test_cli_batch_good_and_bad_files",),
     "batch --workers": ("test_batch.py::test_workers_1_and_2_identical_and_rerun_skips",),
+    "identify --workers": ("test_runner.py::test_ctrl_c_of_identify_with_workers_stops_within_2_s",
+                           "test_runner.py::test_identify_several_files_in_workers_equals_serial"),
+    "run --workers": ("test_runner.py::test_run_gives_each_identification_its_workers",),
     "batch --scheduler": ("test_batch.py::test_scheduler_matches_local_processes",),
     "batch --force": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --report": (

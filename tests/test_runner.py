@@ -372,3 +372,27 @@ def test_diagram_orders_in_workers_give_the_serial_poles():
     np.testing.assert_array_equal(shared.participation, serial.participation)
     fn = np.abs(serial.pole[serial.order == orders[-1]]) / (2 * np.pi)
     assert np.all([np.min(np.abs(fn - f0)) < 0.5 for f0 in modes.fn_hz])
+
+
+def test_run_gives_each_identification_its_workers(monkeypatch, tmp_path, example_dir):
+    """``run --workers N`` hands N worker processes to every configuration's
+    identification (the study's three files); without it, the command line's
+    count (``$EMA_PIPELINE_WORKERS`` here); the library's ``run_study``
+    defaults to one process."""
+    from ema_pipeline.pipeline import study_run
+
+    seen: list[int] = []
+    real = study_run.identify
+
+    def spy(frf, options, *, workers=1, **kwargs):
+        seen.append(workers)
+        return real(frf, options, workers=1, **kwargs)  # the numbers of one process
+
+    monkeypatch.setattr(study_run, "identify", spy)
+    argv = ["run", "--raw", str(example_dir), "--no-figures", "--quiet"]
+    assert main([*argv, "--results", str(tmp_path / "a"), "--workers", "3"]) == 0
+    assert seen == [3, 3, 3]
+    seen.clear()
+    monkeypatch.setenv(WORKERS_ENV, "2")
+    assert main([*argv, "--results", str(tmp_path / "b")]) == 0
+    assert seen == [2, 2, 2]

@@ -1,4 +1,9 @@
-"""The errors ema-pipeline raises on bad input or settings."""
+"""The errors ema-pipeline raises on bad input or settings.
+
+Their home is :mod:`ema_pipeline.data` (``from ema_pipeline.data import
+DataError``), and a traceback names them there
+(``ema_pipeline.data.DataError: ...``), as the users' code catches them.
+"""
 
 from __future__ import annotations
 
@@ -6,9 +11,13 @@ from __future__ import annotations
 class EMAError(Exception):
     """Base class of the errors ema-pipeline raises on bad input or settings."""
 
+    __module__ = "ema_pipeline.data"  # the public home, as tracebacks name it
+
 
 class ConfigError(EMAError, ValueError):
     """A usage or configuration problem (unknown name, unreadable experiment file)."""
+
+    __module__ = "ema_pipeline.data"
 
 
 class DataError(EMAError, ValueError):
@@ -16,6 +25,8 @@ class DataError(EMAError, ValueError):
 
     The message names the source (file) when known.
     """
+
+    __module__ = "ema_pipeline.data"
 
 
 class OptionError(ConfigError):
@@ -31,6 +42,8 @@ class OptionError(ConfigError):
     >>> str(OptionError("min_fraction", "must be a number in (0, 1], got 5"))
     'min_fraction must be a number in (0, 1], got 5'
     """
+
+    __module__ = "ema_pipeline.data"
 
     def __init__(self, field: str, reason: str) -> None:
         self.field, self.reason = field, reason
