@@ -273,8 +273,13 @@ class ProcessPool:
         return live
 
     def death(self) -> str:
-        """How the pool's workers that died ended (after a break)."""
+        """How the pool's workers that died ended (after a break; a worker just
+        killed may take a moment to be reaped: waited for up to 1 s)."""
+        deadline = time.monotonic() + 1.0
         codes = sorted({p.exitcode for p in self._seen if p.exitcode})
+        while not codes and time.monotonic() < deadline:
+            time.sleep(0.01)
+            codes = sorted({p.exitcode for p in self._seen if p.exitcode})
         if not codes:
             return "its worker process died"
         how = [f"killed by {signal.Signals(-c).name}" if c < 0 else f"exit status {c}"
