@@ -161,6 +161,8 @@ def make_recording(
     record_s: float = 1.0,
     last_hit_short: bool | None = None,
     overload_channel: int | None = None,
+    force_range_n: tuple[float, float] | None = None,
+    odd_pulse: tuple[int, float] | None = None,
 ) -> SyntheticRecording:
     """A random continuous impact recording with known truth.
 
@@ -179,6 +181,14 @@ def make_recording(
     last_hit_short : the last hit is closer than ``record_s`` to the end (default
         random, probability 1/2).
     overload_channel : 0 force, c + 1 response c (default random).
+    force_range_n : (lo, hi): the peaks of the hits spread over [lo, hi] (one
+        within 5 % of each end, the others uniform in between, in random order)
+        instead of ``P`` x U(0.8, 1.2), and the
+        pulse widths follow them as a Hertzian contact's do, ``T`` x (peak /
+        median peak)^-0.2 x U(0.9, 1.1) (a soft hit lasts longer). Drawn from a
+        second generator, so the other draws stay those of ``seed``.
+    odd_pulse : (hit, factor): that hit's (0-based) pulse lasts ``factor`` times
+        as long as it would (a hit with another tip, or on a bolt head).
     """
     rng = np.random.default_rng(seed)
     fs = float(sample_rate_hz)
@@ -194,7 +204,18 @@ def make_recording(
     t_lo, t_hi = max(0.5e-3, 4 / fs), max(2e-3, 4 / fs)
     t_nom = rng.uniform(t_lo, t_hi)
     widths = t_nom * rng.uniform(0.92, 1.08, n_hits)
+    scatter = None
+    if force_range_n is not None:
+        extra = np.random.default_rng([seed, 40160])
+        lo, hi = force_range_n
+        scatter = extra.permutation(np.concatenate([
+            [lo * extra.uniform(1.0, 1.05), hi * extra.uniform(0.95, 1.0)],
+            extra.uniform(lo, hi, n_hits - 2)]))
+        widths = (t_nom * (scatter / np.median(scatter)) ** -0.2
+                  * extra.uniform(0.9, 1.1, n_hits))
     band_hi = float(np.floor(min(0.6 / (1.08 * t_nom), 0.3 * fs)))
+    if odd_pulse is not None:
+        widths[odd_pulse[0]] *= odd_pulse[1]
 
     fn_in = _stratified(rng, 0.15 * band_hi, 0.85 * band_hi, n_in)
     fn_above = _stratified(rng, 1.25 * band_hi, min(2.0 * band_hi, 0.45 * fs), n_above)
@@ -262,6 +283,8 @@ def make_recording(
 
     p_nom = rng.uniform(50.0, 300.0)
     peaks = p_nom * rng.uniform(0.8, 1.2, n_hits)
+    if scatter is not None:
+        peaks = scatter.copy()
     ch_ov = -1
     clip = np.full(n_hits, np.nan)
     full_scale_ov = np.nan
