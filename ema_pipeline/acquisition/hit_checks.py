@@ -349,7 +349,7 @@ def check_hits(
         if peak < LOW_FORCE_FRACTION * median_peak:
             reasons[k].add("low_force")
         pulse = g[p0:p1]
-        width[k] = np.count_nonzero(pulse >= peak / 2) / fs
+        width[k] = float(pulse.sum()) / fs / peak  # area over peak: 2 T / pi for a half-sine
         if responses and not reasons[k]:
             m = min(b - a, n)
             force_rec[k, p0 - a:p1 - a] = pulse
