@@ -42,11 +42,19 @@ Checks (the reasons, :data:`REASONS`)
     the trigger and above 3 times its pretrigger level.
     ``low_force``: the force peak is below ``LOW_FORCE_FRACTION`` (25 %) of the
     median peak of the hits.
-    ``outlier`` (only for hits without another reason, at least 3 of them): the
-    force peak, the pulse width (samples above half the peak) or some response's
-    RMS per unit force impulse lies further from the median of those hits than
-    ``OUTLIER_Z`` (5) robust standard deviations (1.4826 MAD) and more than a
-    factor ``OUTLIER_RATIO`` (2; for the width also 2 samples) from it.
+    ``outlier`` (only for hits without another reason, at least 3 of them): a
+    hit that would corrupt the average, judged against the median of those hits,
+    never by its force level (the FRF is divided by the force; ``low_force``
+    guards against hits too weak to trust). Three measures: the pulse width (its
+    area over its peak, ``2 T / pi`` for a half-sine of duration ``T``), and per
+    response the gain and the mismatch of the hit's FRF against the median FRF
+    of those hits (:func:`frf_agreement`: the response per unit force, and the
+    part of the response that FRF does not explain, such as modes that moved or
+    a response that drops out). A hit is an outlier when one of them lies
+    further from its median than ``OUTLIER_Z`` (5) robust standard deviations
+    (1.4826 MAD) and further than a floor: a factor ``OUTLIER_RATIO`` (2) for the
+    width (and 2 samples) and for the gain, ``OUTLIER_MISMATCH`` (0.5) for the
+    mismatch.
 """
 
 from __future__ import annotations
