@@ -54,7 +54,8 @@ def verdicts(rec):
 
 def clean_hits(rec) -> list[int]:
     last = len(rec.defects) - 1
-    return [i for i, d in enumerate(rec.defects) if not d and not (rec.last_hit_short and i == last)]
+    return [i for i, d in enumerate(rec.defects)
+            if not d and not (rec.last_hit_short and i == last)]
 
 
 def corrupted(make_recording, seed: int, case: str, which: str):
