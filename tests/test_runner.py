@@ -6,6 +6,7 @@ naming its item, and Ctrl-C stops a command with workers at once."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -42,9 +43,29 @@ def _twelve_mode_frf() -> tuple[FRFSet, ModalParameters]:
     return FRFSet(freq_hz=f, H=H, quantity="receptance"), twelve
 
 
-def _skip_unless_fork_is_safe() -> None:
-    if not runner.fork_is_safe():
-        pytest.skip("this process cannot fork workers (another thread is running)")
+#: Set in the fresh pytest process that :func:`_here_or_fresh` starts.
+FRESH_ENV = "EMA_TEST_RUNNER_FRESH"
+
+
+def _here_or_fresh(request: pytest.FixtureRequest) -> bool:
+    """Whether the test's body runs in this process: where it may fork
+    workers (no other thread runs). Else the same test runs in a fresh pytest
+    process, which has no other thread, and must pass there (the suite's
+    process may hold another test's threads, e.g. a dask client's, that make
+    every fork unsafe); the caller then returns."""
+    if runner.fork_is_safe():
+        return True
+    names = [t.name for t in threading.enumerate()]
+    if os.environ.get(FRESH_ENV):
+        pytest.fail(f"a fresh process cannot fork workers: threads {names}")
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_XDIST")}
+    env[FRESH_ENV] = "1"
+    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
+                           "-n", "0", request.node.nodeid], cwd=REPO, env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert proc.returncode == 0, (names, proc.stdout[-4000:], proc.stderr[-2000:])
+    assert re.search(r"\b1 passed\b", proc.stdout), proc.stdout[-2000:]
+    return False
 
 
 # ------------------------------------------------------------------ worker counts
@@ -64,12 +85,13 @@ def test_worker_count_comes_from_the_argument_only(monkeypatch):
 
 # ------------------------------------------------------------------ identify()
 def test_identify_in_a_thread_starts_no_process_and_workers_2_gives_the_same_numbers(
-        monkeypatch):
+        request, monkeypatch):
     """``identify()`` called from a thread (a web server, a notebook's worker
     thread) forks nothing by default; ``workers=2`` in the main thread forks
     two workers (the windows' searches and the local fits) and gives exactly
     the numbers of ``workers=1``."""
-    _skip_unless_fork_is_safe()
+    if not _here_or_fresh(request):
+        return
     frf, twelve = _twelve_mode_frf()
     forks: list[int] = []
     real_fork = os.fork
@@ -100,10 +122,11 @@ def test_identify_in_a_thread_starts_no_process_and_workers_2_gives_the_same_num
         np.testing.assert_array_equal(a.band_support, b.band_support)
 
 
-def test_a_thread_started_after_the_block_opened_keeps_the_map_serial():
+def test_a_thread_started_after_the_block_opened_keeps_the_map_serial(request):
     """The rule is asked at the fork (the first map of two or more items), not
     when the block opens: a thread started in between keeps it in this process."""
-    _skip_unless_fork_is_safe()
+    if not _here_or_fresh(request):
+        return
     stop = threading.Event()
     with runner.process_map(4, workers=2) as map_:
         assert map_.workers == 2
@@ -125,9 +148,11 @@ def _pid(_item: int) -> int:
     return os.getpid()
 
 
-def test_a_progress_bar_leaves_the_fork_rule_true(monkeypatch):
+def test_a_progress_bar_leaves_the_fork_rule_true(request, monkeypatch):
     """The FE stage's model-update bar starts no tqdm monitor thread (at tqdm's
     default ``monitor_interval``), which would make every later map serial."""
+    if not _here_or_fresh(request):
+        return
     import tqdm
 
     from ema_pipeline.pipeline.fe_stage import update_progress_bar
@@ -153,11 +178,12 @@ def _die_on_three(item: int) -> int:
     return item * item
 
 
-def test_process_imap_reports_the_item_that_kills_its_worker():
+def test_process_imap_reports_the_item_that_kills_its_worker(request):
     """A worker killed (SIGKILL) while it runs item 3: the items in flight
     with it are run again and give their results; item 3 is reported, not
     waited on."""
-    _skip_unless_fork_is_safe()
+    if not _here_or_fresh(request):
+        return
     start = time.perf_counter()
     got = list(runner.process_imap(_die_on_three, [1, 2, 3, 4, 5], 2,
                                    crashed=lambda item, reason: reason))
@@ -176,11 +202,12 @@ def _crash_on_name(path, job):
     return FileOutcome(path=path, reason=str(os.getpid())), None
 
 
-def test_identify_files_reports_a_crashed_worker_naming_the_file(monkeypatch, tmp_path):
+def test_identify_files_reports_a_crashed_worker_naming_the_file(request, monkeypatch, tmp_path):
     from ema_pipeline.identification import IdentificationOptions
     from ema_pipeline.pipeline import many
 
-    _skip_unless_fork_is_safe()
+    if not _here_or_fresh(request):
+        return
     monkeypatch.setattr(many, "identify_one", _crash_on_name)
     paths = [Path(name) for name in ("a.uff", "crash.uff", "c.uff", "d.uff")]
     outcomes = [o for o, _ in many.identify_files(paths, many.FileJob(tmp_path,
@@ -197,8 +224,9 @@ def _killed_share(items: list[int]) -> list[int]:
     return items  # pragma: no cover
 
 
-def test_a_share_of_a_file_whose_worker_dies_is_an_error_not_a_hang():
-    _skip_unless_fork_is_safe()
+def test_a_share_of_a_file_whose_worker_dies_is_an_error_not_a_hang(request):
+    if not _here_or_fresh(request):
+        return
     with runner.process_map(2, workers=2) as map_:
         with pytest.raises(runner.WorkerCrashed, match="worker process died") as info:
             map_(_killed_share, [[1], [2]])
@@ -212,10 +240,12 @@ def _fake_identify_one(path, job):
     return FileOutcome(path=path, reason=f"{os.getpid()} {job.workers}"), None
 
 
-def test_identify_files_runs_in_worker_processes_in_order(monkeypatch, tmp_path):
+def test_identify_files_runs_in_worker_processes_in_order(request, monkeypatch, tmp_path):
     from ema_pipeline.identification import IdentificationOptions
     from ema_pipeline.pipeline import many
 
+    if not _here_or_fresh(request):
+        return
     monkeypatch.setattr(many, "identify_one", _fake_identify_one)
     paths = [Path(f"f{i}.uff") for i in range(6)]
     job = many.FileJob(tmp_path, IdentificationOptions())
@@ -346,7 +376,7 @@ def test_windows_go_to_the_workers_longest_first_and_come_back_in_order(monkeypa
         np.testing.assert_allclose(found.pole.imag / (2 * np.pi), np.mean(window))
 
 
-def test_diagram_orders_in_workers_give_the_serial_poles():
+def test_diagram_orders_in_workers_give_the_serial_poles(request):
     """A diagram large enough to share out (``plscf.PARALLEL_MIN_SIZE3``):
     its orders' companion eigenvalues, one order per task, largest first,
     in two worker processes give the poles of the serial loop bit for bit,
@@ -354,8 +384,8 @@ def test_diagram_orders_in_workers_give_the_serial_poles():
     from ema_pipeline.acquisition import modal_frf
     from ema_pipeline.identification.diagram import plscf
 
-    if not runner.fork_is_safe():
-        pytest.skip("this process cannot fork workers (another thread is running)")
+    if not _here_or_fresh(request):
+        return
     modes = ModalParameters(fn_hz=[50.0, 120.0, 260.0, 410.0], zeta=[0.01] * 4)
     f = np.linspace(5.0, 500.0, 991)
     phi = np.random.default_rng(3).standard_normal((2, 4))
