@@ -152,6 +152,10 @@ def test_existing_families_unchanged_by_the_new_ones() -> None:
     family) and do not change the cases of the existing ones."""
     assert not set(hardcases.COMPLEX_FAMILIES) & set(hardcases.FAMILIES)
     assert hardcases.ALL_FAMILIES[: len(hardcases.FAMILIES)] == hardcases.FAMILIES
+    # the families added after complex_chain keep their cases (lowest true
+    # frequency, Hz, as generated before complex_dashpots was added)
+    for family, seed, f0 in (("impact_1ch", 2, 44.0533), ("impact_2ch", 1, 13.0993)):
+        assert abs(hardcases.make_case(family, seed).fn_hz[0] - f0) < 1e-4, family
 
 
 # --------------------------------------------------------------------------- the cases that failed
