@@ -13,7 +13,7 @@ apart (their half-power bands overlap), measured at 3-5 masses.
 Targets, as for the families of issue 11 (``test_identification_hard.py``):
 at most 2 % of the true modes missed and 2 % spurious, p68 of
 |error|/sigma in 0.75-1.35 (f and zeta). Seeds 1-6 here (``complex_dashpots``
-1-16), identified by the background job of ``tests/conftest.py`` (about
+1-24), identified by the background job of ``tests/conftest.py`` (about
 0.5-1.5 s a file); the held-out ranges of
 ``benchmarks/issue31_measurements.md`` (100-107, 200-215) and
 ``benchmarks/issue53_complex.md`` (200-239) are not used.
@@ -43,8 +43,8 @@ from ema_pipeline.identification.thresholds import SelectionThresholds
 TH = SelectionThresholds()  # the tuned defaults
 
 SEEDS = (1, 2, 3, 4, 5, 6)
-#: ``complex_dashpots`` is judged on 100 or more modes (122 on seeds 1-16).
-SEEDS_OF = {f: tuple(range(1, 17)) if f == "complex_dashpots" else SEEDS
+#: ``complex_dashpots`` is judged on 100 or more modes (201 on seeds 1-24).
+SEEDS_OF = {f: tuple(range(1, 25)) if f == "complex_dashpots" else SEEDS
             for f in hardcases.COMPLEX_FAMILIES}
 BACKGROUND = {f"hard:{f}": SEEDS_OF[f] for f in hardcases.COMPLEX_FAMILIES}
 
@@ -238,17 +238,16 @@ def test_complex_families_sigmas_are_calibrated(family: str, background: Backgro
 
 
 def test_complex_dashpots_meets_the_goals(background: Background) -> None:
-    """``complex_dashpots`` on seeds 1-16 (122 modes): at most 2 % missed and
-    2 % spurious (0 and 0; 7 missed before complex poles 2.5-12 % from a
+    """``complex_dashpots`` on seeds 1-24 (201 modes): at most 2 % missed and
+    2 % spurious (3 and 0; 8 missed before complex poles 2.5-12 % from a
     neighbour stopped being taken for its split), p68 of |error|/sigma at
-    most 1.35 and 90-98 % within 2 sigma for f and zeta (measured 97.5 %
-    and 1.00, 97.5 % and 0.95). The upper bound is 99 %: the goal's 98 %
-    plus the sampling scatter of 122 modes (about 1.4 points; on the
-    held-out seeds 200-239, 307 modes, 92.5 % and 94.1 %)."""
+    most 1.35 and 90-98 % within 2 sigma for f and zeta (measured 92.4 % and
+    1.00, 95.5 % and 1.01; the share of 201 modes scatters by about 1.8
+    points)."""
     s = scores("complex_dashpots", SEEDS_OF["complex_dashpots"], background)
     assert s["n_true"] >= 100, s["n_true"]
     assert s["missed"] <= 0.02 * s["n_true"] and s["spurious"] <= 0.02 * s["n_true"], s
     for key in ("rf", "rz"):
         r = s[key]
         assert np.percentile(r, 68) <= 1.35, (key, np.percentile(r, 68))
-        assert 0.90 <= np.mean(r <= 2) <= 0.99, (key, np.mean(r <= 2))
+        assert 0.90 <= np.mean(r <= 2) <= 0.98, (key, np.mean(r <= 2))
