@@ -368,10 +368,11 @@ class SelectionThresholds:
     split_mpc_gap: float = 0.15
     #: ... and only when their damped frequencies are less than this fraction
     #: apart: a split is a shift between channels, the beam's are 0.29 % and
-    #: 0.13 %. Two physical modes of a chain with strong discrete dashpots
-    #: (``complex_dashpots`` of the hard cases, modes 3 % or more apart, MPC
-    #: 0.1-0.7, half-power bands overlapping) are 2.5-12 % apart where the
-    #: rule fired on them (31 true modes dropped on 60 cases without this).
+    #: 0.13 %. Physical modes of a chain with strong discrete dashpots
+    #: (``complex_dashpots`` of the hard cases: modes 3 % or more apart,
+    #: half-power bands overlapping) that the rule dropped without this were
+    #: 3.0-11.4 % from the neighbour kept, MPC 0.06-0.62 (14 true modes on
+    #: seeds 1-40, none a split).
     split_max_gap: float = 0.01
 
     # ------------------------------------------------ residual check
