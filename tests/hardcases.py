@@ -33,6 +33,9 @@ K - w^2 M + jw C, and its truth the eigenvalues of the state-space matrix.
 ``impact_close`` is the impact family with one or two pairs of close modes
 below 80 Hz, measured by 1-4 accelerometers (since issue 42 one accelerometer
 too: its seeds that drew one, 2 before, are one-channel cases now).
+``complex_dashpots`` (issue 53, in ``COMPLEX_FAMILIES`` too) is a chain with
+springs to ground, one cross spring and 40-150 N s/m dashpots whose strongly
+complex modes are only 3 % or more apart, measured at 3-5 masses.
 
 Issue 42's ``FEW_CHANNEL_FAMILIES``: ``impact_1ch`` and ``impact_2ch`` are the
 impact family with exactly one and two accelerometers, and in half of the
