@@ -397,7 +397,7 @@ def distinct_shapes(
     one stable at more model orders ``n_orders``, else (equal or not given)
     the one with the larger response. Close modes with different shapes stay
     apart, unless one of them is the split of the other (see
-    ``split_max_mpc``, ``split_mpc_gap``, ``split_max_gap``: less than 1 %
+    ``split_max_mpc``, ``split_mpc_gap``, ``split_max_gap``: less than 2 %
     apart by default).
 
     Examples
