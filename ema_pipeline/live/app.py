@@ -1,0 +1,69 @@
+"""What ``ema-pipeline live`` runs: the device chosen, the test started on its
+session folder, the server, the address printed (and the browser opened)."""
+
+from __future__ import annotations
+
+import os
+import webbrowser
+from collections.abc import Callable
+from pathlib import Path
+
+from ema_pipeline.data import ConfigError, Geometry
+from ema_pipeline.io.live_session import SessionFolder
+from ema_pipeline.live.device import Device
+from ema_pipeline.live.engine import LiveTest
+
+__all__ = ["make_device", "run_live"]
+
+
+def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
+                simulate: str | None = None, seed: int | None = None) -> tuple[Device, str]:
+    """The device and a title: the replay of a channel sheet's recordings, or a
+    virtual structure (``simulate``: ``plate`` or ``beam``)."""
+    if replay:
+        from ema_pipeline.io.channel_sheet import read_channel_sheet
+        from ema_pipeline.live.device import ReplayDevice
+
+        if channels is None:
+            raise ConfigError("--replay streams the recordings of a channel sheet: give "
+                              "--channels SHEET.csv")
+        if not (speed > 0):
+            raise ConfigError(f"--speed must be > 0 (a multiple of real time), got {speed:g}")
+        return ReplayDevice(read_channel_sheet(channels), speed=speed), f"replay of {channels}"
+    if simulate is not None:
+        from ema_pipeline.live.simulate import SimulateDevice, builtin_model
+
+        model = builtin_model(simulate)
+        return SimulateDevice(model, speed=speed, seed=seed), f"simulated {model.name}"
+    raise ConfigError("choose the device: --replay or --simulate MODEL")
+
+
+def default_geometry(device: Device) -> Geometry | None:
+    """The geometry a device brings (a virtual structure's), else None."""
+    model = getattr(device, "model", None)
+    return getattr(model, "geometry", None)
+
+
+def run_live(device: Device, title: str, session: Path, *, geometry: Geometry | None = None,
+             band_hz: tuple[float, float] | None = None, host: str = "127.0.0.1",
+             port: int = 0, browser: bool = True,
+             say: Callable[[str], None] = print) -> int:
+    """Run the test until interrupted; prints the page's address first."""
+    from ema_pipeline.live.server import LiveServer
+
+    if geometry is None:
+        geometry = default_geometry(device)
+    if band_hz is None:
+        band_hz = getattr(getattr(device, "model", None), "band_hz", None)
+    test = LiveTest(device, SessionFolder(session), band_hz=band_hz, geometry=geometry)
+    test.start()
+    try:
+        server = LiveServer(test, title, host=host, port=port)
+        say(f"live test ({title}), session {session}: open {server.url}")
+        say("stop with Ctrl-C; the same command resumes the session")
+        if browser and not os.environ.get("EMA_PIPELINE_NO_BROWSER"):
+            webbrowser.open(server.url)
+        server.serve()
+    finally:
+        test.close()
+    return 0
