@@ -45,6 +45,15 @@ def add_live_parser(sub: Any) -> None:
                    help="address to listen on (default 127.0.0.1: this computer only)")
     p.add_argument("--port", type=int, default=8750, help="port (0: a free one; default 8750)")
     p.add_argument("--seed", type=int, default=None, help="seed of the simulated noise")
+    p.add_argument("--double-hit", type=int, nargs="+", default=(), metavar="N",
+                   help="--simulate: these strikes (numbered through the session from 1) "
+                   "bounce: a double hit")
+    p.add_argument("--force-scatter", type=float, default=0.1, metavar="S",
+                   help="--simulate: hit peaks scattered by U(1 - S, 1 + S) (default 0.1)")
+    p.add_argument("--clip-n", type=float, default=None, metavar="N",
+                   help="--simulate: the force channel clips at this level (an overload)")
+    p.add_argument("--noise", type=float, default=1e-4, metavar="R",
+                   help="--simulate: white noise, this share of the peaks (default 1e-4)")
     p.add_argument("--no-browser", action="store_true", help="do not open a browser")
     p.set_defaults(func=cmd_live)
 
@@ -65,7 +74,10 @@ def cmd_live(args: argparse.Namespace) -> int:
 
         geometry = read_geometry(args.geometry)
     device, title = make_device(args.channels, replay=args.replay, speed=args.speed,
-                                simulate=args.simulate, seed=args.seed)
+                                simulate=args.simulate, seed=args.seed,
+                                hammer={"double_hits": tuple(args.double_hit),
+                                        "scatter": args.force_scatter, "clip_n": args.clip_n,
+                                        "noise": args.noise})
     band = tuple(args.band) if args.band is not None else None
     return run_live(device, title, args.session, geometry=geometry, band_hz=band,
                     host=args.host, port=args.port, browser=not args.no_browser,

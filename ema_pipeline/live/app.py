@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import os
 import webbrowser
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 from ema_pipeline.data import ConfigError, Geometry
 from ema_pipeline.io.live_session import SessionFolder
@@ -17,9 +18,11 @@ __all__ = ["make_device", "run_live"]
 
 
 def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
-                simulate: str | None = None, seed: int | None = None) -> tuple[Device, str]:
+                simulate: str | None = None, seed: int | None = None,
+                hammer: Mapping[str, Any] | None = None) -> tuple[Device, str]:
     """The device and a title: the replay of a channel sheet's recordings, or a
-    virtual structure (``simulate``: ``plate`` or ``beam``)."""
+    virtual structure (``simulate``: ``plate``) struck with the virtual hammer's
+    options ``hammer`` (:class:`~ema_pipeline.live.simulate.SimulateDevice`)."""
     if replay:
         from ema_pipeline.io.channel_sheet import read_channel_sheet
         from ema_pipeline.live.device import ReplayDevice
@@ -34,7 +37,10 @@ def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
         from ema_pipeline.live.simulate import SimulateDevice, builtin_model
 
         model = builtin_model(simulate)
-        return SimulateDevice(model, speed=speed, seed=seed), f"simulated {model.name}"
+        if not (speed > 0):
+            raise ConfigError(f"--speed must be > 0 (a multiple of real time), got {speed:g}")
+        return (SimulateDevice(model, speed=speed, seed=seed, **dict(hammer or {})),
+                f"simulated {model.name}")
     raise ConfigError("choose the device: --replay or --simulate MODEL")
 
 

@@ -410,7 +410,7 @@ class LiveTest:
             hits = cur.hits if (cur is not None and not self.finished) else []
             return {
                 "version": self.version,
-                "streaming": bool(self.stream is not None and self.device.streaming()),
+                "streaming": bool(self.stream is not None and not self._final_judged),
                 "finished": self.finished, "final": self.final,
                 "identifying": self.identifying,
                 "current": cur.plan.label if cur is not None and not self.finished else "",

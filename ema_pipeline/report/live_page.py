@@ -62,7 +62,7 @@ def trace_figure(data: np.ndarray, sample_rate_hz: float, t0_s: float,
     >>> svg.startswith("<svg") and "trigger" in svg
     True
     """
-    c = Canvas(520, 230, "live trace: force and response")
+    c = Canvas(520, 250, "live trace: force and response")
     n = data.shape[1]
     t = t0_s + np.arange(n) / sample_rate_hz
     xlim = (t0_s, t0_s + max(n, 2) / sample_rate_hz)
@@ -116,7 +116,8 @@ var proto=location.protocol==='https:'?'wss://':'ws://';
 var ws=null;
 function q(s){return document.querySelector(s);}
 function send(o){if(ws&&ws.readyState===1)ws.send(JSON.stringify(o));}
-function set(id,html){if(last[id]!==html){last[id]=html;q(id).innerHTML=html;return true;}return false;}
+function set(id,html){if(last[id]===html)return false;
+ last[id]=html;q(id).innerHTML=html;return true;}
 function esc(s){return String(s).replace(/[&<>"]/g,function(c){
  return {'&':'&amp;','<':'&lt;','>':'&gt;','"':'&quot;'}[c];});}
 function activate(el){[].slice.call(el.querySelectorAll('script')).forEach(function(old){
