@@ -108,6 +108,7 @@ class LiveServer:
         self.sock = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
         self.sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
         self.sock.bind((host, port))
+        self.sock.listen(64)  # connections wait from now on, before uvicorn serves
         self.host, self.port = host, int(self.sock.getsockname()[1])
         config = uvicorn.Config(live_app(test, self.token, title), log_level="warning",
                                 ws="websockets", lifespan="off")
