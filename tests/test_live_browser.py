@@ -200,3 +200,68 @@ def test_live_replay_of_the_plate_resumes_after_kill_and_matches_frf(tmp_path):
     assert int(hits["accepted"].sum()) == 47
     elapsed = time.monotonic() - start
     assert elapsed < 12 * PLATE_DURATION_S / SPEED + 120, elapsed
+
+
+def test_live_simulated_plate_struck_with_the_virtual_hammer(tmp_path):
+    """The built-in plate: strikes by button and by key, the second strike a double
+    hit (rejected as one), a hit rejected and undone by keys, four points and the
+    finish; every mode found is one of the plate's. With
+    ``EMA_PIPELINE_DOCS_SCREENSHOT=1`` the page's picture goes to
+    docs/_static/live_simulate.png (the tutorial's)."""
+    from selenium.webdriver.common.keys import Keys
+
+    from ema_pipeline.live.simulate import builtin_model
+
+    proc, url = _serve(["--simulate", "plate", "--session", "session", "--speed", "5",
+                        "--seed", "5", "--double-hit", "2"], tmp_path)
+    try:
+        with chromium(tmp_path / "profile", 1300, 1250) as driver:
+            driver.get(url)
+            button = _wait(lambda: [b for b in driver.find_elements(
+                "css selector", "[data-virtual-hit]") if b.is_displayed()], 10,
+                "the virtual hammer")[0]
+            body = driver.find_element("css selector", "body")
+            for point in range(1, 5):
+                _wait(lambda p=point: _attr(driver, "[data-point]", "data-state")[p - 1]
+                      == "current", 10, f"point {point}")
+                for k in range(3):
+                    if k == 2:
+                        body.send_keys("h")  # the key strikes too
+                    else:
+                        button.click()
+                    time.sleep(0.4)  # 2 s of the plate's time at 5 x
+                hits = _wait(lambda: (h if len(h := _hits(driver)) == 3 else None), 10,
+                             f"point {point}'s three hits")
+                if point == 1:  # strike 2 bounced: rejected as a double hit
+                    assert [h["status"] for h in hits] == ["accepted", "rejected", "accepted"]
+                    assert hits[1]["reasons"].split() == ["double_hit"]
+                    body.send_keys("r")  # reject the last hit, then undo that
+                    _wait(lambda: _hits(driver)[2]["status"] == "rejected", 5, "rejected")
+                    body.send_keys("u")
+                    _wait(lambda: _hits(driver)[2]["status"] == "accepted", 5, "undone")
+                else:
+                    assert all(h["status"] == "accepted" for h in hits), hits
+                if point < 4:
+                    body.send_keys(Keys.NULL, "n")
+            driver.find_element("css selector", "[data-finish]").click()
+            _wait(lambda: driver.find_element("css selector", "[data-live]")
+                  .get_attribute("data-final") == "true", 60, "the final identification")
+            assert _attr(driver, "[data-point]", "data-accepted")[:4] == ["2", "3", "3", "3"]
+            fn_page = np.array([float(v) for v in _attr(driver, "[data-live-mode]",
+                                                         "data-fn-hz")])
+            n_shapes = len(driver.find_elements("css selector", "[data-mode-shape]"))
+            shot = (REPO / "docs" / "_static" / "live_simulate.png"
+                    if os.environ.get("EMA_PIPELINE_DOCS_SCREENSHOT") else
+                    tmp_path / "live_simulate.png")
+            driver.save_screenshot(str(shot))
+    finally:
+        proc.send_signal(signal.SIGINT)
+        try:
+            proc.wait(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            proc.wait()
+    truth = builtin_model("plate").fn_hz
+    assert fn_page.size >= 2 and n_shapes == fn_page.size
+    nearest = np.min(np.abs(fn_page[:, None] / truth[None, :] - 1), axis=1)
+    assert nearest.max() < 0.01, (fn_page, truth)

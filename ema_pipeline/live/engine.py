@@ -16,6 +16,7 @@ from the end of its journal.
 from __future__ import annotations
 
 import concurrent.futures as cf
+import os
 import threading
 import time
 from dataclasses import dataclass, field
@@ -30,7 +31,7 @@ from ema_pipeline.live.device import Device, PlanPoint
 from ema_pipeline.live.judge import LiveHit, PointStream
 from ema_pipeline.pipeline.frf import FRFSettings
 
-__all__ = ["LiveTest", "identification_pool", "identify_session"]
+__all__ = ["LiveTest", "identification_pool", "identify_session", "init_identification_worker"]
 
 #: Seconds between two redraws of the live trace.
 TRACE_EVERY_S = 0.25
@@ -42,10 +43,24 @@ def identification_pool() -> cf.Executor:
     pipeline's workers are, :func:`ema_pipeline.threads.init_worker_process`)."""
     import multiprocessing
 
+    return cf.ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
+                                  initializer=init_identification_worker,
+                                  initargs=(os.getpid(),))
+
+
+def init_identification_worker(parent_pid: int) -> None:
+    """Set the worker's BLAS threads, and end it when its parent is gone (a server
+    killed with SIGKILL leaves no worker behind)."""
     from ema_pipeline.threads import init_worker_process
 
-    return cf.ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=init_worker_process)
+    init_worker_process()
+
+    def watch() -> None:
+        while os.getppid() == parent_pid:
+            time.sleep(0.5)
+        os._exit(0)
+
+    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
 
 
 def identify_session(folder: str, band_hz: tuple[float, float] | None) -> dict[str, Any]:
