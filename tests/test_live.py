@@ -1,0 +1,149 @@
+"""The live test without a browser: the session lock, the replay device's lost
+blocks, the hits judged on the stream against ``frf``'s own checks, the
+session folder (WAV, channels.csv, hits.toml) and the resume.
+
+A two-point plate test (tests/impact_recordings.py, seeds 7401-7402, its own:
+no other test uses them): point 1 in CSV, point 2 in WAV with a bounce 50 ms
+after its second hit.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from impact_recordings import PLATE_HIT_TIMES_S, PlateTest, write_plate_test
+from test_plate_holdout import PLATE, POINTS, SENSOR
+
+from ema_pipeline.cli import main
+from ema_pipeline.data import ConfigError
+from ema_pipeline.io import read_recording
+from ema_pipeline.io.channel_sheet import read_channel_sheet
+from ema_pipeline.io.hit_choice import read_hit_choice
+from ema_pipeline.io.live_session import SessionFolder
+from ema_pipeline.live.device import ReplayDevice
+from ema_pipeline.live.engine import LiveTest
+from ema_pipeline.pipeline.frf import frf_from_recording
+
+TWO = PlateTest(PLATE, tuple(POINTS[:2]), SENSOR, ("csv", "wav"), peak_n=150.0,
+                seed_base=7400, jitter=True, double_hit=(2, PLATE_HIT_TIMES_S[1] + 0.05, 80.0))
+
+
+def _wait_judged(test: LiveTest, timeout_s: float = 20.0) -> None:
+    end = time.monotonic() + timeout_s
+    while test.snapshot()["streaming"]:
+        assert time.monotonic() < end, "the point's stream never ended"
+        time.sleep(0.01)
+
+
+def test_session_lock_refuses_a_second_session_and_takes_over_a_dead_ones(tmp_path):
+    first = SessionFolder(tmp_path / "s")
+    first.lock()
+    with pytest.raises(ConfigError, match=r"a live session \(process \d+\) is running"):
+        other = SessionFolder(tmp_path / "s")
+        other.folder.joinpath("live.lock").write_text("1\n")  # pid 1 lives: refused
+        other.lock()
+    first.unlock()
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True, check=True).stdout.strip()
+    (tmp_path / "s" / "live.lock").write_text(f"{dead}\n")
+    again = SessionFolder(tmp_path / "s")
+    again.lock()  # the lock of a process gone is taken over
+    assert (tmp_path / "s" / "live.lock").read_text().strip() == str(os.getpid())
+    again.unlock()
+    assert not (tmp_path / "s" / "live.lock").exists()
+
+
+def test_replay_judges_hits_as_frf_does_rejects_lost_data_and_resumes(tmp_path):
+    write_plate_test(tmp_path, TWO)
+    sheet = read_channel_sheet(tmp_path / "channels.csv")
+    # block 100 of point 1 (50 ms blocks of 102 samples: 4.98-5.03 s) never arrives:
+    # inside hit 3's record (4.7 s + 2 s)
+    device = ReplayDevice(sheet, speed=math.inf, lose_blocks={(1, 100)})
+    test = LiveTest(device, SessionFolder(tmp_path / "session"), identify_points=False)
+    test.start()
+    try:
+        _wait_judged(test)
+        one = [(h.number, h.accepted, h.reasons) for h in test.points[0].hits]
+        assert one == [(1, True, ()), (2, True, ()), (3, False, ("data_lost",)), (4, True, ())]
+        assert [round(h.time_s, 2) for h in test.points[0].hits] == list(PLATE_HIT_TIMES_S)
+        assert "102 samples lost" in test.snapshot()["messages"][-1]
+        test.next_point()
+        _wait_judged(test)
+        live = [(h.accepted, h.reasons) for h in test.points[1].hits]
+        # frf's own checks on the same file: the same verdicts and reasons
+        offline = frf_from_recording(read_recording(
+            tmp_path / "p2.wav", scale={"0": 1000.0}, units={"0": "N", "1": "g"})).hits
+        assert live == [(h.accepted, h.reasons) for h in offline]
+        assert live[1] == (False, ("double_hit",))
+        assert all(abs(a.time_s - b.time_s) < 1 / 2048 for a, b in
+                   zip(test.points[1].hits, offline, strict=True))
+        test.decide("reject", 4)  # by hand, then undone: the average rolled back
+        assert not test.points[1].hits[3].accepted
+        test.decide("undo")
+        assert test.points[1].hits[3].accepted
+        test.decide("reject", 1)
+    finally:
+        test.close()  # point 2 not done: its journal holds its hits and the choice
+
+    session = tmp_path / "session"
+    assert read_hit_choice(session / "hits.toml") == {"p1.wav": (1, 2, 4)}
+    assert (session / "p1.wav").is_file() and not (session / "p2.wav").exists()
+    rec = read_recording(session / "p1.wav", units={"0": "N", "1": "m/s^2"})
+    assert rec.signals.shape == (2, 9 * 2048)
+
+    again = LiveTest(ReplayDevice(sheet, speed=math.inf), SessionFolder(session),
+                     identify_points=False)
+    again.start()  # resumes: point 1 done, point 2 where its journal ends
+    try:
+        state = again.snapshot()
+        assert [p["state"] for p in state["points"]] == ["done", "current"]
+        assert [p["accepted"] for p in state["points"]] == [3, 2]
+        assert [h["status"] for h in state["hits"]] == ["rejected", "rejected", "accepted",
+                                                       "accepted"]
+        again.next_point()
+    finally:
+        again.close()
+    assert read_hit_choice(session / "hits.toml") == {"p1.wav": (1, 2, 4), "p2.wav": (3, 4)}
+    assert main(["frf", "--channels", str(session / "channels.csv"), "--hits",
+                 str(session / "hits.toml"), "--out", str(tmp_path / "t.h5"), "--quiet"]) == 0
+
+
+def test_live_command_errors_are_one_line(tmp_path, capsys):
+    pytest.importorskip("starlette", reason="ema-pipeline live needs the live extra")
+    pytest.importorskip("uvicorn", reason="ema-pipeline live needs the live extra")
+    assert main(["live", "--session", str(tmp_path / "s"), "--replay", "--no-browser"]) == 2
+    assert "--replay streams the recordings of a channel sheet" in capsys.readouterr().err
+    assert main(["live", "--session", str(tmp_path / "s"), "--simulate", "plate", "--speed",
+                 "0", "--no-browser"]) == 2
+    assert "--speed must be > 0" in capsys.readouterr().err
+
+
+def test_simulated_strikes_are_judged_with_the_double_hit_rejected(tmp_path):
+    from ema_pipeline.live.simulate import SimulateDevice, builtin_model
+
+    device = SimulateDevice(builtin_model("plate"), speed=math.inf, seed=1, double_hits={2})
+    test = LiveTest(device, SessionFolder(tmp_path / "s"), identify_points=False)
+    test.start()
+    try:
+        for _ in range(3):
+            test.strike()
+            end = time.monotonic() + 10
+            n0 = test.stream.n if test.stream is not None else 0
+            while test.stream is not None and test.stream.n < n0 + 3000:
+                assert time.monotonic() < end
+                time.sleep(0.005)
+        end = time.monotonic() + 10
+        while len(test.points[0].hits) < 2:
+            assert time.monotonic() < end, test.points[0].hits
+            time.sleep(0.01)
+        hits = test.points[0].hits
+        assert [(h.accepted, h.reasons) for h in hits[:2]] == [(True, ()), (False, ("double_hit",))]
+        assert np.all(np.diff([h.time_s for h in hits]) > 1.0)
+    finally:
+        test.close()
