@@ -183,7 +183,7 @@ def live_page_html(ws_path: str, title: str, channels: list[tuple[str, str, str]
     Examples
     --------
     >>> page = live_page_html("/t/ws", "plate", [("hammer", "force", "1-Z")])
-    >>> page.count("data-next-point"), "http" in page.split("<script")[0]
+    >>> page.count("data-next-point>"), "http" in page.split("<script")[0]
     (1, False)
     """
     config = json.dumps({"ws": ws_path, "words": REASON_WORDS}).replace("</", "<\\/")
