@@ -14,6 +14,7 @@ import os
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -30,6 +31,7 @@ from ema_pipeline.live.device import ReplayDevice
 from ema_pipeline.live.engine import LiveTest
 from ema_pipeline.pipeline.frf import frf_from_recording
 
+REPO = Path(__file__).resolve().parents[1]
 TWO = PlateTest(PLATE, tuple(POINTS[:2]), SENSOR, ("csv", "wav"), peak_n=150.0,
                 seed_base=7400, jitter=True, double_hit=(2, PLATE_HIT_TIMES_S[1] + 0.05, 80.0))
 
@@ -147,3 +149,83 @@ def test_simulated_strikes_are_judged_with_the_double_hit_rejected(tmp_path):
         assert np.all(np.diff([h.time_s for h in hits]) > 1.0)
     finally:
         test.close()
+
+
+def _strikes(args: list[str], n: int = 3) -> list:
+    """``live ARGS`` parsed as the command does, its device struck ``n`` times
+    (1.5 s apart, at maximum speed); the hits judged."""
+    from ema_pipeline.cli.live_command import hammer_options
+    from ema_pipeline.cli.parser import build_parser
+    from ema_pipeline.live.app import make_device
+
+    ns = build_parser().parse_args(["live", *args, "--speed", "inf", "--no-browser"])
+    device, _ = make_device(None, replay=False, speed=ns.speed, simulate=ns.simulate,
+                            seed=ns.seed, hammer=hammer_options(ns))
+    test = LiveTest(device, SessionFolder(ns.session), identify_points=False)
+    test.start()
+    try:
+        for _ in range(n):
+            test.strike()
+            assert test.stream is not None
+            n0, end = test.stream.n, time.monotonic() + 10
+            while test.stream.n < n0 + 3072:
+                assert time.monotonic() < end
+                time.sleep(0.005)
+        end = time.monotonic() + 10
+        while len(test.points[0].hits) < n - 1:
+            assert time.monotonic() < end
+            time.sleep(0.01)
+        return list(test.points[0].hits)
+    finally:
+        test.close()
+
+
+def test_simulate_options_clip_scatter_noise_seed_double_hit(tmp_path):
+    base = ["--simulate", "plate", "--seed", "4"]
+    plain = _strikes([*base, "--session", str(tmp_path / "a")])
+    again = _strikes([*base, "--session", str(tmp_path / "b")])
+    # --seed: the same hits (peaks within the noise, 1e-4 of 150 N, where the strike lands)
+    np.testing.assert_allclose([h.peak_n for h in plain], [h.peak_n for h in again], rtol=1e-3)
+    peaks = np.array([h.peak_n for h in plain])
+    assert np.all(np.abs(peaks / 150 - 1) <= 0.1 + 1e-3) and np.ptp(peaks) > 1.0  # U(0.9, 1.1)
+    flat = _strikes([*base, "--force-scatter", "0", "--session", str(tmp_path / "c")])
+    np.testing.assert_allclose([h.peak_n for h in flat], 150.0, rtol=2e-3)
+    other = _strikes([*base[:-1], "5", "--session", str(tmp_path / "d")])
+    assert np.max(np.abs(np.array([h.peak_n for h in other]) / peaks - 1)) > 0.01
+    clipped = _strikes([*base, "--clip-n", "60", "--session", str(tmp_path / "e")])
+    assert all(h.reasons == ("overload",) and abs(h.peak_n - 60) < 0.1 for h in clipped)
+    double = _strikes([*base, "--double-hit", "1", "--session", str(tmp_path / "f")])
+    assert [h.reasons for h in double] == [("double_hit",), (), ()][:len(double)]
+    # --noise: the force's noise between the hits (robust std) as a share of 150 N
+    quiet = SessionFolder(tmp_path / "a").read_raw(1, 2)[0]
+    loud_hits = _strikes([*base, "--noise", "1e-2", "--session", str(tmp_path / "g")])
+    loud = SessionFolder(tmp_path / "g").read_raw(1, 2)[0]
+    assert len(loud_hits) >= 2
+    for data, share in ((quiet, 1e-4), (loud, 1e-2)):
+        d = np.diff(data[:500].astype(float))
+        assert abs(1.4826 * np.median(np.abs(d)) / np.sqrt(2) / (share * 150) - 1) < 0.15
+
+
+def test_live_host_option_listens_there_only(tmp_path):
+    pytest.importorskip("starlette", reason="ema-pipeline live needs the live extra")
+    pytest.importorskip("uvicorn", reason="ema-pipeline live needs the live extra")
+    import urllib.error
+    import urllib.request
+
+    env = {**os.environ, "PYTHONPATH": str(REPO)}
+    proc = subprocess.Popen([sys.executable, "-m", "ema_pipeline", "live", "--simulate",
+                             "plate", "--session", str(tmp_path / "s"), "--host", "127.0.0.2",
+                             "--port", "0", "--no-browser"], env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        assert proc.stdout is not None
+        line = proc.stdout.readline()
+        url = line.split("open ", 1)[1].strip()
+        assert url.startswith("http://127.0.0.2:"), line
+        with urllib.request.urlopen(url, timeout=10) as page:
+            assert b"data-live" in page.read()
+        with pytest.raises(urllib.error.URLError):  # not on 127.0.0.1
+            urllib.request.urlopen(url.replace("127.0.0.2", "127.0.0.1"), timeout=10)
+    finally:
+        proc.kill()
+        proc.wait()

@@ -9,7 +9,7 @@ from typing import Any
 
 from ema_pipeline.data import ConfigError
 
-__all__ = ["add_live_parser", "cmd_live"]
+__all__ = ["add_live_parser", "cmd_live", "hammer_options"]
 
 
 def add_live_parser(sub: Any) -> None:
@@ -58,6 +58,19 @@ def add_live_parser(sub: Any) -> None:
     p.set_defaults(func=cmd_live)
 
 
+def hammer_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The virtual hammer's options (:class:`ema_pipeline.live.simulate.SimulateDevice`)
+    from the command line."""
+    if args.force_scatter < 0 or args.force_scatter >= 1:
+        raise ConfigError(f"--force-scatter must be 0 to < 1, got {args.force_scatter:g}")
+    if args.noise < 0:
+        raise ConfigError(f"--noise must be >= 0, got {args.noise:g}")
+    if args.clip_n is not None and not args.clip_n > 0:
+        raise ConfigError(f"--clip-n must be > 0 (N), got {args.clip_n:g}")
+    return {"double_hits": tuple(args.double_hit), "scatter": args.force_scatter,
+            "clip_n": args.clip_n, "noise": args.noise}
+
+
 def cmd_live(args: argparse.Namespace) -> int:
     """``live``: start the device, the session and the page; serve until Ctrl-C."""
     try:
@@ -75,9 +88,7 @@ def cmd_live(args: argparse.Namespace) -> int:
         geometry = read_geometry(args.geometry)
     device, title = make_device(args.channels, replay=args.replay, speed=args.speed,
                                 simulate=args.simulate, seed=args.seed,
-                                hammer={"double_hits": tuple(args.double_hit),
-                                        "scatter": args.force_scatter, "clip_n": args.clip_n,
-                                        "noise": args.noise})
+                                hammer=hammer_options(args))
     band = tuple(args.band) if args.band is not None else None
     return run_live(device, title, args.session, geometry=geometry, band_hz=band,
                     host=args.host, port=args.port, browser=not args.no_browser,

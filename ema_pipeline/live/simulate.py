@@ -11,11 +11,11 @@ shape sin(m pi x / Lx) sin(n pi y / Ly) and the frequency 3.7 x ((m/Lx)^2 +
 
 :meth:`SimulateDevice.strike` hits the current point: a 2 ms half-sine of
 ``peak_n`` times U(1 - scatter, 1 + scatter), with a bounce 40 ms later
-(``double=True``, or the strikes numbered in ``double_hits``), clipped at
-``clip_n`` (an overload), and the acceleration at the sensors exact in the
+(``double=True``, or the strikes numbered in ``double_hits``), and the acceleration at the sensors exact in the
 frequency domain (zero-padded to twice its length); white noise of ``noise``
 times the hammer's peak on the force and of the responses' typical peak on
-them. The stream runs at ``speed`` times real time while a point is current.
+them. The force channel clips at ``clip_n`` (its input range: an overload).
+The stream runs at ``speed`` times real time while a point is current.
 """
 
 from __future__ import annotations
@@ -107,15 +107,19 @@ class SimulateDevice:
                  clip_n: float | None = None, double_hits: Collection[int] = (),
                  block_s: float = BLOCK_S) -> None:
         self.model = model
+        self.clip_n = clip_n
         self.sample_rate_hz = model.sample_rate_hz
         self.plan = tuple(
-            PlanPoint(k + 1, dof.label(), (Channel("hammer", "force", dof),) + tuple(
+            PlanPoint(k + 1, dof.label(), (Channel("hammer", "force", dof, clip_n),) + tuple(
                 Channel(f"acc{j + 1}", "acceleration", s)
                 for j, s in enumerate(model.sensor_dofs)))
             for k, dof in enumerate(model.point_dofs))
         self.speed, self.peak_n, self.scatter = float(speed), peak_n, scatter
         self.noise, self.clip_n, self.double_hits = noise, clip_n, set(double_hits)
-        self.rng = np.random.default_rng(seed)
+        # the hammer's scatter and the noise drawn apart: a seed gives the same hits
+        # whatever the timing of the strikes against the stream
+        self.rng, self.noise_rng = (np.random.default_rng(s)
+                                    for s in np.random.SeedSequence(seed).spawn(2))
         self.block_n = max(1, int(round(block_s * self.sample_rate_hz)))
         self.n_resp = int(2 ** math.ceil(math.log2(RESPONSE_S * self.sample_rate_hz)))
         n_ch = 1 + len(model.sensor_dofs)
@@ -137,8 +141,6 @@ class SimulateDevice:
         for t0, p in ((0.0, peak),) + (((0.04, 0.5 * peak),) if double else ()):
             on = (t >= t0) & (t <= t0 + 2e-3)
             force[on] += p * np.sin(np.pi * (t[on] - t0) / 2e-3)
-        if self.clip_n is not None:
-            force = np.minimum(force, self.clip_n)
         return force
 
     def start(self, point: int, first_sample: int = 0) -> None:
@@ -190,6 +192,8 @@ class SimulateDevice:
             self._ahead = np.concatenate([self._ahead[:, n:], np.zeros((out.shape[0], n))],
                                          axis=1)
             start, self._pos = self._pos, end
-        out[0] += self.noise * self.peak_n * self.rng.standard_normal(n)
-        out[1:] += self._resp_noise * self.rng.standard_normal((out.shape[0] - 1, n))
+        out[0] += self.noise * self.peak_n * self.noise_rng.standard_normal(n)
+        out[1:] += self._resp_noise * self.noise_rng.standard_normal((out.shape[0] - 1, n))
+        if self.clip_n is not None:  # the force channel's input range, as a DAQ clips
+            np.clip(out[0], -self.clip_n, self.clip_n, out=out[0])
         return Block(out, start, 0, time.time())
