@@ -11,11 +11,12 @@ shape sin(m pi x / Lx) sin(n pi y / Ly) and the frequency 3.7 x ((m/Lx)^2 +
 
 :meth:`SimulateDevice.strike` hits the current point: a 2 ms half-sine of
 ``peak_n`` times U(1 - scatter, 1 + scatter), with a bounce 40 ms later
-(``double=True``, or the strikes numbered in ``double_hits``), and the acceleration at the sensors exact in the
-frequency domain (zero-padded to twice its length); white noise of ``noise``
-times the hammer's peak on the force and of the responses' typical peak on
-them. The force channel clips at ``clip_n`` (its input range: an overload).
-The stream runs at ``speed`` times real time while a point is current.
+(``double=True``, or the strikes numbered in ``double_hits``), and the
+acceleration at the sensors exact in the frequency domain (zero-padded to
+twice its length); white noise of ``noise`` times the hammer's peak on the
+force and of the responses' typical peak on them. The force channel clips at
+``clip_n`` (its input range: an overload). The stream runs at ``speed``
+times real time while a point is current.
 """
 
 from __future__ import annotations
