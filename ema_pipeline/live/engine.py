@@ -429,6 +429,8 @@ class LiveTest:
                 "finished": self.finished, "final": self.final,
                 "identifying": self.identifying,
                 "current": cur.plan.label if cur is not None and not self.finished else "",
+                "channels": [[c.name, c.quantity, c.dof.label() if c.dof else ""]
+                             for c in (cur or self.points[-1]).plan.channels],
                 "points": [{"number": p.plan.number, "label": p.plan.label,
                             "node": p.plan.node, "state": p.state,
                             "accepted": p.n_accepted} for p in self.points],

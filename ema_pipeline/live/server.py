@@ -18,7 +18,7 @@ from collections.abc import Callable
 from typing import Any
 
 from ema_pipeline.live.engine import LiveTest
-from ema_pipeline.report.live_page import live_page_html
+from ema_pipeline.report.live_page import live_page_html, plan_layout
 
 __all__ = ["LiveServer", "live_app"]
 
@@ -36,7 +36,7 @@ def live_app(test: LiveTest, token: str, title: str) -> Any:
 
     channels = [(c.name, c.quantity, c.dof.label() if c.dof else "")
                 for c in test.points[0].plan.channels] if test.points else []
-    page = live_page_html(f"/{token}/ws", title, channels)
+    page = live_page_html(f"/{token}/ws", title, channels, plan_layout(test.geometry))
 
     async def index(request: Request) -> Response:
         if request.path_params.get("token") != token:

@@ -23,12 +23,13 @@ import json
 
 import numpy as np
 
-from ema_pipeline.data import FRFSet
+from ema_pipeline.data import FRFSet, Geometry
 from ema_pipeline.report.figures import figure_frf_coherence
 from ema_pipeline.report.htmlparts import esc
 from ema_pipeline.report.svg import Canvas
 
-__all__ = ["REASON_WORDS", "live_page_html", "running_frf_figure", "trace_figure"]
+__all__ = ["REASON_WORDS", "live_page_html", "plan_layout", "running_frf_figure",
+           "trace_figure"]
 
 #: The hit checks' reasons in words, for the chips.
 REASON_WORDS = {"past_end": "record past the end of the data", "double_hit": "double hit",
@@ -81,6 +82,39 @@ def trace_figure(data: np.ndarray, sample_rate_hz: float, t0_s: float,
     return c.to_svg()
 
 
+def plan_layout(geometry: Geometry | None, width: float = 240.0, height: float = 150.0) -> dict:
+    """The point plan's drawing: every node of ``geometry`` at its place in a
+    ``width`` x ``height`` px view (seen from above, +Z towards the reader, for a
+    flat structure; else an isometric view) and its trace lines as segments;
+    ``{}`` without a geometry.
+
+    Examples
+    --------
+    >>> g = Geometry(node_ids=[1, 2], xyz_m=[[0, 0, 0], [1, 0, 0]], lines=((1, 2),))
+    >>> plan_layout(g, 100, 50)
+    {'nodes': {'1': [10.0, 25.0], '2': [90.0, 25.0]}, 'lines': [[10.0, 25.0, 90.0, 25.0]]}
+    """
+    if geometry is None:
+        return {}
+    xyz = np.asarray(geometry.xyz_m, dtype=float)
+    if np.ptp(xyz[:, 2]) <= 1e-9 * max(float(np.ptp(xyz)), 1e-12):
+        xy = np.c_[xyz[:, 0], -xyz[:, 1]]
+    else:
+        c = np.cos(np.pi / 6)
+        xy = np.c_[(xyz[:, 0] - xyz[:, 1]) * c, (xyz[:, 0] + xyz[:, 1]) * 0.5 - xyz[:, 2]]
+    lo, span = xy.min(axis=0), np.maximum(np.ptp(xy, axis=0), 1e-12)
+    pad = 10.0
+    scale = min((width - 2 * pad) / span[0], (height - 2 * pad) / span[1])
+    px = (xy - lo) * scale + np.array([(width - scale * span[0]) / 2,
+                                       (height - scale * span[1]) / 2])
+    px = np.round(px, 1)
+    at = {int(n): k for k, n in enumerate(geometry.node_ids)}
+    segments = [[*px[at[a]].tolist(), *px[at[b]].tolist()] for line in geometry.lines
+                for a, b in zip(line[:-1], line[1:], strict=True)]
+    return {"nodes": {str(int(n)): px[k].tolist() for k, n in enumerate(geometry.node_ids)},
+            "lines": segments}
+
+
 _CSS = """
 body{font-family:system-ui,Segoe UI,Helvetica,Arial,sans-serif;margin:0;color:#222}
 header{background:#1f4e79;color:#fff;padding:.4em 1em;display:flex;gap:1em;align-items:center}
@@ -104,6 +138,9 @@ button{margin:2px}
 svg.fig{max-width:100%;height:auto}
 table{border-collapse:collapse;font-size:.85em}td,th{padding:1px 6px;border-bottom:1px solid #eee}
 .wide{grid-column:span 3}
+svg.plan line{stroke:#bbb;stroke-width:1}
+svg.plan circle{stroke:#444;stroke-width:1;fill:#fff}
+svg.plan circle.done{fill:#93c47d}svg.plan circle.current{fill:#ffd966;stroke:#c00;stroke-width:2}
 #state{font-size:.85em}
 """
 
@@ -132,6 +169,15 @@ function render(st){
  set('#plan',st.points.map(function(p){return '<li data-point="'+p.number+'" data-node="'+
   p.node+'" data-state="'+p.state+'" data-accepted="'+p.accepted+'">'+esc(p.label)+
   '<br><small>'+p.accepted+' hits</small></li>';}).join(''));
+ if(cfg.plan.nodes){var P=cfg.plan,svg='<svg class="plan" viewBox="0 0 240 150" '+
+  'width="240" height="150">'+P.lines.map(function(l){return '<line x1="'+l[0]+'" y1="'+
+  l[1]+'" x2="'+l[2]+'" y2="'+l[3]+'"/>';}).join('');
+  st.points.forEach(function(p){var xy=P.nodes[String(p.node)];if(!xy)return;
+   svg+='<circle data-plan-node="'+p.node+'" class="'+p.state+'" cx="'+xy[0]+'" cy="'+xy[1]+
+    '" r="'+(p.state==='current'?7:5)+'"><title>'+esc(p.label)+'</title></circle>';});
+  set('#plan-view',svg+'</svg>');}
+ set('#channels',st.channels.map(function(c){return '<tr><td>'+esc(c[0])+'</td><td>'+
+  esc(c[1])+'</td><td>'+esc(c[2])+'</td></tr>';}).join(''));
  q('#current').textContent=st.finished?'finished':(st.current?'point '+st.current:'');
  var now=Date.now();
  set('#hits',st.hits.map(function(h){if(!shown[h.number])shown[h.number]=now;
@@ -176,9 +222,11 @@ connect();
 """
 
 
-def live_page_html(ws_path: str, title: str, channels: list[tuple[str, str, str]]) -> str:
+def live_page_html(ws_path: str, title: str, channels: list[tuple[str, str, str]],
+                   plan: dict | None = None) -> str:
     """The live page: ``ws_path`` the WebSocket's path (with the token),
-    ``channels`` the channel table's rows (name, quantity, DOF).
+    ``channels`` the channel table's rows (name, quantity, DOF), ``plan`` the
+    point plan's drawing (:func:`plan_layout`; none: the list only).
 
     Examples
     --------
@@ -186,7 +234,8 @@ def live_page_html(ws_path: str, title: str, channels: list[tuple[str, str, str]
     >>> page.count("data-next-point>"), "http" in page.split("<script")[0]
     (1, False)
     """
-    config = json.dumps({"ws": ws_path, "words": REASON_WORDS}).replace("</", "<\\/")
+    config = json.dumps({"ws": ws_path, "words": REASON_WORDS, "plan": plan or {}}
+                        ).replace("</", "<\\/")
     rows = "".join(f"<tr><td>{esc(n)}</td><td>{esc(q)}</td><td>{esc(d)}</td></tr>"
                    for n, q, d in channels)
     return f"""<!DOCTYPE html>
@@ -196,11 +245,12 @@ def live_page_html(ws_path: str, title: str, channels: list[tuple[str, str, str]
 <header><h1>Live impact test: {esc(title)}</h1><span id="current"></span>
 <span id="state">connecting</span></header>
 <main>
-<section><h2>Points</h2><ol class="plan" id="plan"></ol>
+<section><h2>Points</h2><div id="plan-view"></div><ol class="plan" id="plan"></ol>
 <p><button type="button" data-next-point>next point (N)</button>
 <button type="button" data-finish>finish</button>
 <button type="button" data-virtual-hit hidden>strike (H)</button></p>
-<h2>Channels</h2><table><tr><th>channel</th><th>quantity</th><th>DOF</th></tr>{rows}</table>
+<h2>Channels</h2><table><thead><tr><th>channel</th><th>quantity</th><th>DOF</th></tr>
+</thead><tbody id="channels">{rows}</tbody></table>
 <ul id="messages" class="muted"></ul></section>
 <section><h2>Hits of the current point</h2>
 <p><button type="button" data-accept>accept (A)</button>
