@@ -25,7 +25,7 @@ from typing import Any
 
 import numpy as np
 
-from ema_pipeline.data import EMAError, Geometry
+from ema_pipeline.data import ConfigError, EMAError, Geometry
 from ema_pipeline.io.live_session import SessionFolder
 from ema_pipeline.live.device import Device, PlanPoint
 from ema_pipeline.live.judge import LiveHit, PointStream
@@ -153,7 +153,7 @@ class LiveTest:
         old = self.session.read_plan()
         if old is not None and old != plan:
             self.session.unlock()
-            raise EMAError(f"{self.session.folder}: holds a session of another test (its "
+            raise ConfigError(f"{self.session.folder}: holds a session of another test (its "
                            "session.json differs: another sheet, model or sample rate); give "
                            "another --session")
         self.session.write_plan(plan)
@@ -221,6 +221,16 @@ class LiveTest:
 
     # -- the acquisition thread ---------------------------------------------
     def _run(self) -> None:
+        """The acquisition thread: a failure (the device, a full disk) stops it with a
+        message on the page; the journal holds everything up to it."""
+        try:
+            self._acquire()
+        except (EMAError, OSError, ValueError) as exc:
+            with self.lock:
+                self.messages.append(f"acquisition stopped: {exc}")
+                self._changed()
+
+    def _acquire(self) -> None:
         while not self._stop.is_set():
             block = self.device.read(0.05)
             with self.lock:

@@ -32,7 +32,7 @@ def live_app(test: LiveTest, token: str, title: str) -> Any:
     from starlette.requests import Request
     from starlette.responses import HTMLResponse, PlainTextResponse, Response
     from starlette.routing import Route, WebSocketRoute
-    from starlette.websockets import WebSocket, WebSocketDisconnect
+    from starlette.websockets import WebSocket
 
     channels = [(c.name, c.quantity, c.dof.label() if c.dof else "")
                 for c in test.points[0].plan.channels] if test.points else []
@@ -84,9 +84,9 @@ def live_app(test: LiveTest, token: str, title: str) -> Any:
 
         tasks = [asyncio.create_task(receive()), asyncio.create_task(push())]
         try:
-            await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
-        except WebSocketDisconnect:
-            pass
+            done, _ = await asyncio.wait(tasks, return_when=asyncio.FIRST_COMPLETED)
+            for t in done:  # retrieved: the page closed (WebSocketDisconnect) or sent nonsense
+                t.exception()
         finally:
             for t in tasks:
                 t.cancel()
