@@ -229,3 +229,78 @@ def test_live_host_option_listens_there_only(tmp_path):
     finally:
         proc.kill()
         proc.wait()
+
+
+class _FakeSoundDevice:
+    """A stand-in for the ``sounddevice`` module: its InputStream calls back with
+    blocks of a hit every 1.5 s on input 1 (0.5 of full scale) and a decaying
+    40 Hz response on input 0, the third block with an input overflow."""
+
+    class InputStream:
+        def __init__(self, *, device, channels, samplerate, blocksize, dtype, callback):
+            self.args = (device, channels, samplerate, blocksize, dtype)
+            self.callback, self.n = callback, 0
+            _FakeSoundDevice.streams.append(self)
+
+        def start(self):
+            fs, n = self.args[2], self.args[3]
+            t = np.arange(int(4.5 * fs)) / fs
+            data = np.zeros((t.size, self.args[1]), dtype=np.float32)
+            for t0 in (0.5, 2.0, 3.5):
+                on = (t >= t0) & (t < t0 + 2e-3)
+                data[on, 1] += 0.5 * np.sin(np.pi * (t[on] - t0) / 2e-3)
+                after = t >= t0
+                data[after, 0] += 0.2 * np.exp(-3 * (t[after] - t0)) * np.sin(
+                    2 * np.pi * 40 * (t[after] - t0))
+            status = type("Status", (), {"input_overflow": False})
+            for k in range(0, t.size - n + 1, n):
+                flag = type("Status", (), {"input_overflow": k // n == 2})
+                self.callback(data[k:k + n], n, None, flag if k // n == 2 else status)
+
+        def stop(self):
+            pass
+
+        def close(self):
+            pass
+
+    streams: list = []
+
+
+def test_sounddevice_backend_at_its_interface(tmp_path, monkeypatch):
+    """``--device sounddevice:CARD`` with a stand-in module: the sheet's inputs,
+    scales and units, the blocks judged as hits, an overflow reported as lost."""
+    from ema_pipeline.cli.parser import build_parser
+    from ema_pipeline.live.app import make_device
+
+    monkeypatch.setitem(sys.modules, "sounddevice", _FakeSoundDevice)
+    (tmp_path / "sheet.csv").write_text("file,channel,role,node,direction,scale,unit\n"
+                                        "p1,1,force,1,-Z,500,N\np1,0,response,100,+Z,2,g\n"
+                                        "p2,1,force,2,-Z,500,N\np2,0,response,100,+Z,2,g\n")
+    ns = build_parser().parse_args(["live", "--channels", str(tmp_path / "sheet.csv"),
+                                    "--session", str(tmp_path / "s"), "--device",
+                                    "sounddevice:Scarlett", "--sample-rate", "4096",
+                                    "--no-browser"])
+    device, title = make_device(ns.channels, replay=False, daq=ns.device,
+                                sample_rate_hz=ns.sample_rate)
+    assert title == "sound card Scarlett"
+    assert [p.label for p in device.plan] == ["1-Z", "2-Z"]
+    assert [c.quantity for c in device.plan[0].channels] == ["force", "acceleration"]
+    test = LiveTest(device, SessionFolder(ns.session), identify_points=False)
+    test.start()
+    try:
+        end = time.monotonic() + 10
+        while len(test.points[0].hits) < 2:
+            assert time.monotonic() < end, test.points[0].hits
+            time.sleep(0.01)
+        stream = _FakeSoundDevice.streams[-1]
+        assert stream.args == ("Scarlett", 2, 4096.0, 205, "float32")
+        hits = test.points[0].hits
+        # 205 samples (0.05 s) counted lost before block 3 (0.1 s): the hits after it later
+        assert [round(h.time_s, 2) for h in hits] == [0.55, 2.05]
+        np.testing.assert_allclose([h.peak_n for h in hits], 250.0, rtol=1e-3)  # 0.5 x 500 N
+        assert "205 samples lost" in test.snapshot()["messages"][-1]
+        assert test.stream is not None
+        peak = np.abs(test.stream.data[1]).max()  # 0.2 x 2 g, in m/s^2
+        assert abs(peak / (0.4 * 9.80665) - 1) < 0.05
+    finally:
+        test.close()

@@ -72,6 +72,8 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     **{f"live {o}": (LIVE_HAMMER,) for o in ("--seed", "--double-hit", "--force-scatter",
                                              "--clip-n", "--noise")},
     "live --host": ("test_live.py::test_live_host_option_listens_there_only",),
+    **{f"live {o}": ("test_live.py::test_sounddevice_backend_at_its_interface",)
+       for o in ("--device", "--sample-rate")},
     # simulate
     "simulate --configuration": (f"{HERE}::test_simulate_configuration_and_zeta_pct",),
     "simulate --added-mass": ("test_closed_loop.py::test_simulate_added_mass_command",

@@ -36,6 +36,12 @@ def add_live_parser(sub: Any) -> None:
                      help="replay the sheet's recordings as if acquired")
     dev.add_argument("--simulate", default=None, metavar="MODEL", choices=("plate",),
                      help="a virtual structure (the built-in plate) struck with a virtual hammer")
+    dev.add_argument("--device", default=None, metavar="NAME",
+                     help="a DAQ: sounddevice or sounddevice:CARD (a sound card through the "
+                     "optional sounddevice package; the sheet's channel column names its "
+                     "inputs, scale and unit the value of a full-scale sample)")
+    p.add_argument("--sample-rate", type=float, default=48000.0, metavar="HZ",
+                   help="--device: the sample rate (default 48000)")
     p.add_argument("--speed", type=float, default=1.0, metavar="X",
                    help="multiple of real time of the device's clock (default 1; inf: "
                    "as fast as possible)")
@@ -88,7 +94,8 @@ def cmd_live(args: argparse.Namespace) -> int:
         geometry = read_geometry(args.geometry)
     device, title = make_device(args.channels, replay=args.replay, speed=args.speed,
                                 simulate=args.simulate, seed=args.seed,
-                                hammer=hammer_options(args))
+                                hammer=hammer_options(args), daq=args.device,
+                                sample_rate_hz=args.sample_rate)
     band = tuple(args.band) if args.band is not None else None
     return run_live(device, title, args.session, geometry=geometry, band_hz=band,
                     host=args.host, port=args.port, browser=not args.no_browser,

@@ -19,10 +19,29 @@ __all__ = ["make_device", "run_live"]
 
 def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
                 simulate: str | None = None, seed: int | None = None,
-                hammer: Mapping[str, Any] | None = None) -> tuple[Device, str]:
-    """The device and a title: the replay of a channel sheet's recordings, or a
+                hammer: Mapping[str, Any] | None = None, daq: str | None = None,
+                sample_rate_hz: float = 48000.0) -> tuple[Device, str]:
+    """The device and a title: the replay of a channel sheet's recordings, a
     virtual structure (``simulate``: ``plate``) struck with the virtual hammer's
-    options ``hammer`` (:class:`~ema_pipeline.live.simulate.SimulateDevice`)."""
+    options ``hammer`` (:class:`~ema_pipeline.live.simulate.SimulateDevice`), or a
+    DAQ (``daq``: ``sounddevice`` or ``sounddevice:CARD``,
+    :class:`~ema_pipeline.live.soundcard.SoundDeviceDevice`, imported only then)."""
+    if daq is not None:
+        kind, _, card = daq.partition(":")
+        if kind != "sounddevice":
+            raise ConfigError(f"--device {daq!r}: the DAQ backend is sounddevice "
+                              "(sounddevice or sounddevice:CARD)")
+        if channels is None:
+            raise ConfigError("--device needs the channel sheet of the test: give "
+                              "--channels SHEET.csv")
+        if not (sample_rate_hz > 0):
+            raise ConfigError(f"--sample-rate must be > 0 Hz, got {sample_rate_hz:g}")
+        from ema_pipeline.io.channel_sheet import read_channel_sheet
+        from ema_pipeline.live.soundcard import SoundDeviceDevice
+
+        return (SoundDeviceDevice(read_channel_sheet(channels), device=card or None,
+                                  sample_rate_hz=sample_rate_hz),
+                f"sound card {card or '(default)'}")
     if replay:
         from ema_pipeline.io.channel_sheet import read_channel_sheet
         from ema_pipeline.live.device import ReplayDevice
@@ -41,7 +60,7 @@ def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
             raise ConfigError(f"--speed must be > 0 (a multiple of real time), got {speed:g}")
         return (SimulateDevice(model, speed=speed, seed=seed, **dict(hammer or {})),
                 f"simulated {model.name}")
-    raise ConfigError("choose the device: --replay or --simulate MODEL")
+    raise ConfigError("choose the device: --replay, --simulate MODEL or --device NAME")
 
 
 def default_geometry(device: Device) -> Geometry | None:
