@@ -61,7 +61,19 @@ def pid_alive(pid: int) -> bool:
 
 
 class SessionFolder:
-    """The files of one live session (module docstring). :meth:`lock` first."""
+    """The files of one live session (module docstring). :meth:`lock` first.
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> folder = SessionFolder(tempfile.mkdtemp())
+    >>> folder.lock()
+    >>> folder.append(1, np.array([[1.0, 2.0], [3.0, 4.0]]))  # a block of 2 channels
+    >>> folder.append(1, np.array([[5.0], [6.0]]))
+    >>> folder.read_raw(1, 2).tolist()
+    [[1.0, 2.0, 5.0], [3.0, 4.0, 6.0]]
+    >>> folder.unlock()
+    """
 
     def __init__(self, folder: str | os.PathLike[str]) -> None:
         self.folder = Path(folder)

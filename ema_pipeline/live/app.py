@@ -25,7 +25,14 @@ def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
     virtual structure (``simulate``: ``plate``) struck with the virtual hammer's
     options ``hammer`` (:class:`~ema_pipeline.live.simulate.SimulateDevice`), or a
     DAQ (``daq``: ``sounddevice`` or ``sounddevice:CARD``,
-    :class:`~ema_pipeline.live.soundcard.SoundDeviceDevice`, imported only then)."""
+    :class:`~ema_pipeline.live.soundcard.SoundDeviceDevice`, imported only then).
+
+    Examples
+    --------
+    >>> device, title = make_device(None, replay=False, simulate="plate", seed=1)
+    >>> title, len(device.plan), device.plan[0].label
+    ('simulated plate', 12, '1-Z')
+    """
     if daq is not None:
         kind, _, card = daq.partition(":")
         if kind != "sounddevice":
@@ -64,7 +71,14 @@ def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
 
 
 def default_geometry(device: Device) -> Geometry | None:
-    """The geometry a device brings (a virtual structure's), else None."""
+    """The geometry a device brings (a virtual structure's), else None.
+
+    Examples
+    --------
+    >>> device, _ = make_device(None, replay=False, simulate="plate")
+    >>> default_geometry(device).n_nodes
+    13
+    """
     model = getattr(device, "model", None)
     return getattr(model, "geometry", None)
 

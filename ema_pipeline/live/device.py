@@ -80,7 +80,16 @@ class Device(Protocol):
 
 
 def sheet_plan(sheet: ChannelSheet, recordings: list[Recording]) -> tuple[PlanPoint, ...]:
-    """The plan of a channel sheet's test: one point per file, its channels as read."""
+    """The plan of a channel sheet's test: one point per file, its channels as read.
+
+    Examples
+    --------
+    >>> from ema_pipeline.data import DOF
+    >>> rec = Recording(np.zeros((2, 8)), 100.0, (Channel("hammer", "force", DOF(3, -3)),
+    ...                                           Channel("acc", "acceleration", DOF(100, 3))))
+    >>> [(p.number, p.label, p.node) for p in sheet_plan(ChannelSheet(()), [rec])]
+    [(1, '3-Z', 3)]
+    """
     out = []
     for k, rec in enumerate(recordings, start=1):
         dof = rec.channels[0].dof

@@ -66,7 +66,15 @@ def init_identification_worker(parent_pid: int) -> None:
 def identify_session(folder: str, band_hz: tuple[float, float] | None) -> dict[str, Any]:
     """Identify the points done of a session folder: the FRFs of ``frf --channels
     DIR/channels.csv --hits DIR/hits.toml`` (default settings), then ``identify``
-    (``--band``); the modes as plain numbers (``error``: why none)."""
+    (``--band``); the modes as plain numbers (``error``: why none).
+
+    Examples
+    --------
+    >>> import tempfile
+    >>> out = identify_session(tempfile.mkdtemp(), None)
+    >>> out["n_points"], out["error"].endswith("no such file")
+    (0, True)
+    """
     from ema_pipeline.identification import check_input, identify
     from ema_pipeline.identification.options import IdentificationOptions
     from ema_pipeline.io.hit_choice import read_hit_choice
