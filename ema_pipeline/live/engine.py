@@ -408,8 +408,9 @@ class LiveTest:
     def _identified(self, future: cf.Future, job: int, final: bool) -> None:
         try:
             out = future.result()
-        except (cf.CancelledError, cf.process.BrokenProcessPool, OSError) as exc:
-            out = {"error": f"identification failed: {exc}", "n_points": 0}
+        except Exception as exc:  # noqa: BLE001 - the worker's failure, shown on the page
+            out = {"error": f"identification failed: {type(exc).__name__}: {exc}",
+                   "n_points": 0}
         with self.lock:
             if job != self._job:
                 return
