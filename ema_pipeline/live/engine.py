@@ -402,7 +402,11 @@ class LiveTest:
         self._job += 1
         job = self._job
         self.identifying = True
-        future = self._pool.submit(identify_session, str(self.session.folder), self.band_hz)
+        try:
+            future = self._pool.submit(identify_session, str(self.session.folder), self.band_hz)
+        except cf.process.BrokenProcessPool:  # the worker died (killed): a new one
+            self._pool = identification_pool()
+            future = self._pool.submit(identify_session, str(self.session.folder), self.band_hz)
         future.add_done_callback(lambda f: self._identified(f, job, final))
 
     def _identified(self, future: cf.Future, job: int, final: bool) -> None:
