@@ -147,6 +147,10 @@ def test_live_replay_of_the_plate_resumes_after_kill_and_matches_frf(tmp_path):
         proc.send_signal(signal.SIGKILL)  # a crash: no clean-up at all
         proc.wait()
     assert (tmp_path / "session" / "live.lock").exists()
+    from ema_pipeline.io.hit_choice import read_hit_choice
+
+    chosen = read_hit_choice(tmp_path / "session" / "hits.toml")  # as the kill left it
+    assert chosen == {f"p{k}.wav": (1, 3, 4) if k == 5 else (1, 2, 3, 4) for k in range(1, 7)}
 
     proc, url = _serve(args, tmp_path)  # the same command: resumes
     try:
@@ -196,6 +200,8 @@ def test_live_replay_of_the_plate_resumes_after_kill_and_matches_frf(tmp_path):
     np.testing.assert_allclose(np.sort(modes["fn_hz"].to_numpy()), fn_page[order], rtol=1e-3)
     np.testing.assert_allclose(modes["zeta_pct"].to_numpy()[np.argsort(modes["fn_hz"])] / 100,
                                zeta_page[order], rtol=1e-3)
+    final = read_hit_choice(session / "hits.toml")
+    assert {k: final[k] for k in chosen} == chosen and len(final) == 12
     hits = pd.read_csv(tmp_path / "t_hits.csv", keep_default_na=False)
     assert int(hits["accepted"].sum()) == 47
     elapsed = time.monotonic() - start
