@@ -88,12 +88,13 @@ def swap_in(new_dir: Path, results_dir: Path) -> None:
 
 
 def pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists (another user's counts as alive).
+    """Whether a process ``pid`` exists (another user's counts as alive; a zombie,
+    killed but not yet reaped by its parent, does not).
 
     Examples
     --------
-    >>> pid_alive(os.getpid())
-    True
+    >>> pid_alive(os.getpid()), pid_alive(2 ** 22 + 1)
+    (True, False)
     """
     try:
         os.kill(pid, 0)
@@ -101,7 +102,10 @@ def pid_alive(pid: int) -> bool:
         return False
     except OSError:
         return True
-    return True
+    try:  # Linux: the state after the command's closing parenthesis; Z: a zombie
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True
 
 
 def remove_stale_partials(results_dir: str | os.PathLike[str]) -> int:

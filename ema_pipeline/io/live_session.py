@@ -31,33 +31,13 @@ import numpy as np
 from ema_pipeline.data import ConfigError, DataError
 from ema_pipeline.io.channel_sheet import write_channel_sheet
 from ema_pipeline.io.files import atomic_path, write_text
+from ema_pipeline.io.folders import pid_alive
 from ema_pipeline.io.hit_choice import write_hit_choice
 
-__all__ = ["SessionFolder", "pid_alive"]
+__all__ = ["SessionFolder"]
 
 #: Units of the session's WAV channels, by quantity (the samples are in SI units).
 _SI_LABELS = {"force": "N", "acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
-
-
-def pid_alive(pid: int) -> bool:
-    """Whether process ``pid`` runs (a zombie, killed but not yet reaped, does not).
-
-    Examples
-    --------
-    >>> pid_alive(os.getpid()), pid_alive(2 ** 22 + 1)
-    (True, False)
-    """
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        return True
-    stat = Path(f"/proc/{pid}/stat")
-    try:
-        return stat.read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except (OSError, IndexError):
-        return True
 
 
 class SessionFolder:
