@@ -304,3 +304,47 @@ def test_sounddevice_backend_at_its_interface(tmp_path, monkeypatch):
         assert abs(peak / (0.4 * 9.80665) - 1) < 0.05
     finally:
         test.close()
+
+
+def test_simulate_a_universal_file_of_modes(tmp_path):
+    """``--simulate FILE.uff``: the modes ``identify --uff`` writes, struck at their
+    DOFs; the running FRF's peaks at the file's frequencies."""
+    from ema_pipeline.data import DOF
+    from ema_pipeline.io import write_modes_uff
+    from ema_pipeline.live.app import make_device
+
+    x = np.linspace(0.05, 0.95, 6)
+    fn, zeta = np.array([30.0, 75.0, 140.0]), np.array([0.01, 0.015, 0.01])
+    shapes = np.sin(np.pi * np.outer(x, [1, 2, 3]))  # a pinned beam's first three
+    nodes = list(range(1, 7))
+    write_modes_uff(tmp_path / "beam.uff", fn, zeta, shapes, [DOF(n, 3) for n in nodes],
+                    node_coordinates={n: (float(v), 0.0, 0.0)
+                                      for n, v in zip(nodes, x, strict=True)},
+                    trace_lines=[nodes])
+    device, title = make_device(None, replay=False, simulate=str(tmp_path / "beam.uff"),
+                                speed=math.inf, seed=2)
+    assert title == "simulated beam.uff" and device.sample_rate_hz == 1024.0
+    assert [p.label for p in device.plan] == [f"{n}-Z" for n in nodes]
+    assert device.model.geometry.n_nodes == 6  # the file's own geometry
+    test = LiveTest(device, SessionFolder(tmp_path / "s"), identify_points=False)
+    test.start()
+    try:
+        test.next_point()  # point 2
+        for _ in range(3):
+            test.strike()
+            assert test.stream is not None
+            n0, end = test.stream.n, time.monotonic() + 10
+            while test.stream.n < n0 + 1536:
+                assert time.monotonic() < end
+                time.sleep(0.005)
+        end = time.monotonic() + 10
+        while test.stream.frf is None:
+            assert time.monotonic() < end
+            time.sleep(0.01)
+        frf = test.stream.frf
+        mag = np.abs(frf.H[0, 0])
+        for f in fn:  # a peak within 2 lines of each mode
+            band = (frf.freq_hz > 0.8 * f) & (frf.freq_hz < 1.2 * f)
+            assert abs(frf.freq_hz[band][np.argmax(mag[band])] - f) <= 2 * frf.freq_hz[1]
+    finally:
+        test.close()

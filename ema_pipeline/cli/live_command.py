@@ -34,8 +34,9 @@ def add_live_parser(sub: Any) -> None:
     dev = p.add_mutually_exclusive_group(required=True)
     dev.add_argument("--replay", action="store_true",
                      help="replay the sheet's recordings as if acquired")
-    dev.add_argument("--simulate", default=None, metavar="MODEL", choices=("plate",),
-                     help="a virtual structure (the built-in plate) struck with a virtual hammer")
+    dev.add_argument("--simulate", default=None, metavar="MODEL",
+                     help="a virtual structure struck with a virtual hammer: plate (built "
+                     "in) or a Universal File of modes (datasets 55, identify --uff)")
     dev.add_argument("--device", default=None, metavar="NAME",
                      help="a DAQ: sounddevice or sounddevice:CARD (a sound card through the "
                      "optional sounddevice package; the sheet's channel column names its "
@@ -95,7 +96,7 @@ def cmd_live(args: argparse.Namespace) -> int:
     device, title = make_device(args.channels, replay=args.replay, speed=args.speed,
                                 simulate=args.simulate, seed=args.seed,
                                 hammer=hammer_options(args), daq=args.device,
-                                sample_rate_hz=args.sample_rate)
+                                sample_rate_hz=args.sample_rate, geometry=geometry)
     band = tuple(args.band) if args.band is not None else None
     return run_live(device, title, args.session, geometry=geometry, band_hz=band,
                     host=args.host, port=args.port, browser=not args.no_browser,

@@ -20,11 +20,14 @@ __all__ = ["make_device", "run_live"]
 def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
                 simulate: str | None = None, seed: int | None = None,
                 hammer: Mapping[str, Any] | None = None, daq: str | None = None,
-                sample_rate_hz: float = 48000.0) -> tuple[Device, str]:
+                sample_rate_hz: float = 48000.0,
+                geometry: Geometry | None = None) -> tuple[Device, str]:
     """The device and a title: the replay of a channel sheet's recordings, a
-    virtual structure (``simulate``: ``plate``) struck with the virtual hammer's
-    options ``hammer`` (:class:`~ema_pipeline.live.simulate.SimulateDevice`), or a
-    DAQ (``daq``: ``sounddevice`` or ``sounddevice:CARD``,
+    virtual structure (``simulate``: ``plate`` or a Universal File of modes, on
+    ``geometry``: :func:`~ema_pipeline.live.simulate.simulate_model`) struck with
+    the virtual hammer's options ``hammer``
+    (:class:`~ema_pipeline.live.simulate.SimulateDevice`), or a DAQ (``daq``:
+    ``sounddevice`` or ``sounddevice:CARD``,
     :class:`~ema_pipeline.live.soundcard.SoundDeviceDevice`, imported only then).
 
     Examples
@@ -60,9 +63,9 @@ def make_device(channels: Path | None, *, replay: bool, speed: float = 1.0,
             raise ConfigError(f"--speed must be > 0 (a multiple of real time), got {speed:g}")
         return ReplayDevice(read_channel_sheet(channels), speed=speed), f"replay of {channels}"
     if simulate is not None:
-        from ema_pipeline.live.simulate import SimulateDevice, builtin_model
+        from ema_pipeline.live.simulate import SimulateDevice, simulate_model
 
-        model = builtin_model(simulate)
+        model = simulate_model(simulate, geometry)
         if not (speed > 0):
             raise ConfigError(f"--speed must be > 0 (a multiple of real time), got {speed:g}")
         return (SimulateDevice(model, speed=speed, seed=seed, **dict(hammer or {})),

@@ -26,13 +26,14 @@ import threading
 import time
 from collections.abc import Collection
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
-from ema_pipeline.data import DOF, Channel, ConfigError, Geometry
+from ema_pipeline.data import DOF, Channel, ConfigError, Geometry, ModalParameters
 from ema_pipeline.live.device import BLOCK_S, Block, PlanPoint
 
-__all__ = ["ModalModel", "SimulateDevice", "builtin_model"]
+__all__ = ["ModalModel", "SimulateDevice", "builtin_model", "model_from_modes", "simulate_model"]
 
 #: Length (s) of the response computed for one strike.
 RESPONSE_S = 4.0
@@ -98,6 +99,61 @@ def builtin_model(name: str) -> ModalModel:
     return ModalModel("plate", fn, np.full(fn.size, 0.01), shapes(points), shapes([sensor]),
                       tuple(DOF(k, -3) for k in range(1, 13)), (DOF(100, 3),), geometry,
                       (25.0, 210.0))
+
+
+def model_from_modes(modes: ModalParameters, geometry: Geometry | None, name: str,
+                     band_hz: tuple[float, float] | None = None) -> ModalModel:
+    """A virtual structure from identified modes (e.g. ``identify --uff``'s
+    datasets 55, :func:`ema_pipeline.io.read_modes_uff`): the hammer roves over
+    the shapes' DOFs and one accelerometer sits at the DOF where the smallest of
+    the modes' normalised amplitudes is largest (on no nodal line); each shape
+    made real (turned to its largest component, the real part kept) and taken as
+    unit modal mass. The sample rate: the power of two of Hz above 5 times the
+    highest mode; the band: from 0.7 times the lowest to 1.15 times the highest.
+
+    Examples
+    --------
+    >>> m = ModalParameters(np.array([10.0, 25.0]), np.array([0.01, 0.02]),
+    ...                     shapes=np.array([[1.0, 1.0], [0.6, -0.5], [0.2, 0.9]]),
+    ...                     dofs=(DOF(1, 3), DOF(2, 3), DOF(3, 3)))
+    >>> model = model_from_modes(m, None, "beam")
+    >>> model.sensor_dofs, model.sample_rate_hz, model.band_hz
+    ((DOF(node=1, direction=3),), 128.0, (7.0, 28.75))
+    """
+    if modes.shapes is None or not modes.dofs:
+        raise ConfigError(f"{name}: the modes have no shapes to strike")
+    phi = np.asarray(modes.shapes, dtype=complex)
+    top = phi[np.argmax(np.abs(phi), axis=0), np.arange(phi.shape[1])]
+    real = (phi * np.exp(-1j * np.angle(top))[None, :]).real
+    real = real / np.abs(real).max(axis=0, keepdims=True)
+    sensor = int(np.argmax(np.abs(real).min(axis=1)))
+    fn = np.asarray(modes.fn_hz, dtype=float)
+    fs = float(2 ** math.ceil(math.log2(5 * fn.max())))
+    if band_hz is None:
+        band_hz = (0.7 * float(fn.min()), 1.15 * float(fn.max()))
+    points = tuple(d if d.direction < 0 else DOF(d.node, -d.direction) for d in modes.dofs)
+    if geometry is None:  # the DOFs on a line, for the plan and the shapes
+        nodes = list(dict.fromkeys(d.node for d in modes.dofs))
+        geometry = Geometry(node_ids=np.array(nodes), xyz_m=np.array(
+            [[0.1 * k, 0.0, 0.0] for k in range(len(nodes))]), lines=(tuple(nodes),))
+    return ModalModel(name, fn, np.asarray(modes.zeta, dtype=float), real,
+                      real[sensor:sensor + 1], points, (modes.dofs[sensor],), geometry,
+                      band_hz, fs)
+
+
+def simulate_model(spec: str, geometry: Geometry | None = None) -> ModalModel:
+    """The virtual structure of ``--simulate SPEC``: ``plate`` (:func:`builtin_model`)
+    or a Universal File with modes (datasets 55; :func:`model_from_modes`, on
+    ``geometry``, else the file's own, else the DOFs on a line)."""
+    if spec == "plate":
+        return builtin_model(spec)
+    path = Path(spec)
+    if not path.is_file():
+        raise ConfigError(f"--simulate {spec}: neither the built-in 'plate' nor a file")
+    from ema_pipeline.io import read_geometry_uff, read_modes_uff
+
+    modes = read_modes_uff(path)
+    return model_from_modes(modes, geometry or read_geometry_uff(path), path.name)
 
 
 class SimulateDevice:
