@@ -55,14 +55,25 @@ def _serve(args: list[str], cwd: Path) -> tuple[subprocess.Popen, str]:
     return proc, match.group(0)
 
 
-def _wait(cond, timeout_s: float, what: str):
+def _stop(proc: subprocess.Popen) -> None:
+    """Stop the server as Ctrl-C does; it must have logged no error."""
+    proc.send_signal(signal.SIGINT)
+    try:
+        _, err = proc.communicate(timeout=15)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        _, err = proc.communicate()
+    assert "Traceback" not in err, err[-3000:]
+
+
+def _wait(cond, timeout_s: float, what):
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
         value = cond()
         if value:
             return value
         time.sleep(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
+    raise AssertionError(f"timed out waiting for {what() if callable(what) else what}")
 
 
 def _attr(driver, css: str, name: str) -> list[str]:
@@ -175,12 +186,7 @@ def test_live_replay_of_the_plate_resumes_after_kill_and_matches_frf(tmp_path):
             n_shapes = len(driver.find_elements("css selector", "[data-mode-shape]"))
             driver.save_screenshot(str(tmp_path / "live_replay.png"))
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        _stop(proc)
 
     # every mode of the band within 1 %, none spurious, damping within 15 %, shapes drawn
     fn, zeta = FN_ALL[IN_BAND], ZETA_ALL[IN_BAND]
@@ -235,9 +241,13 @@ def test_live_simulated_plate_struck_with_the_virtual_hammer(tmp_path):
                         body.send_keys("h")  # the key strikes too
                     else:
                         button.click()
-                    time.sleep(0.4)  # 2 s of the plate's time at 5 x
+                    # 1.5 s of the plate's time at 5 x between the session's first two
+                    # strikes (they set the record length, as frf does: the power of two
+                    # of samples between them, 1 s), 2.25 s from then on: each record
+                    # ends before the next hit
+                    time.sleep(0.3 if point == 1 and k == 0 else 0.45)
                 hits = _wait(lambda: (h if len(h := _hits(driver)) == 3 else None), 10,
-                             f"point {point}'s three hits")
+                             lambda p=point: f"point {p}'s three hits: {_hits(driver)}")
                 if point == 1:  # strike 2 bounced: rejected as a double hit
                     assert [h["status"] for h in hits] == ["accepted", "rejected", "accepted"]
                     assert hits[1]["reasons"].split() == ["double_hit"]
@@ -261,12 +271,7 @@ def test_live_simulated_plate_struck_with_the_virtual_hammer(tmp_path):
                     tmp_path / "live_simulate.png")
             driver.save_screenshot(str(shot))
     finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+        _stop(proc)
     truth = builtin_model("plate").fn_hz
     assert fn_page.size >= 2 and n_shapes == fn_page.size
     nearest = np.min(np.abs(fn_page[:, None] / truth[None, :] - 1), axis=1)
