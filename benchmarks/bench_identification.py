@@ -75,6 +75,7 @@ from pathlib import Path
 import numpy as np
 
 from ema_pipeline import io as frf_io
+from ema_pipeline.cli.support import WORKERS_ENV
 from ema_pipeline.identification import IdentificationOptions, identify
 from ema_pipeline.identification.diagram.plscf import (
     companion_poles,
@@ -83,7 +84,7 @@ from ema_pipeline.identification.diagram.plscf import (
 )
 from ema_pipeline.identification.diagram.stabilization import pole_to_modal
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
-from ema_pipeline.threads import BLAS_THREADS_ENV, THREAD_VARIABLES, WORKERS_ENV
+from ema_pipeline.threads import BLAS_THREADS_ENV, THREAD_VARIABLES
 
 EXPECT = [18.0, 112.0, 327.0, 629.0]
 ROOT = Path(__file__).resolve().parent.parent

@@ -33,6 +33,9 @@ K - w^2 M + jw C, and its truth the eigenvalues of the state-space matrix.
 ``impact_close`` is the impact family with one or two pairs of close modes
 below 80 Hz, measured by 1-4 accelerometers (since issue 42 one accelerometer
 too: its seeds that drew one, 2 before, are one-channel cases now).
+``complex_dashpots`` (issue 53, in ``COMPLEX_FAMILIES`` too) is a chain with
+springs to ground, one cross spring and 40-150 N s/m dashpots whose strongly
+complex modes are only 3 % or more apart, measured at 3-5 masses.
 
 Issue 42's ``FEW_CHANNEL_FAMILIES``: ``impact_1ch`` and ``impact_2ch`` are the
 impact family with exactly one and two accelerometers, and in half of the
@@ -67,12 +70,15 @@ FAMILIES: tuple[str, ...] = (
 #: Families of issue 31, kept apart from ``FAMILIES`` (whose acceptance tests
 #: run every family): strongly complex modes of a physical chain with discrete
 #: dashpots, and close low-frequency modes in time-domain impact tests.
-COMPLEX_FAMILIES: tuple[str, ...] = ("complex_chain", "impact_close")
+COMPLEX_FAMILIES: tuple[str, ...] = ("complex_chain", "impact_close", "complex_dashpots")
 #: Families of issue 42, kept apart as well: impact tests with one and with
 #: two accelerometers (one hammer point), half of them with a close pair.
 FEW_CHANNEL_FAMILIES: tuple[str, ...] = ("impact_1ch", "impact_2ch")
 ALL_FAMILIES: tuple[str, ...] = FAMILIES + COMPLEX_FAMILIES + FEW_CHANNEL_FAMILIES
-_FAMILY_ID = {name: k for k, name in enumerate(ALL_FAMILIES)}
+#: A family's number seeds its generator: the families in the order they were
+#: added, so that a new one leaves every case of the others as it was.
+_FAMILY_ID = {name: k for k, name in enumerate(
+    (*FAMILIES, "complex_chain", "impact_close", *FEW_CHANNEL_FAMILIES, "complex_dashpots"))}
 _Q = {"receptance": 0, "mobility": 1, "accelerance": 2}
 #: Peak of a mode's own term over the noise std, combined over channels (20 dB).
 MIN_VISIBILITY = 10.0
@@ -468,6 +474,100 @@ def _chain_case(seed: int, rng: np.random.Generator) -> HardCase:
     raise RuntimeError(f"complex_chain-{seed}: no chain found")  # pragma: no cover
 
 
+def _dashpot_matrices(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """M, K and C of a random chain of 6-10 masses (0.5-2 kg) with a spring
+    to ground at every mass (0.1-1 x 4e5 N/m), springs between neighbours
+    (0.5-2 x 4e5 N/m), one cross spring between two masses 2 or more apart
+    (0.2-1 x 4e5 N/m), light Rayleigh damping (zeta 0.2-0.6 % at the middle
+    of the chain's natural frequencies) and 1-3 discrete dashpots of
+    40-150 N s/m, to ground or between neighbours."""
+    u = rng.uniform
+    n = int(rng.integers(6, 11))
+    m = np.exp(u(np.log(0.5), np.log(2.0), n))
+    K = np.diag(4e5 * np.exp(u(np.log(0.1), np.log(1.0), n)))
+
+    def join(A: np.ndarray, i: int, j: int, value: float) -> None:
+        A[i, i] += value
+        A[j, j] += value
+        A[i, j] -= value
+        A[j, i] -= value
+
+    for i in range(n - 1):
+        join(K, i, i + 1, 4e5 * float(np.exp(u(np.log(0.5), np.log(2.0)))))
+    i = int(rng.integers(0, n - 2))
+    join(K, i, int(rng.integers(i + 2, n)), 4e5 * float(np.exp(u(np.log(0.2), np.log(1.0)))))
+    M = np.diag(m)
+    w = np.sqrt(np.linalg.eigvalsh(K / np.sqrt(np.outer(m, m))))
+    wm, z0 = float(np.sqrt(w[0] * w[-1])), u(0.002, 0.006)
+    C = z0 * wm * M + z0 / wm * K  # zeta z0 at wm, a little more either side
+    for _ in range(int(rng.integers(1, 4))):
+        i, c = int(rng.integers(0, n)), float(u(40.0, 150.0))
+        if i < n - 1 and u() >= 0.4:
+            join(C, i, i + 1, c)
+        else:
+            C[i, i] += c
+    return M, K, C
+
+
+def _dashpot_case(seed: int, rng: np.random.Generator) -> HardCase:
+    """``complex_dashpots``: a chain of :func:`_dashpot_matrices`, drawn
+    again until its least collinear mode has an MPC in 0.3-0.65, no mode is
+    damped above zeta 8 %, neighbouring modes are at least 3 % apart (their
+    half-power bands may overlap) and every mode is visible. 3-5 of the
+    masses are measured, and the reference is the mass (measured or not)
+    that sees every mode best; the noise is that of ``complex_chain``
+    (additive 35-50 dB below each FRF's RMS plus 40-55 dB below |H|). H is
+    the accelerance -w^2 (K - w^2 M + jw C)^-1, exact, plus noise."""
+    u = rng.uniform
+    for _attempt in range(5000):
+        M, K, C = _dashpot_matrices(rng)
+        n = M.shape[0]
+        lam, psi = _state_modes(M, K, C)
+        if lam.size < n:
+            continue
+        fn = np.abs(lam) / (2 * np.pi)
+        zeta = -lam.real / np.abs(lam)
+        mpc = shape_mpc(psi)
+        if not 0.3 <= mpc.min() <= 0.65 or zeta.max() > 0.08 or np.any(fn[1:] < 1.03 * fn[:-1]):
+            continue
+        hw = zeta * fn
+        hi_hz = fn[-1] * u(1.15, 1.3)
+        f_top = hi_hz / u(0.88, 0.95)
+        lines = [nl for nl in (2049, 4097, 8193, 16385) if np.all(hw >= 1.5 * f_top / (nl - 1))]
+        if not lines:
+            continue
+        freq = np.linspace(0.0, f_top, lines[0])
+        lo_hz = max(float(freq[4]), fn[0] * u(0.4, 0.7))
+        out = np.sort(rng.choice(n, int(rng.integers(3, 6)), replace=False))
+        a_r = np.array([psi[:, r] @ (2 * lam[r] * M + C) @ psi[:, r] for r in range(n)])
+        jw_pk = 1j * np.abs(lam)
+        snr, prop = u(35, 50), u(40, 55)
+        jw = 2j * np.pi * freq
+        Z = K[None] - (2 * np.pi * freq)[:, None, None] ** 2 * M[None] + jw[:, None, None] * C[None]
+        R = np.linalg.inv(Z)  # receptance (n_freq, n, n)
+        k_pk = np.argmin(np.abs(freq[:, None] - fn[None, :]), axis=0)
+        best, ref = -1.0, 0
+        for i in range(n):  # the reference that sees every mode best
+            H0 = np.moveaxis(R[:, out, i], 0, -1) * (jw**2)[None, :]
+            std = _noise_std(H0[:, None, :], snr, prop)[:, 0, :]
+            peak = np.abs(psi[out] * psi[i][None, :] / a_r[None, :] / lam.real[None, :]
+                          * (jw_pk**2)[None, :])
+            vis = np.sqrt(np.sum((peak / std[:, k_pk]) ** 2, axis=0))
+            if vis.min() > best:
+                best, ref = float(vis.min()), i
+        if best < MIN_VISIBILITY:
+            continue
+        H0 = (np.moveaxis(R[:, out, ref], 0, -1) * (jw**2)[None, :])[:, None, :]
+        H = H0 + _cnoise(rng, _noise_std(H0, snr, prop))
+        dofs = [DOF(int(k) + 1, 3) for k in range(n)]
+        frf = FRFSet(freq_hz=freq, H=H, response_dofs=tuple(dofs[k] for k in out),
+                     reference_dofs=(dofs[ref],), quantity="accelerance",
+                     configuration=f"complex_dashpots-{seed}")
+        return HardCase("complex_dashpots", seed, frf, (float(lo_hz), float(hi_hz)), fn, zeta,
+                        psi)
+    raise RuntimeError(f"complex_dashpots-{seed}: no chain found")  # pragma: no cover
+
+
 # --------------------------------------------------------------------------- time domain
 def _modal_pulse_response(t: np.ndarray, pole: np.ndarray, tp: float, f0: float) -> np.ndarray:
     """y_r(t) = int_0^t exp(lambda_r (t - s)) f(s) ds for the half-sine pulse
@@ -667,6 +767,8 @@ def make_case(family: str, seed: int, complex_phase_deg: float = 0.0) -> HardCas
         return _impact_case(seed, rng, complex_phase_deg, family)
     if family == "complex_chain":
         return _chain_case(seed, rng)
+    if family == "complex_dashpots":
+        return _dashpot_case(seed, rng)
     return _freq_case(family, seed, rng, complex_phase_deg)
 
 

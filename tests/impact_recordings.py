@@ -161,6 +161,8 @@ def make_recording(
     record_s: float = 1.0,
     last_hit_short: bool | None = None,
     overload_channel: int | None = None,
+    force_range_n: tuple[float, float] | None = None,
+    odd_pulse: tuple[int, float] | None = None,
 ) -> SyntheticRecording:
     """A random continuous impact recording with known truth.
 
@@ -179,6 +181,14 @@ def make_recording(
     last_hit_short : the last hit is closer than ``record_s`` to the end (default
         random, probability 1/2).
     overload_channel : 0 force, c + 1 response c (default random).
+    force_range_n : (lo, hi): the peaks of the hits spread over [lo, hi] (one hit
+        without defect within 5 % of each end, the others uniform in between)
+        instead of ``P`` x U(0.8, 1.2), and the
+        pulse widths follow them as a Hertzian contact's do, ``T`` x (peak /
+        median peak)^-0.2 x U(0.9, 1.1) (a soft hit lasts longer). Drawn from a
+        second generator, so the other draws stay those of ``seed``.
+    odd_pulse : (hit, factor): that hit's (0-based) pulse lasts ``factor`` times
+        as long as it would (a hit with another tip, or on a bolt head).
     """
     rng = np.random.default_rng(seed)
     fs = float(sample_rate_hz)
@@ -234,6 +244,21 @@ def make_recording(
     chosen = rng.permutation(eligible)
     double_hits = set(chosen[:n_double].tolist())
     overload_hits = set(chosen[n_double:n_double + n_overload].tolist())
+    scatter = None
+    if force_range_n is not None:  # both ends of the range on hits without defect
+        extra = np.random.default_rng([seed, 40160])
+        lo, hi = force_range_n
+        good = [i for i in eligible if i not in double_hits | overload_hits]
+        ends = extra.choice(good, 2, replace=False)
+        order = np.concatenate([ends, extra.permutation(np.setdiff1d(np.arange(n_hits), ends))])
+        scatter = np.empty(n_hits)
+        scatter[order] = np.concatenate([[lo * extra.uniform(1.0, 1.05),
+                                          hi * extra.uniform(0.95, 1.0)],
+                                         extra.uniform(lo, hi, n_hits - 2)])
+        widths = (t_nom * (scatter / np.median(scatter)) ** -0.2
+                  * extra.uniform(0.9, 1.1, n_hits))
+    if odd_pulse is not None:
+        widths[odd_pulse[0]] *= odd_pulse[1]
     delays = np.full(n_hits, np.nan)
     ratios = np.full(n_hits, np.nan)
     for i in double_hits:
@@ -262,6 +287,8 @@ def make_recording(
 
     p_nom = rng.uniform(50.0, 300.0)
     peaks = p_nom * rng.uniform(0.8, 1.2, n_hits)
+    if scatter is not None:
+        peaks = scatter.copy()
     ch_ov = -1
     clip = np.full(n_hits, np.nan)
     full_scale_ov = np.nan
@@ -500,7 +527,8 @@ class PlateTest:
     :data:`PLATE_HIT_TIMES_S`, each ``jitter``: shifted by U(0, 1) samples;
     ``double_hit`` = (point, time s, peak N): a bounce of that point;
     ``late_start`` = (point, s): that point's file starts that long before its
-    first hit."""
+    first hit; ``soft_hits`` = ((point, hit, peak N), ...): that hit (1-4) of
+    that point has that peak instead."""
 
     plate: Plate
     points: tuple[tuple[float, float], ...]
@@ -511,6 +539,7 @@ class PlateTest:
     jitter: bool = False
     double_hit: tuple[int, float, float] | None = None
     late_start: tuple[int, float] | None = None
+    soft_hits: tuple[tuple[int, int, float], ...] = ()
 
 
 def plate_hammer_signals(
@@ -522,11 +551,13 @@ def plate_hammer_signals(
     peak_n: float,
     jitter: bool = False,
     double_at: tuple[float, float] | None = None,
+    peaks_n: dict[int, float] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Force (N) and acceleration at ``sensor`` (m/s^2) of four half-sine hits
     (2 ms) at ``point``, :data:`PLATE_DURATION_S` at :data:`PLATE_FS_HZ`: peaks
     ``peak_n`` x U(0.8, 1.2), at :data:`PLATE_HIT_TIMES_S` (``jitter``: each
-    shifted by U(0, 1) samples); ``double_at`` = (time s, peak N) adds a bounce.
+    shifted by U(0, 1) samples); ``double_at`` = (time s, peak N) adds a bounce;
+    ``peaks_n`` {hit (1-4): peak N} replaces those hits' peaks.
     The response is exact in the frequency domain (zero-padded to twice the
     length); white noise of 1e-4 of the acceleration's peak and of ``peak_n``."""
     rng = np.random.default_rng(seed)
@@ -537,6 +568,8 @@ def plate_hammer_signals(
     width = 2e-3
     pulses = [(t0 + (rng.uniform(0.0, 1.0) / fs if jitter else 0.0),
                peak_n * rng.uniform(0.8, 1.2)) for t0 in PLATE_HIT_TIMES_S]
+    for hit, peak in (peaks_n or {}).items():
+        pulses[hit - 1] = (pulses[hit - 1][0], peak)
     if double_at is not None:
         pulses.append(double_at)
     for t0, peak in pulses:
@@ -597,7 +630,8 @@ def write_plate_test(folder: Path, test: PlateTest) -> None:
         force, acc = plate_hammer_signals(
             test.plate, point, test.sensor, test.seed_base + k, peak_n=test.peak_n,
             jitter=test.jitter,
-            double_at=double[1:] if double is not None and double[0] == k else None)
+            double_at=double[1:] if double is not None and double[0] == k else None,
+            peaks_n={hit: peak for point, hit, peak in test.soft_hits if point == k})
         if test.late_start is not None and test.late_start[0] == k:
             start = int(round((PLATE_HIT_TIMES_S[0] - test.late_start[1]) * PLATE_FS_HZ))
             force, acc = force[start:], acc[start:]

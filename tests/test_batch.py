@@ -212,13 +212,13 @@ def test_progress_bar_leaves_no_thread(
 ) -> None:
     """A batch with its progress bar leaves no thread behind: tqdm's monitor
     thread (started by a bar at tqdm's default ``monitor_interval``; the suite
-    sets it to 0) outlives the bars, and a second thread makes every later
-    io.check_hdf5 of the process, such as the batch report's of each result,
-    start a fresh interpreter instead of forking (measured: ``batch raw_frf
+    sets it to 0) outlives the bars, and a second thread makes the fork rule
+    refuse every later fork of the process: io.check_hdf5, such as the batch
+    report's of each result, would start a fresh interpreter instead (measured: ``batch raw_frf
     --report`` 25 s with it, 15 s without, loaded machine)."""
     import tqdm
 
-    from ema_pipeline.io.hdf5 import only_fork_safe_threads
+    from ema_pipeline.runner import fork_is_safe
 
     monkeypatch.setattr(tqdm.tqdm, "monitor_interval", 10)  # tqdm's default
     folder = tmp_path / "raw"
@@ -227,7 +227,7 @@ def test_progress_bar_leaves_no_thread(
     try:
         report = run_batch(folder, tmp_path / "out", options=OPTIONS, workers=1, progress=True)
         assert report.n_ok == 1
-        assert only_fork_safe_threads(), [t.name for t in threading.enumerate()]
+        assert fork_is_safe(), [t.name for t in threading.enumerate()]
     finally:  # a monitor left running would slow every later test of the process
         if tqdm.tqdm.monitor is not None:
             tqdm.tqdm.monitor.exit()

@@ -35,7 +35,9 @@ def installed_copy(site: Path) -> Path:
         folder = REPO.joinpath(*package.split("."))
         for pattern in patterns:
             for source in folder.glob(pattern):
-                shutil.copy2(source, site / source.relative_to(REPO))
+                target = site / source.relative_to(REPO)
+                target.parent.mkdir(parents=True, exist_ok=True)  # e.g. report/js/
+                shutil.copy2(source, target)
     return site
 
 

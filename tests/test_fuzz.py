@@ -130,17 +130,19 @@ def test_check_hdf5_gives_a_fresh_interpreter_time_to_start(monkeypatch):
     fork) gets CHILD_START_S more than the reading time: at load 8 the start-up
     alone took over 5 s and valid files of a batch failed as 'corrupt'. A fork
     gets the reading time only, and a timeout given by the caller is kept."""
-    from ema_pipeline.io import hdf5
+    from ema_pipeline import runner
+    from ema_pipeline.io import hdf5_check
 
     good = fc.EXAMPLES / "larger_tank.h5"
-    reading = hdf5._child_timeout(good.stat().st_size)
+    reading = hdf5_check._child_timeout(good.stat().st_size)
     seen: list[tuple[str, float]] = []
-    monkeypatch.setattr(hdf5, "_spawn_check", lambda p, t: seen.append(("spawn", t)) or ("ok", ""))
-    monkeypatch.setattr(hdf5, "_fork_check", lambda p, t: seen.append(("fork", t)) or ("ok", ""))
-    monkeypatch.setattr(hdf5, "only_fork_safe_threads", lambda: False)
-    hdf5.check_hdf5(good)
-    hdf5.check_hdf5(good, timeout_s=2.0)
-    monkeypatch.setattr(hdf5, "only_fork_safe_threads", lambda: True)
-    hdf5.check_hdf5(good)
-    assert seen == [("spawn", pytest.approx(reading + hdf5.CHILD_START_S)), ("spawn", 2.0),
+    monkeypatch.setattr(hdf5_check, "_spawn_check",
+                        lambda p, t: seen.append(("spawn", t)) or ("ok", ""))
+    monkeypatch.setattr(runner, "fork_is_safe", lambda: False)  # asked at the fork
+    hdf5_check.check_hdf5(good)
+    hdf5_check.check_hdf5(good, timeout_s=2.0)
+    monkeypatch.setattr(hdf5_check, "_fork_check",
+                        lambda p, t: seen.append(("fork", t)) or ("ok", ""))
+    hdf5_check.check_hdf5(good)
+    assert seen == [("spawn", pytest.approx(reading + hdf5_check.CHILD_START_S)), ("spawn", 2.0),
                     ("fork", pytest.approx(reading))]

@@ -126,10 +126,10 @@ def test_library_refuses_a_diagram_over_the_memory_limit(example_dir: Path, tmp_
     """``memory_limit_gb`` below the estimate: the library refuses before any
     work with the command line's message (fixed order and adaptive search);
     the command line passes ``--memory-limit-gb`` in the options and writes no
-    environment variable; the library never reads ``$EMA_MEMORY_LIMIT_GB``."""
+    environment variable; the library never reads ``$EMA_PIPELINE_MEMORY_LIMIT_GB``."""
     path = example_dir / "genuine.uff"
     frf = io.read_frf(path)
-    monkeypatch.delenv("EMA_MEMORY_LIMIT_GB", raising=False)
+    monkeypatch.delenv("EMA_PIPELINE_MEMORY_LIMIT_GB", raising=False)
     for order in (["--max-order", "40"], []):
         with pytest.raises(ConfigError, match="more than the limit of 9.99e-07 GiB") as refused:
             identify(frf, memory_limit_gb=1e-6,
@@ -138,15 +138,22 @@ def test_library_refuses_a_diagram_over_the_memory_limit(example_dir: Path, tmp_
         code, err = _cli(["identify", path, "--out", tmp_path / "cli", *order,
                           "--memory-limit-gb", "1e-6"], capsys)
         assert code == 2 and err == [f"ema-pipeline identify: error: {refused.value}"]
-        assert "EMA_MEMORY_LIMIT_GB" not in os.environ
+        assert "EMA_PIPELINE_MEMORY_LIMIT_GB" not in os.environ
     assert not (tmp_path / "cli").exists()  # refused before any output
     with pytest.raises(ConfigError, match="more than the limit"):
         check_input(frf, IdentificationOptions(memory_limit_gb=1e-6))
-    monkeypatch.setenv("EMA_MEMORY_LIMIT_GB", "1e-6")  # read by the command line only
+    monkeypatch.setenv("EMA_PIPELINE_MEMORY_LIMIT_GB", "1e-6")  # read by the command line only
     assert check_input(frf, max_order=40).options.memory_limit_gb == 4.0
     code, err = _cli(["identify", path, "--out", tmp_path / "env", "--max-order", "40"], capsys)
     assert code == 2 and "more than the limit of 9.99e-07 GiB" in err[0]
-    monkeypatch.setenv("EMA_MEMORY_LIMIT_GB", "lots")
+    monkeypatch.setenv("EMA_PIPELINE_MEMORY_LIMIT_GB", "lots")
     code, err = _cli(["identify", path, "--out", tmp_path / "bad"], capsys)
-    assert code == 2 and err == ["ema-pipeline identify: error: EMA_MEMORY_LIMIT_GB='lots' "
+    assert code == 2 and err == ["ema-pipeline identify: error: "
+                                 "EMA_PIPELINE_MEMORY_LIMIT_GB='lots' "
                                  "is not a positive number of GiB"], err
+    # the former name: still read, with a note to rename it
+    monkeypatch.delenv("EMA_PIPELINE_MEMORY_LIMIT_GB")
+    monkeypatch.setenv("EMA_MEMORY_LIMIT_GB", "1e-6")
+    code, err = _cli(["identify", path, "--out", tmp_path / "old", "--max-order", "40"], capsys)
+    assert code == 2 and "rename it $EMA_PIPELINE_MEMORY_LIMIT_GB" in err[0]
+    assert "more than the limit of 9.99e-07 GiB" in err[1]

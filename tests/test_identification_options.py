@@ -308,7 +308,9 @@ def test_names_and_rules_have_one_home():
         method = next(a for a in parser.commands[command]._actions if a.dest == "method")
         assert tuple(method.choices) == METHOD_NAMES
     fields = set(IdentificationOptions.__dataclass_fields__)
-    assert set(SCHEMA["identification"]) == fields - {"exp_window_tau_s", "thresholds"}
+    # the memory limit is the machine's (command line), not the experiment's
+    assert set(SCHEMA["identification"]) == fields - {"exp_window_tau_s", "thresholds",
+                                                      "memory_limit_gb"}
     assert IdentificationOptions(method="sdypy-lscf", max_order=10).max_order == 10
 
 

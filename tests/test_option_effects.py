@@ -117,6 +117,9 @@ INVENTORY: dict[str, tuple[str, ...]] = {
     "batch folder": ("test_batch.py::test_cli_batch_good_and_bad_files",),
     "batch --out": ("test_batch.py::test_cli_batch_good_and_bad_files",),
     "batch --workers": ("test_batch.py::test_workers_1_and_2_identical_and_rerun_skips",),
+    "identify --workers": ("test_runner.py::test_ctrl_c_of_identify_with_workers_stops_within_2_s",
+                           "test_runner.py::test_identify_several_files_in_workers_equals_serial"),
+    "run --workers": ("test_runner.py::test_run_gives_each_identification_its_workers",),
     "batch --scheduler": ("test_batch.py::test_scheduler_matches_local_processes",),
     "batch --force": (f"{HERE}::test_batch_options_change_the_result",),
     "batch --report": (
@@ -626,7 +629,7 @@ def test_memory_limit_refuses_before_any_work(two_mode_folder: Path, tmp_path: P
     estimated at the highest order it may reach, so the limit refuses it too."""
     src = two_mode_folder / "two.uff"
     # the option travels in the options (to batch workers too) and wins over the variable
-    monkeypatch.setenv("EMA_MEMORY_LIMIT_GB", "4")
+    monkeypatch.setenv("EMA_PIPELINE_MEMORY_LIMIT_GB", "4")
     assert _run(["identify", src, "--out", tmp_path / "ok", "--max-order", "40", "--quiet"],
                 capsys)[0] == 0
     code, _, err = _run(["identify", src, "--out", tmp_path / "id", "--max-order", "40",

@@ -338,3 +338,33 @@ def test_scipy_pin_covers_the_api_we_call():
     version = tuple(int(x) for x in re.search(r">=\s*([\d.]+)", pin).group(1).split("."))
     assert version >= (1, 15), pin
     assert "rng=np.random.default_rng" in (REPO / "ema_pipeline" / "fe" / "update.py").read_text()
+
+
+# ------------------------------------------------------------------ scripts
+JS_MARKS = re.compile(r"function\s*\(|addEventListener|document\.\w|=>")
+
+
+def javascript_strings(path: Path) -> list[str]:
+    """``file:line`` of every string constant of ``path`` that reads as JavaScript."""
+    return [f"{path.name}:{node.lineno}" for node in ast.walk(ast.parse(path.read_text()))
+            if isinstance(node, ast.Constant) and isinstance(node.value, str)
+            and JS_MARKS.search(node.value)]
+
+
+def test_javascript_check_sees_a_script(tmp_path):
+    probe = tmp_path / "probe.py"
+    probe.write_text('"""A docstring."""\nA = "x"\nB = """\n(function(){var a=1;})();\n"""\n')
+    assert javascript_strings(probe) == ["probe.py:3"]
+
+
+def test_no_javascript_inside_python_strings():
+    """The pages' scripts live in ``report/js/*.js`` (package data, read by
+    ``report.scripts.page_script``), never in a Python string."""
+    offenders = [hit for path in sorted((REPO / PACKAGE).rglob("*.py"))
+                 for hit in javascript_strings(path)]
+    assert offenders == []
+    data = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
+    assert "report/js/*.js" in data["package-data"]["ema_pipeline"]
+    assert {p.name for p in (REPO / PACKAGE / "report" / "js").glob("*.js")} == {
+        "hit_choice.js", "live.js", "shape_views.js", "stab_call.js", "stab_diagram.js",
+        "synthesis.js"}

@@ -42,11 +42,19 @@ Checks (the reasons, :data:`REASONS`)
     the trigger and above 3 times its pretrigger level.
     ``low_force``: the force peak is below ``LOW_FORCE_FRACTION`` (25 %) of the
     median peak of the hits.
-    ``outlier`` (only for hits without another reason, at least 3 of them): the
-    force peak, the pulse width (samples above half the peak) or some response's
-    RMS per unit force impulse lies further from the median of those hits than
-    ``OUTLIER_Z`` (5) robust standard deviations (1.4826 MAD) and more than a
-    factor ``OUTLIER_RATIO`` (2; for the width also 2 samples) from it.
+    ``outlier`` (only for hits without another reason, at least 3 of them): a
+    hit that would corrupt the average, judged against the median of those hits,
+    never by its force level (the FRF is divided by the force; ``low_force``
+    guards against hits too weak to trust). Three measures: the pulse width (its
+    area over its peak, ``2 T / pi`` for a half-sine of duration ``T``), and per
+    response the gain and the mismatch of the hit's FRF against the median FRF
+    of those hits (:func:`frf_agreement`: the response per unit force, and the
+    part of the response that FRF does not explain, such as modes that moved or
+    a response that drops out). A hit is an outlier when one of them lies
+    further from its median than ``OUTLIER_Z`` (5) robust standard deviations
+    (1.4826 MAD) and further than a floor: a factor ``OUTLIER_RATIO`` (2) for the
+    width (and 2 samples) and for the gain, ``OUTLIER_MISMATCH`` (0.5) for the
+    mismatch.
 """
 
 from __future__ import annotations
@@ -72,6 +80,7 @@ __all__ = [
     "LEFT_OUT_BY_HAND",
     "LOW_FORCE_FRACTION",
     "NOT_DECAYED_LEVEL",
+    "OUTLIER_MISMATCH",
     "OUTLIER_RATIO",
     "OUTLIER_Z",
     "REASONS",
@@ -79,6 +88,7 @@ __all__ = [
     "RIPPLE_WINDOW_S",
     "Hit",
     "check_hits",
+    "frf_agreement",
     "tail_level",
 ]
 
@@ -93,6 +103,7 @@ NOT_DECAYED_LEVEL = 0.05
 LOW_FORCE_FRACTION = 0.25
 OUTLIER_Z = 5.0
 OUTLIER_RATIO = 2.0
+OUTLIER_MISMATCH = 0.5
 
 #: Why a hit that passed every check is not averaged (a choice by hand).
 LEFT_OUT_BY_HAND = "left out by hand (--hits)"
@@ -231,6 +242,54 @@ def tail_level(response: np.ndarray, n_pretrigger: int,
     return end, pre
 
 
+def frf_agreement(force: np.ndarray, response: np.ndarray,
+                  among: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """How well each hit's FRF agrees with the median FRF of the hits ``among``.
+
+    ``force`` (n_hits, n) the records' force (the pulse only), ``response``
+    (n_hits, n_out, n). Per line, the median FRF ``Hm`` is the median of the real
+    and of the imaginary parts of ``X / F`` over the hits ``among`` (boolean,
+    n_hits); the response it predicts for hit k is ``P = Hm F_k``. The gain is
+    ``|a|`` of the least-squares ``a = sum(conj(P) X_k) / sum(|P|^2)`` and the
+    mismatch ``sqrt(sum(|X_k - a P|^2) / sum(|a P|^2))``: the part of the
+    response the median FRF does not explain, as a fraction of the part it does.
+    Sums over every line but DC, so the force spectrum weights them: lines the
+    hammer does not excite count little. Both are independent of the force level;
+    noise raises the mismatch of a soft hit as noise over signal does.
+
+    Returns
+    -------
+    gain, mismatch : (n_hits, n_out); a hit without response gets gain 1 and
+        mismatch 0.
+
+    Examples
+    --------
+    >>> t = np.arange(512) / 512.0
+    >>> pulse = np.zeros(512); pulse[1:4] = [0.5, 1.0, 0.5]
+    >>> h = np.exp(-8 * t) * np.sin(2 * np.pi * 40 * t)  # impulse response
+    >>> ring = np.convolve(pulse, h)[:512]
+    >>> force = np.array([100.0, 40.0, 90.0, 110.0])[:, None] * pulse
+    >>> response = np.array([100.0, 40.0, 90.0, 2.5 * 110.0])[:, None, None] * ring
+    >>> gain, mismatch = frf_agreement(force, response, np.ones(4, bool))
+    >>> gain[:, 0].round(2).tolist(), mismatch[:, 0].round(2).tolist()
+    ([1.0, 1.0, 1.0, 2.5], [0.0, 0.0, 0.0, 0.0])
+    """
+    f = np.fft.rfft(force, axis=-1)[:, 1:]
+    x = np.fft.rfft(response, axis=-1)[:, :, 1:]
+    tiny = np.finfo(float).tiny
+    live = np.abs(f) > tiny
+    h = np.where(live[:, None], x / np.where(live, f, 1.0)[:, None], 0.0)
+    hm = np.median(h[among].real, axis=0) + 1j * np.median(h[among].imag, axis=0)
+    predicted = hm[None] * f[:, None]
+    power = np.sum(np.abs(predicted) ** 2, axis=-1)
+    a = np.sum(np.conj(predicted) * x, axis=-1) / np.maximum(power, tiny)
+    left = np.sum(np.abs(x - a[..., None] * predicted) ** 2, axis=-1)
+    explained = np.abs(a) ** 2 * power
+    gain = np.where(power > tiny, np.abs(a), 1.0)
+    mismatch = np.where(explained > tiny, np.sqrt(left / np.maximum(explained, tiny)), 0.0)
+    return np.maximum(gain, tiny), mismatch
+
+
 def check_hits(
     recording: Recording,
     force_index: int,
@@ -263,7 +322,8 @@ def check_hits(
     reasons: list[set[str]] = [set() for _ in range(found.n_hits)]
     median_peak = float(np.median(found.peak_n))
     width = np.full(found.n_hits, np.nan)
-    level = np.full((found.n_hits, len(responses)), np.nan)
+    force_rec = np.zeros((found.n_hits, n))  # the main pulse only, at its place
+    resp_rec = np.zeros((found.n_hits, len(responses), n))
     seg_starts = np.array(recording.segment_starts)
     seg_ends = np.append(seg_starts[1:], recording.n_samples)
     steps = [_quantization_step(x) for x in recording.signals]  # once per channel
@@ -297,11 +357,11 @@ def check_hits(
         if peak < LOW_FORCE_FRACTION * median_peak:
             reasons[k].add("low_force")
         pulse = g[p0:p1]
-        width[k] = np.count_nonzero(pulse >= peak / 2) / fs
-        impulse = max(float(pulse.sum()) / fs, np.finfo(float).tiny)
-        if responses:
-            rms = np.sqrt(np.mean(recording.signals[responses, a:b] ** 2, axis=-1))
-            level[k] = rms / impulse
+        width[k] = float(pulse.sum()) / fs / peak  # area over peak: 2 T / pi for a half-sine
+        if responses and not reasons[k]:
+            m = min(b - a, n)
+            force_rec[k, p0 - a:p1 - a] = pulse
+            resp_rec[k, :, :m] = recording.signals[responses, a:a + m]
     if not exp_window and found.n_hits and responses:
         fits = found.start >= 0
         if fits.any():
@@ -312,12 +372,11 @@ def check_hits(
                 reasons[int(i)].add("not_decayed")
     clean = np.array([not r for r in reasons])
     if clean.sum() >= 3:
-        tiny = np.finfo(float).tiny
-        med_width = float(np.median(width[clean]))
-        features = [(np.log(found.peak_n), np.log(OUTLIER_RATIO)),
-                    (width, max(2.0 / fs, (OUTLIER_RATIO - 1.0) * med_width))]
-        features += [(np.log(np.maximum(level[:, j], tiny)), np.log(OUTLIER_RATIO))
-                     for j in range(len(responses))]
+        features = [(width, max(2.0 / fs, (OUTLIER_RATIO - 1.0) * float(np.median(width[clean]))))]
+        if responses:
+            gain, mismatch = frf_agreement(force_rec, resp_rec, clean)
+            features += [(np.log(gain[:, j]), np.log(OUTLIER_RATIO)) for j in range(len(responses))]
+            features += [(mismatch[:, j], OUTLIER_MISMATCH) for j in range(len(responses))]
         for values, floor in features:
             med = np.median(values[clean])
             mad = 1.4826 * np.median(np.abs(values[clean] - med))

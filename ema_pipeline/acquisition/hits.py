@@ -30,6 +30,7 @@ from ema_pipeline.acquisition.hit_checks import (
     LEFT_OUT_BY_HAND,
     LOW_FORCE_FRACTION,
     NOT_DECAYED_LEVEL,
+    OUTLIER_MISMATCH,
     OUTLIER_RATIO,
     OUTLIER_Z,
     REASONS,
@@ -37,6 +38,7 @@ from ema_pipeline.acquisition.hit_checks import (
     RIPPLE_WINDOW_S,
     Hit,
     check_hits,
+    frf_agreement,
     tail_level,
 )
 from ema_pipeline.acquisition.hit_search import (
@@ -69,6 +71,7 @@ __all__ = [
     "MAX_RECORD_LENGTH_S",
     "NOISE_FACTOR",
     "NOT_DECAYED_LEVEL",
+    "OUTLIER_MISMATCH",
     "OUTLIER_RATIO",
     "OUTLIER_Z",
     "PLAUSIBLE_HAMMER_PEAK_N",
@@ -86,6 +89,7 @@ __all__ = [
     "find_hits",
     "force_band",
     "force_warnings",
+    "frf_agreement",
     "hit_note",
     "hits_columns",
     "pulse_end_s",

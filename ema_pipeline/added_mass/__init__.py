@@ -14,6 +14,8 @@ Modules:
   eigenvalues to the measured frequency ratios (method ``"exact"``,
   :func:`exact_added_mass`, :func:`exact_added_mass_all`), with its linearised
   std and identifiability check.
+* :mod:`.exact_result` - the results of ``exact``
+  (:class:`ExactAddedMassResult`, :class:`ExactOutcome`, :class:`UnidentifiableError`).
 * :mod:`.tables` - Tables 1-6 as DataFrames (:func:`modal_parameters_from_table`
   reads the Table 1 form; :data:`TABLE_COLUMNS`).
 

@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from ema_pipeline.cli.support import EXIT_INPUT, EXIT_OK, EXIT_RUNTIME
+from ema_pipeline.cli.support import EXIT_INPUT, EXIT_OK, EXIT_RUNTIME, command_workers
 from ema_pipeline.data import ConfigError, DataError
 from ema_pipeline.paths import DEFAULT_RAW_FOLDER
 
@@ -292,7 +292,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
     job = FileJob(args.out, options, report=args.report, figures=not args.no_figures,
                   uff=args.uff, picks=picks, geometry=geometry)
     failed, runtime = len(args.files) - len(readable), 0
-    for outcome, page in identify_files(readable, job):
+    for outcome, page in identify_files(readable, job, command_workers(args.workers)):
         if outcome.status == "failed":
             failed += 1
             runtime += outcome.runtime
@@ -314,23 +314,33 @@ def cmd_identify(args: argparse.Namespace) -> int:
 def _memory_limit(args: argparse.Namespace) -> float:
     """The memory limit of ``identify``, ``batch`` and ``run`` (GiB, for
     ``IdentificationOptions.memory_limit_gb``): ``--memory-limit-gb``, else
-    ``$EMA_MEMORY_LIMIT_GB`` (read here, the one place that reads it), else the
+    ``$EMA_PIPELINE_MEMORY_LIMIT_GB`` (read here, the one place that reads it;
+    the former ``$EMA_MEMORY_LIMIT_GB`` with a note to rename it), else the
     default. A bad value is a usage error naming where it came from."""
     from ema_pipeline.data import OptionError
-    from ema_pipeline.identification.diagram.resources import MEMORY_LIMIT_ENV
+    from ema_pipeline.identification.diagram.resources import (
+        MEMORY_LIMIT_ENV,
+        OLD_MEMORY_LIMIT_ENV,
+    )
     from ema_pipeline.identification.options import DEFAULT_MEMORY_LIMIT_GB, check_option
 
     limit = getattr(args, "memory_limit_gb", None)
     if limit is not None:
         return float(limit)  # checked with the options (an error names --memory-limit-gb)
-    text = os.environ.get(MEMORY_LIMIT_ENV, "").strip()
+    name = MEMORY_LIMIT_ENV
+    text = os.environ.get(name, "").strip()
+    if not text and os.environ.get(OLD_MEMORY_LIMIT_ENV, "").strip():
+        name = OLD_MEMORY_LIMIT_ENV
+        text = os.environ[name].strip()
+        print(f"ema-pipeline: note: ${OLD_MEMORY_LIMIT_ENV} is read for now; rename it "
+              f"${MEMORY_LIMIT_ENV} (every variable of the tool starts with EMA_PIPELINE_)",
+              file=sys.stderr)
     if not text:
         return DEFAULT_MEMORY_LIMIT_GB
     try:
         return float(check_option("memory_limit_gb", float(text)))
     except (OptionError, ValueError):
-        raise ConfigError(f"{MEMORY_LIMIT_ENV}={text!r} is not a positive number of GiB"
-                          ) from None
+        raise ConfigError(f"{name}={text!r} is not a positive number of GiB") from None
 
 
 def cmd_batch(args: argparse.Namespace) -> int:
@@ -339,14 +349,13 @@ def cmd_batch(args: argparse.Namespace) -> int:
 
     options = _identify_options(args)
     check_output_dir(args.out, "--out")
-    if args.workers is not None and args.workers < 1:
-        raise ConfigError(f"--workers must be at least 1, got {args.workers}")
+    workers = None if args.scheduler and args.workers is None else command_workers(args.workers)
     geometry = _geometry(args)  # read now: a bad file stops before the batch runs
     report = run_batch(
         args.folder,
         args.out,
         options=options,
-        workers=args.workers,
+        workers=workers,
         scheduler=args.scheduler,
         force=args.force,
         progress=not args.quiet,
@@ -399,7 +408,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             print(message, file=sys.stderr, flush=True)
 
     result = study.run_study(experiment, progress=say, progress_bars=not (args.quiet or args.json),
-                             frfs=frfs, hits=hits)
+                             frfs=frfs, hits=hits, workers=command_workers(args.workers))
     if not result.ok and Path(args.results).exists():
         for problem in result.problems:
             print(f"ema-pipeline run: {problem}", file=sys.stderr)

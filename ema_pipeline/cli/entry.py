@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import argparse
 import gc
-import os
 import sys
 from collections.abc import Callable
 
@@ -19,7 +18,7 @@ from ema_pipeline.cli.support import (
     verbose_logging,
 )
 from ema_pipeline.data import EMAError
-from ema_pipeline.threads import owned_blas_threads, thread_environment
+from ema_pipeline.threads import owned_blas_threads, thread_variables
 
 __all__ = ["main", "run"]
 
@@ -30,7 +29,8 @@ def main(argv: list[str] | None = None) -> int:
     The command owns its threads (:mod:`ema_pipeline.threads`): one BLAS
     thread in this process and its workers, whatever the environment's
     ``OPENBLAS_NUM_THREADS`` and its kind say, unless ``$EMA_PIPELINE_BLAS_THREADS``
-    overrides; the libraries loaded later read the variables set here."""
+    overrides; the libraries loaded and the processes started during the
+    command read the variables set here, restored when it returns."""
     capture_warnings()
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -38,8 +38,7 @@ def main(argv: list[str] | None = None) -> int:
         verbose_logging()
     func: Callable[[argparse.Namespace], int] = args.func
     try:
-        os.environ.update(thread_environment())
-        with owned_blas_threads():
+        with thread_variables(), owned_blas_threads():
             return func(args)
     except EMAError as exc:  # bad input or settings (DataError, ConfigError)
         print(f"ema-pipeline {args.command}: error: {_one_line(exc)}", file=sys.stderr)

@@ -139,6 +139,13 @@ def _add_numbers(p: argparse.ArgumentParser, flag: str, help: str) -> None:
                    metavar="X", help=help + "; give them as 17,69 or as 17 69")
 
 
+def _add_workers(p: argparse.ArgumentParser, what: str) -> None:
+    """``--workers N`` (default: ``$EMA_PIPELINE_WORKERS``, else the cores)."""
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help=f"{what} (default: $EMA_PIPELINE_WORKERS, else the cores this "
+                   "process may use; 1 runs everything in this process)")
+
+
 def _add_identify_options(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--band",
@@ -204,7 +211,7 @@ def _add_memory_limit(p: argparse.ArgumentParser) -> None:
         default=None,
         metavar="GB",
         help="refuse settings whose estimated memory exceeds this (GiB; default "
-        "$EMA_MEMORY_LIMIT_GB or 4)",
+        "$EMA_PIPELINE_MEMORY_LIMIT_GB or 4)",
     )
 
 
@@ -356,6 +363,8 @@ def build_parser() -> argparse.ArgumentParser:
         "selection; a pick that matches no pole is an error",
     )
     _add_identify_options(p)
+    _add_workers(p, "worker processes: several files side by side, or one file's windows "
+                 "and fits")
     _add_uff_and_verbose(p, "DIR/<stem>_modes.uff", "")
     p.set_defaults(func=cmd_identify)
 
@@ -369,12 +378,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("folder", type=Path, metavar="DIR", help="folder with FRF files")
     p.add_argument("--out", required=True, type=Path, metavar="OUT", help="output folder")
-    p.add_argument(
-        "--workers",
-        type=int,
-        default=None,
-        help="local worker processes (default: number of cores)",
-    )
+    _add_workers(p, "local worker processes, one file each")
     p.add_argument(
         "--scheduler",
         default=None,
@@ -432,6 +436,7 @@ def build_parser() -> argparse.ArgumentParser:
     _add_no_figures(p)
     _add_geometry(p, "the report", "the experiment's [geometry], else its FE beam")
     _add_memory_limit(p)
+    _add_workers(p, "worker processes of each configuration's identification")
     _add_uff_and_verbose(p, "RESULTS/modes/<configuration>.uff", "15 and 82 with the beam's "
                          "node coordinates, ")
     p.set_defaults(func=cmd_run)

@@ -2,7 +2,8 @@
 
 The exit statuses are the contract of every subcommand (see :mod:`ema_pipeline.cli`);
 :func:`capture_warnings` and :func:`verbose_logging` set up, once per run, where
-the libraries' warnings and the package's INFO messages end up.
+the libraries' warnings and the package's INFO messages end up;
+:func:`command_workers` is the worker count a command passes on.
 """
 
 from __future__ import annotations
@@ -10,6 +11,7 @@ from __future__ import annotations
 import logging
 import os
 
+from ema_pipeline.data import ConfigError
 from ema_pipeline.pipeline.logs import verbose_logging
 
 __all__ = [
@@ -19,6 +21,8 @@ __all__ = [
     "EXIT_RUNTIME",
     "EXIT_STATUSES",
     "LOG_ENV",
+    "WORKERS_ENV",
+    "command_workers",
     "capture_warnings",
     "verbose_logging",
 ]
@@ -38,6 +42,35 @@ EXIT_STATUSES = {EXIT_OK: "success", EXIT_INPUT: "input or usage error",
                  EXIT_RUNTIME: "runtime failure"}
 #: Environment variable naming a log file for library warnings (default: discarded).
 LOG_ENV = "EMA_PIPELINE_LOG"
+#: Environment variable: the worker processes of a command without ``--workers``.
+WORKERS_ENV = "EMA_PIPELINE_WORKERS"
+
+
+def command_workers(requested: int | None) -> int:
+    """The worker processes of a command: ``--workers`` (``requested``), else
+    ``$EMA_PIPELINE_WORKERS``, else the cores this process may use. The one
+    place the environment's worker count is read; the library gets it as an
+    argument.
+
+    Raises
+    ------
+    ConfigError
+        ``--workers`` below 1, or a variable that is not a positive integer.
+
+    Examples
+    --------
+    >>> command_workers(3)
+    3
+    """
+    from ema_pipeline.runner import available_cores
+    from ema_pipeline.threads import positive_int_setting
+
+    if requested is not None:
+        if requested < 1:
+            raise ConfigError(f"--workers must be at least 1, got {requested}")
+        return int(requested)
+    text = os.environ.get(WORKERS_ENV, "").strip()
+    return positive_int_setting(WORKERS_ENV, text) if text else available_cores()
 
 
 def capture_warnings() -> None:

@@ -36,7 +36,7 @@ from ema_pipeline.identification.selection.not_kept import not_kept_message
 from ema_pipeline.identification.selection.picks import identify_picks
 from ema_pipeline.threads import owned_blas_threads
 
-Backend = Callable[[FRFSet, IdentificationOptions], IdentificationResult]
+Backend = Callable[..., IdentificationResult]  # (frf, options, *, workers)
 
 #: Identification methods by name: one backend per name of
 #: :data:`~ema_pipeline.identification.options.METHOD_NAMES` (the ``Method``
@@ -192,7 +192,7 @@ def result_warnings(checked: CheckedInput, result: IdentificationResult) -> tupl
 
 def identify(
     frf: FRFSet | CheckedInput, options: IdentificationOptions | None = None, *,
-    picks: Picks | None = None, **overrides: Any,
+    picks: Picks | None = None, workers: int = 1, **overrides: Any,
 ) -> IdentificationResult:
     """Identify modal parameters from an FRF set (pLSCF + automatic selection + LSFD).
 
@@ -212,6 +212,11 @@ def identify(
         :func:`ema_pipeline.io.read_picks`): fit exactly these poles, with the
         file's band, orders and weighting, and run no automatic selection
         (:func:`~ema_pipeline.identification.selection.picks.identify_picks`).
+    workers : worker processes for the independent pieces of work (a large
+        diagram's eigenvalues, a dense band's windows, the modes' local fits;
+        :func:`ema_pipeline.runner.process_map`). The default 1 starts no
+        process, as scipy's ``workers``; ``ema-pipeline`` passes the cores.
+        The numbers are the same for every count.
     **overrides : fields of :class:`IdentificationOptions` replacing those of
         ``options``, e.g. ``identify(frf, band_hz=(5, 790), max_order=40)``.
 
@@ -266,7 +271,8 @@ def identify(
     backend = METHODS[checked.options.method]  # a name the options checked (METHOD_NAMES)
     with owned_blas_threads():  # small linear algebra: one BLAS thread (ema_pipeline.threads)
         result = (identify_picks(checked.frf, checked.options, checked.picks)
-                  if checked.picks is not None else backend(checked.frf, checked.options))
+                  if checked.picks is not None
+                  else backend(checked.frf, checked.options, workers=workers))
     result = replace(result, warnings=result_warnings(checked, result))
     for message in result.warnings:
         warnings.warn(message, UserWarning, stacklevel=2)

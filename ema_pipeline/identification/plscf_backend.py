@@ -1,67 +1,70 @@
-"""The ``"plscf"`` backend of :func:`ema_pipeline.identification.identify`:
-pLSCF diagrams of adaptive order, pole trajectories, refinement with
-covariance, LSFD and per-mode quality.
+"""The ``"plscf"`` backend of :func:`ema_pipeline.identification.identify`: pLSCF
+diagrams of adaptive order, pole trajectories, refinement with covariance, LSFD
+and per-mode quality.
 
-:func:`identify_with` runs the stages in order, each a function of this
-module whose inputs and outputs are its arguments and its return value:
+:func:`identify_with` runs the stages in order, each a function of this module
+(stage 1 in :mod:`~ema_pipeline.identification.plscf_band`, stage 5 in
+:mod:`~ema_pipeline.identification.plscf_final_tests`) whose inputs and outputs
+are its arguments and its return value:
 
-1. :func:`band_data`: the band's FRFs as the stages see them (scaled,
-   weighted, one row per channel).
+1. :func:`~ema_pipeline.identification.plscf_band.band_data`: the band's FRFs
+   as the stages see them (scaled, weighted, one row per channel).
 2. :func:`search_diagrams`: the candidates of the adaptive order search of
-   :mod:`~ema_pipeline.identification.diagram.order_search` (diagrams of growing
-   order, pole trajectories) and of the narrower searches (a wide band's
-   lowest part, windows of a dense band), and the chosen diagram's
+   :mod:`~ema_pipeline.identification.diagram.order_search` (diagrams of
+   growing order, pole trajectories) and of the narrower searches (a wide
+   band's lowest part, windows of a dense band), and the chosen diagram's
    stabilization data.
 3. :func:`start_poles`: with ``expect_hz``, the expected candidates, answered
    from the automatic selection, whose other modes are refined beside them.
-4. :func:`refine_candidates`: every candidate's pole refined by the local
-   fit of :func:`~ema_pipeline.identification.refinement.refine.refine_poles`.
-5. The final tests over all FRFs (``options.accept``, not with
-   ``expect_hz``): :func:`first_verdict` keeps a candidate when its refined
-   decay rate is determined, when it is a resonance of the data and when it
-   is not the same mode found twice (the final tests of
-   :mod:`ema_pipeline.identification.selection.acceptance`), and refits the kept ones
-   without those that failed; :func:`try_alternates` tries a narrower
-   search's candidate where the one covering it failed; then two searches
-   look for modes that the diagrams missed: close modes hidden in a kept
-   resonance (:func:`add_close_partners`) and peaks of the residual of the
-   kept modes' fit (:func:`add_residual_peaks`; on four seed ranges of the
-   hard cases, 2712 modes, missed 22 -> 1). Their candidates are refined and
-   tested together with the kept ones; when none passes, the previous fit
-   stands (a failed candidate bends its neighbours' local fits: on the
-   measured beam two model-error peaks beside 414.6 Hz cost that mode), else
-   the fit is repeated with those that pass. With fewer than three channels
-   a close pair of kept poles that the data do not prefer to one pole, and
-   whose peaks do not show apart, is one mode (:func:`merge_unsupported_pairs`).
+4. :func:`refine_candidates`: every candidate's pole refined by the local fit
+   of :func:`~ema_pipeline.identification.refinement.refine.refine_poles`.
+5. The final tests over all FRFs (``options.accept``, not with ``expect_hz``):
+   :func:`~ema_pipeline.identification.plscf_final_tests.first_verdict` keeps a
+   candidate when its refined decay rate is determined, when it is a resonance
+   of the data and when it is not the same mode found twice (the final tests of
+   :mod:`ema_pipeline.identification.selection.acceptance`), and refits the
+   kept ones without those that failed;
+   :func:`~ema_pipeline.identification.plscf_final_tests.try_alternates` tries
+   a narrower search's candidate where the one covering it failed; then two
+   searches look for modes that the diagrams missed: close modes hidden in a
+   kept resonance
+   (:func:`~ema_pipeline.identification.plscf_final_tests.add_close_partners`)
+   and peaks of the residual of the kept modes' fit
+   (:func:`~ema_pipeline.identification.plscf_final_tests.add_residual_peaks`).
+   Their
+   candidates are refined and tested together with the kept ones; when none
+   passes, the previous fit stands (a failed candidate bends its neighbours'
+   local fits: on the measured beam two model-error peaks beside 414.6 Hz cost
+   that mode), else the fit is repeated with those that pass. With fewer than
+   three channels a close pair of kept poles that the data do not prefer to one
+   pole, and whose peaks do not show apart, is one mode
+   (:func:`~ema_pipeline.identification.plscf_final_tests.merge_unsupported_pairs`).
 6. :func:`kept_modes`: the kept modes at their refined poles with covariance
    (``options.refine``) or at their start poles.
 7. :func:`finished`, :func:`with_band_support`, :func:`with_pair_flags`,
    :func:`with_not_kept`: LSFD and the result, which narrower searches hold
-   each mode, which close pairs fewer than three channels cannot support,
-   the resonances the FRFs show that no mode was kept for.
+   each mode, which close pairs fewer than three channels cannot support, the
+   resonances the FRFs show that no mode was kept for.
 
-``options.accept`` switches the final tests and searches of stage 5 (off:
-every selected candidate is kept, untested); ``options.refine`` decides
-whether the kept modes are reported at their refined poles or at their start
-poles (the final tests judge refined poles either way).
+``options.accept`` switches the final tests and searches of stage 5 (off: every
+selected candidate is kept, untested); ``options.refine`` decides whether the
+kept modes are reported at their refined poles or at their start poles (the
+final tests judge refined poles either way).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ema_pipeline.data import FRFSet, Quantity
+from ema_pipeline.data import FRFSet
 from ema_pipeline.identification.common import (
     default_max_order,
     finish_identification,
-    resolve_band,
 )
 from ema_pipeline.identification.diagram.narrower_searches import (
     band_support,
-    shown_by_the_frfs,
-    uncovered_alternates,
 )
 from ema_pipeline.identification.diagram.order_search import (
     OrderSearch,
@@ -73,6 +76,15 @@ from ema_pipeline.identification.diagram.plscf import PoleSet
 from ema_pipeline.identification.diagram.resources import order_cap
 from ema_pipeline.identification.diagram.stabilization import StabilizationData, stabilization
 from ema_pipeline.identification.options import IdentificationOptions
+from ema_pipeline.identification.plscf_band import BandData, band_data
+from ema_pipeline.identification.plscf_final_tests import (
+    Retest,
+    add_close_partners,
+    add_residual_peaks,
+    first_verdict,
+    merge_unsupported_pairs,
+    try_alternates,
+)
 from ema_pipeline.identification.refinement.refine import (
     RefinedPoles,
     band_sensitivity,
@@ -87,21 +99,14 @@ from ema_pipeline.identification.result import (
 )
 from ema_pipeline.identification.selection.acceptance import (
     Candidates,
-    add_found,
-    decay_determined,
-    final_tests,
-    inside_band,
-    refit_kept,
 )
 from ema_pipeline.identification.selection.not_kept import resonances_not_kept
 from ema_pipeline.identification.selection.pairs import (
     close_pairs,
     pair_significance,
     peaks_apart,
-    unsupported_partners,
 )
-from ema_pipeline.identification.selection.partners import SplitCalibration, close_partners
-from ema_pipeline.identification.selection.residual_search import residual_peaks
+from ema_pipeline.identification.selection.partners import SplitCalibration
 from ema_pipeline.identification.selection.trajectories import (
     SelectedPoles,
     expected_from_automatic,
@@ -109,10 +114,11 @@ from ema_pipeline.identification.selection.trajectories import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import poles_overlap
-from ema_pipeline.threads import Mapper, available_cores, process_map
+from ema_pipeline.runner import Mapper, process_map
 
 
-def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
+def identify_plscf(frf: FRFSet, options: IdentificationOptions, *,
+                   workers: int = 1) -> IdentificationResult:
     """Identify with this package's pLSCF chain.
 
     Called by :func:`ema_pipeline.identification.identify`, which checks the
@@ -121,10 +127,10 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     call that, not this, with unchecked input. Independent work (the
     companion eigenvalues of a large diagram, the searches of a dense band's
     windows, the local fits of the modes) is shared out among worker
-    processes (:func:`ema_pipeline.threads.process_map`: the cores, or
-    ``$EMA_PIPELINE_WORKERS``); the numbers are those of one process.
+    processes (``workers`` of them, :func:`ema_pipeline.runner.process_map`;
+    1: none); the numbers are those of one process.
     """
-    with process_map(available_cores()) as map_:
+    with process_map(workers, workers) as map_:
         return identify_with(frf, options, map_)
 
 
@@ -157,73 +163,6 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     if judged:
         result = with_pair_flags(result, data, kept.judged, merged, calibration)
     return with_not_kept(result, data, retest.rejected, kept.judged)
-
-
-# ------------------------------------------------------------------ 1. the band
-@dataclass(frozen=True)
-class BandData:
-    """The band's FRFs as every stage sees them (:func:`band_data`).
-
-    Attributes
-    ----------
-    sub : the FRF set cut to the band.   band_hz : (lo, hi) in Hz.
-    Hn : (n_out, n_in, n_freq) each output scaled by its RMS in the band.
-    Hc, Hn_c : ``sub.H`` and ``Hn`` with one row per channel (n_out * n_in).
-    weights : the lines' weights of the pLSCF equations (coherence
-        weighting), or None.
-    min_peak : the peak ratio a candidate must reach in the search's screen.
-    window_decay_rate : 1/tau of the exponential window (1/s; 0 without).
-    window_tau_s, force_window_s : the windows of the FRFs (s, or None).
-    expect_hz : the expected frequencies (Hz), None for the automatic selection.
-    thresholds : the selection's thresholds.
-    """
-
-    sub: FRFSet
-    band_hz: tuple[float, float]
-    Hn: np.ndarray
-    Hc: np.ndarray
-    Hn_c: np.ndarray
-    weights: np.ndarray | None
-    min_peak: float
-    window_decay_rate: float
-    window_tau_s: float | None
-    force_window_s: float | None
-    expect_hz: np.ndarray | None
-    thresholds: SelectionThresholds
-
-    @property
-    def freq_hz(self) -> np.ndarray:
-        return self.sub.freq_hz
-
-    @property
-    def quantity(self) -> Quantity:
-        return self.sub.quantity
-
-
-def band_data(frf: FRFSet, options: IdentificationOptions) -> BandData:
-    """Stage 1: the FRFs of the options' band (:func:`resolve_band`), each
-    output scaled by its RMS in the band, the coherence weights and the
-    windows."""
-    lo, hi = resolve_band(frf, options.band_hz)
-    sub = frf.band(lo, hi)
-    n_out, n_in, n_freq = sub.H.shape
-    th = options.thresholds
-    rms = np.sqrt(np.mean(np.abs(sub.H) ** 2, axis=(1, 2)))
-    Hn = sub.H / rms[:, None, None]
-    weights = None
-    if options.weighting == "coherence":
-        assert sub.coherence is not None  # identify() refuses coherence weighting without it
-        weights = np.sqrt(np.clip(np.mean(sub.coherence, axis=1), 0.0, 1.0))
-    return BandData(
-        sub=sub, band_hz=(lo, hi), Hn=Hn, Hc=sub.H.reshape(n_out * n_in, n_freq),
-        Hn_c=Hn.reshape(n_out * n_in, n_freq), weights=weights,
-        min_peak=th.min_peak_ratio_shapes if n_out * n_in >= 3 else th.min_peak_ratio,
-        window_decay_rate=float(frf.acquisition.window_decay_rate),
-        window_tau_s=frf.acquisition.exp_window_tau_s,
-        force_window_s=frf.acquisition.force_window_s,
-        expect_hz=np.asarray(options.expect_hz, dtype=float) if options.expect_hz else None,
-        thresholds=th,
-    )
 
 
 # ------------------------------------------------------------------ 2. the diagrams
@@ -342,137 +281,6 @@ def refine_candidates(data: BandData, start: StartPoles,
         ref.pole, ref.cov, ref.noise_std, ref.band_hz, ref.n_iter)))
     none = np.zeros(m, bool)
     return Candidates(start.sel, ref, np.ones(m, bool), none, none), near
-
-
-# ------------------------------------------------------------------ 5. the final tests
-@dataclass
-class Retest:
-    """Refine candidates and run the final tests over all FRFs on them: the
-    ``retest(candidates, partner, strict) -> (refined, keep)`` of
-    :func:`~ema_pipeline.identification.selection.acceptance.add_found` and
-    :func:`~ema_pipeline.identification.selection.acceptance.refit_kept`. Every
-    verdict's failed poles whose decay rate is determined are collected in
-    ``rejected`` (for :func:`with_not_kept`)."""
-
-    data: BandData
-    map_: Mapper
-    rejected: list[np.ndarray] = field(default_factory=list)
-
-    def verdict(self, ref: RefinedPoles, n_members: np.ndarray, partner: np.ndarray | None = None,
-                strict: np.ndarray | None = None) -> np.ndarray:
-        """Which refined poles ``ref`` pass the final tests; the failed ones
-        with a determined decay rate go to ``rejected``."""
-        d, th = self.data, self.data.thresholds
-        ok = final_tests(d.freq_hz, d.Hc, d.Hn_c, ref, d.quantity, n_members,
-                         partner=partner, strict=strict, thresholds=th)
-        self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, thresholds=th)])
-        return ok
-
-    def could_pass(self, candidates: SelectedPoles, indices: np.ndarray) -> np.ndarray:
-        """Whether each candidate at ``indices`` can pass :meth:`verdict` when
-        all ``candidates`` are refined together: its own local fit among them
-        (the fit that refinement would give it: each mode's local fit is its
-        own, :func:`refine_poles` with ``modes``) has a determined decay rate
-        and lies inside the band, which every pole that passes has. Where
-        none can, the caller skips that refinement: those with a determined
-        decay rate go to ``rejected`` as its verdict would send them. (A kept
-        pole that the joint fit bent until it failed would have gone there
-        too; unrefitted, none does. On the snapshot cases, the measured beam
-        in five bands and the pyFRF recording the not-kept lists are the
-        same.)"""
-        d, th = self.data, self.data.thresholds
-        ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
-                           window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
-                           thresholds=th, map_=self.map_, modes=indices)
-        pole, cov = ref.pole[indices], ref.cov[indices]
-        determined = decay_determined(pole, cov, thresholds=th)
-        ok = determined & inside_band(d.freq_hz, pole, thresholds=th)
-        if not ok.any():
-            self.rejected.append(pole[determined])
-        return ok
-
-    def __call__(self, candidates: SelectedPoles, partner: np.ndarray,
-                 strict: np.ndarray) -> tuple[RefinedPoles, np.ndarray]:
-        d = self.data
-        ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
-                           window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
-                           thresholds=d.thresholds, map_=self.map_)
-        return ref, self.verdict(ref, candidates.n_members, partner, strict)
-
-
-def first_verdict(found: Candidates, retest: Retest) -> Candidates:
-    """Stage 5a: the final tests on the refined candidates, then the kept
-    ones refined and tested again without those that failed
-    (:func:`~ema_pipeline.identification.selection.acceptance.refit_kept`)."""
-    found = replace(found, keep=retest.verdict(found.ref, found.sel.n_members))
-    return refit_kept(found, retest, retest.data.thresholds.refit_rounds)
-
-
-def try_alternates(found: Candidates, searched: tuple[SearchedBand, ...],
-                   retest: Retest) -> Candidates:
-    """Stage 5b: where a candidate failed, the narrower searches' candidate it
-    covered (:func:`uncovered_alternates`), when the FRFs show a peak there
-    (:func:`shown_by_the_frfs`)."""
-    d = retest.data
-    alt = uncovered_alternates(found.kept_poles(), [e[2] for e in searched])
-    alt = alt[shown_by_the_frfs(d.freq_hz, d.Hc, alt, thresholds=d.thresholds)]
-    return add_found(found, alt, partner=False, strict=np.zeros(alt.size, bool),
-                     retest=retest, found_by="alternate", screen=retest.could_pass)
-
-
-def add_close_partners(found: Candidates,
-                       retest: Retest) -> tuple[Candidates, SplitCalibration]:
-    """Stage 5c: close modes hidden in a kept resonance
-    (:func:`~ema_pipeline.identification.selection.partners.close_partners`).
-    Returns the candidates and, with fewer than ``min_shape_channels``
-    channels, whether the two-poles-against-one F test is calibrated on the
-    band's data (``ClosePartners.calibration``, evaluated when
-    :func:`with_pair_flags` asks)."""
-    d = retest.data
-    partners = close_partners(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
-                              window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
-                              thresholds=d.thresholds, map_=retest.map_)
-    found = add_found(found, partners.pole, partner=True,
-                      strict=np.zeros(partners.pole.size, bool), retest=retest,
-                      found_by="partner", screen=retest.could_pass)
-    return found, partners.calibration
-
-
-def add_residual_peaks(found: Candidates, retest: Retest) -> Candidates:
-    """Stage 5d: modes that no diagram resolved, from the peaks of the kept
-    modes' residual (:func:`residual_peaks`); starts from a slope into the
-    band's edge (a mode outside the band looks the same) must pass the
-    resonance test by their peak."""
-    d = retest.data
-    peaks, from_edge = residual_peaks(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
-                                      thresholds=d.thresholds)
-    return add_found(found, peaks, partner=False, strict=from_edge, retest=retest,
-                     found_by="residual", screen=retest.could_pass)
-
-
-def merge_unsupported_pairs(found: Candidates,
-                            retest: Retest) -> tuple[Candidates, np.ndarray]:
-    """Stage 5e, with fewer than ``min_shape_channels`` channels: of a close
-    pair of kept poles that one channel cannot support (not significant, its
-    peaks not apart:
-    :func:`~ema_pipeline.identification.selection.pairs.unsupported_partners`),
-    the weaker is dropped and the rest refitted
-    (:func:`~ema_pipeline.identification.selection.acceptance.refit_kept`).
-    Returns the candidates and the poles of the partners that stayed (before
-    the refit), whose modes :func:`with_pair_flags` marks."""
-    d = retest.data
-    none = np.zeros(0, dtype=complex)
-    if d.Hc.shape[0] >= d.thresholds.min_shape_channels or not found.keep.any():
-        return found, none
-    drop, merged = unsupported_partners(d.freq_hz, d.Hc, found.kept_poles(), d.quantity,
-                                        thresholds=d.thresholds)
-    if not drop.any():
-        return found, none
-    kept_at = np.flatnonzero(found.keep)
-    keep = found.keep.copy()
-    keep[kept_at[drop]] = False
-    staying = found.kept_poles()[merged]
-    return refit_kept(replace(found, keep=keep), retest, d.thresholds.refit_rounds), staying
 
 
 # ------------------------------------------------------------------ 6. the kept modes
@@ -604,11 +412,13 @@ def with_pair_flags(result: IdentificationResult, data: BandData, judged: np.nda
     as two (``IdentificationResult.pair_flags``): a close pair
     (:func:`~ema_pipeline.identification.selection.pairs.close_pairs`) whose
     peaks do not show apart (:data:`PAIR_UNDER_ONE_PEAK`), unless the F test
-    is calibrated on these data (``calibration``, :func:`add_close_partners`) and prefers
+    is calibrated on these data (``calibration``,
+    :func:`~ema_pipeline.identification.plscf_final_tests.add_close_partners`) and prefers
     the two poles to one clearly
     (:func:`~ema_pipeline.identification.selection.pairs.pair_significance`
     with the window's line correlation, at least ``pair_clear_significance``);
-    and the mode nearest each pole of ``merged`` (:func:`merge_unsupported_pairs`:
+    and the mode nearest each pole of ``merged``
+    (:func:`~ema_pipeline.identification.plscf_final_tests.merge_unsupported_pairs`:
     a second pole beside it was dropped, :data:`SECOND_POLE_DROPPED`)."""
     th = data.thresholds
     if data.Hc.shape[0] >= th.min_shape_channels or judged.size == 0:

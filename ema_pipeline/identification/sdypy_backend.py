@@ -63,7 +63,8 @@ def min_sdypy_order(n_modes: int) -> int:
     return max(10, 2 * int(n_modes))
 
 
-def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> IdentificationResult:
+def identify_sdypy(frf: FRFSet, options: IdentificationOptions, *,
+                   workers: int = 1) -> IdentificationResult:
     """Identify with sdypy-EMA (the ``"sdypy-lscf"`` backend).
 
     ``options.max_order`` is sdypy-EMA's ``pol_order_high`` (default 100, its
@@ -77,7 +78,7 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
     come from this package's LSFD at sdypy-EMA's poles (each mode's local
     LSFD, as for pLSCF: :func:`~ema_pipeline.identification.common.finish_identification`).
     Called by :func:`ema_pipeline.identification.identify`, which checks the
-    input first.
+    input first; ``workers`` worker processes serve the automatic selection.
     """
     from sdypy import EMA
 
@@ -89,7 +90,7 @@ def identify_sdypy(frf: FRFSet, options: IdentificationOptions) -> Identificatio
         auto = identify_plscf(frf, IdentificationOptions(
             band_hz=(lo, hi), refine=False, accept=False,
             window_searches=options.window_searches,
-            thresholds=options.thresholds))
+            thresholds=options.thresholds), workers=workers)
         guesses = auto.modes.fd_hz
         if guesses.size == 0:
             raise DataError("sdypy-lscf: the automatic selection found no mode to look for")

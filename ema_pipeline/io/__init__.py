@@ -61,18 +61,14 @@ from ema_pipeline.io.geometry import (
     write_geometry_uff,
 )
 from ema_pipeline.io.hdf5 import (
-    FORK_SAFE_THREAD_NAME,
     HDF5_SUFFIXES,
-    MAX_DATASET_BYTES,
     SCHEMA_FRF,
     SCHEMA_RESULTS,
     SCHEMA_VERSION,
-    check_hdf5,
     completed_result_sha256,
     read_frf_from_results,
     read_frf_group,
     read_frf_h5,
-    read_identification_result,
     read_results_h5,
     result_details,
     results_complete,
@@ -81,6 +77,9 @@ from ema_pipeline.io.hdf5 import (
     write_frf_h5,
     write_results_h5,
 )
+from ema_pipeline.io.hdf5_access import MAX_DATASET_BYTES
+from ema_pipeline.io.hdf5_check import check_hdf5
+from ema_pipeline.io.hdf5_result import read_identification_result
 from ema_pipeline.io.picks import picks_toml, read_picks, write_picks
 from ema_pipeline.io.recording import (
     RECORDING_SUFFIXES,
@@ -249,7 +248,6 @@ __all__ = [
     "atomic_folder",
     "atomic_path",
     "axis_is_uniform",
-    "FORK_SAFE_THREAD_NAME",
     "check_hdf5",
     "check_not_inputs",
     "check_readable",

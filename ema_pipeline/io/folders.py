@@ -22,6 +22,8 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
+from ema_pipeline.runner import pid_alive  # re-exported: the runner owns process facts
+
 __all__ = ["atomic_folder", "partial_folder", "pid_alive", "remove_stale_partials", "swap_in"]
 
 
@@ -85,27 +87,6 @@ def swap_in(new_dir: Path, results_dir: Path) -> None:
         os.rename(old, results_dir)
         raise
     shutil.rmtree(old, ignore_errors=True)
-
-
-def pid_alive(pid: int) -> bool:
-    """Whether a process ``pid`` exists (another user's counts as alive; a zombie,
-    killed but not yet reaped by its parent, does not).
-
-    Examples
-    --------
-    >>> pid_alive(os.getpid()), pid_alive(2 ** 22 + 1)
-    (True, False)
-    """
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except OSError:
-        return True
-    try:  # Linux: the state after the command's closing parenthesis; Z: a zombie
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except (OSError, IndexError):
-        return True
 
 
 def remove_stale_partials(results_dir: str | os.PathLike[str]) -> int:

@@ -16,10 +16,10 @@ from the end of its journal.
 from __future__ import annotations
 
 import concurrent.futures as cf
-import os
 import threading
 import time
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -30,40 +30,23 @@ from ema_pipeline.io.live_session import SessionFolder
 from ema_pipeline.live.device import Device, PlanPoint
 from ema_pipeline.live.judge import LiveHit, PointStream
 from ema_pipeline.pipeline.frf import FRFSettings
+from ema_pipeline.runner import ProcessPool
 
-__all__ = ["LiveTest", "identification_pool", "identify_session", "init_identification_worker"]
+__all__ = ["LiveTest", "identification_pool", "identify_session"]
 
 #: Seconds between two redraws of the live trace.
 TRACE_EVERY_S = 0.25
 
 
-def identification_pool() -> cf.Executor:
-    """The one worker process that identifies the points so far (spawned, so that
-    it shares no thread or lock with the server; its BLAS threads set as the
-    pipeline's workers are, :func:`ema_pipeline.threads.init_worker_process`)."""
-    import multiprocessing
-
-    return cf.ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context("spawn"),
-                                  initializer=init_identification_worker,
-                                  initargs=(os.getpid(),))
+def identification_pool() -> ProcessPool:
+    """The one worker process that identifies the points so far: the runner's pool
+    started by a fork server (a fresh interpreter: it shares no thread or lock with
+    the server), BLAS threads as the runner sets them, ended when this process
+    dies (:class:`ema_pipeline.runner.ProcessPool`)."""
+    return ProcessPool(1, start="server", preload=("ema_pipeline.live.engine",))
 
 
-def init_identification_worker(parent_pid: int) -> None:
-    """Set the worker's BLAS threads, and end it when its parent is gone (a server
-    killed with SIGKILL leaves no worker behind)."""
-    from ema_pipeline.threads import init_worker_process
-
-    init_worker_process()
-
-    def watch() -> None:
-        while os.getppid() == parent_pid:
-            time.sleep(0.5)
-        os._exit(0)
-
-    threading.Thread(target=watch, name="parent-watch", daemon=True).start()
-
-
-def identify_session(folder: str, band_hz: tuple[float, float] | None) -> dict[str, Any]:
+def identify_session(folder: str, band_hz: tuple[float, float] | None = None) -> dict[str, Any]:
     """Identify the points done of a session folder: the FRFs of ``frf --channels
     DIR/channels.csv --hits DIR/hits.toml`` (default settings), then ``identify``
     (``--band``); the modes as plain numbers (``error``: why none).
@@ -135,7 +118,7 @@ class LiveTest:
         self.identifying = False
         self.modes: dict[str, Any] = {}
         self.identify_points = identify_points
-        self._pool: cf.Executor | None = None
+        self._pool: ProcessPool | None = None
         self._job = 0
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
@@ -224,7 +207,7 @@ class LiveTest:
             self._thread.join(timeout=5)
         self.device.stop()
         if self._pool is not None:
-            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool.close(abort=True)
         self.session.unlock()
 
     # -- the acquisition thread ---------------------------------------------
@@ -402,11 +385,12 @@ class LiveTest:
         self._job += 1
         job = self._job
         self.identifying = True
+        work = partial(identify_session, band_hz=self.band_hz)
         try:
-            future = self._pool.submit(identify_session, str(self.session.folder), self.band_hz)
+            future = self._pool.submit(work, str(self.session.folder))
         except cf.process.BrokenProcessPool:  # the worker died (killed): a new one
-            self._pool = identification_pool()
-            future = self._pool.submit(identify_session, str(self.session.folder), self.band_hz)
+            self._pool.restart()
+            future = self._pool.submit(work, str(self.session.folder))
         future.add_done_callback(lambda f: self._identified(f, job, final))
 
     def _identified(self, future: cf.Future, job: int, final: bool) -> None:

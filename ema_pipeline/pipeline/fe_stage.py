@@ -51,6 +51,15 @@ __all__ = [
 TABLE6_METHODS: tuple[str, ...] = (*METHODS, EXACT_METHOD)
 
 
+class _Bar(tqdm):
+    """The model update's bar, without tqdm's monitor thread: the monitor
+    outlives the bars, and a thread beside this one makes the runner's
+    fork-safety rule (:func:`ema_pipeline.runner.fork_is_safe`) refuse every
+    later fork of the process (worker pools, HDF5 checks)."""
+
+    monitor_interval = 0
+
+
 @contextmanager
 def update_progress_bar(enabled: bool = True) -> Iterator[Callable[[int, int], None] | None]:
     """A tqdm bar over the model update's runs, as the ``progress`` callback of
@@ -58,12 +67,12 @@ def update_progress_bar(enabled: bool = True) -> Iterator[Callable[[int, int], N
     if not enabled:
         yield None
         return
-    bars: list[tqdm] = []  # created at the first call, when the total is known
+    bars: list[_Bar] = []  # created at the first call, when the total is known
 
     def advance(done: int, total: int) -> None:
         if not bars:
             desc = "model update (differential evolution)"
-            bars.append(tqdm(total=total, desc=desc, leave=False))
+            bars.append(_Bar(total=total, desc=desc, leave=False))
         bars[0].update(done - bars[0].n)
 
     try:

@@ -3,12 +3,14 @@ worker processes, with the results given back in the order of the files.
 
 Each file is independent (its own outputs, its own identification), so the
 outputs are those of a serial run, byte for byte; only the wall time changes.
-Workers are forked from the command's process, which has imported the
-identification chain and opened no file by then (a fork costs milliseconds,
-a fresh interpreter 2-3 s of imports), and inherit its one BLAS thread
-(:mod:`ema_pipeline.threads`); a worker starts no workers of its own (the
-windows of a dense band are searched in the process that has the file).
-``$EMA_PIPELINE_WORKERS=1`` runs the files in the process itself.
+Workers are forked from the command's process (:func:`ema_pipeline.runner.process_imap`),
+which has imported the identification chain and opened no file by then (a
+fork costs milliseconds, a fresh interpreter 2-3 s of imports), and inherit
+its BLAS threads (:mod:`ema_pipeline.threads`); a worker starts no workers of
+its own (the windows of a dense band are searched in the process that has the
+file). One file, or ``workers=1``, is identified in the process itself, its
+windows in ``workers`` processes. A file that kills its worker (out of
+memory, a crash) is reported as failed, naming it; the others go on.
 """
 
 from __future__ import annotations
@@ -24,9 +26,9 @@ from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.identification.picked import Picks
 from ema_pipeline.pipeline.reports import write_identify_report
 from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
-from ema_pipeline.threads import process_imap
+from ema_pipeline.runner import process_imap
 
-__all__ = ["FileJob", "identify_files"]
+__all__ = ["FileJob", "crashed_file", "identify_files"]
 
 
 @dataclass(frozen=True)
@@ -41,6 +43,7 @@ class FileJob:
     uff: bool = False  # <stem>_modes.uff
     picks: Picks | None = None
     geometry: Geometry | None = None
+    workers: int = 1  # worker processes of one file's identification
 
 
 def identify_one(path: Path, job: FileJob) -> tuple[FileOutcome, Path | None]:
@@ -49,7 +52,7 @@ def identify_one(path: Path, job: FileJob) -> tuple[FileOutcome, Path | None]:
     Returns the outcome without the FRFs and the result (what the caller
     prints) and the report page (``None`` without one)."""
     outcome = identify_file(path, job.out_dir, job.options, keep=job.report, uff=job.uff,
-                            picks=job.picks)
+                            picks=job.picks, workers=job.workers)
     page = None
     if job.report and outcome.status != "failed":
         page = write_identify_report(outcome, job.out_dir, job.options, figures=job.figures,
@@ -58,11 +61,12 @@ def identify_one(path: Path, job: FileJob) -> tuple[FileOutcome, Path | None]:
 
 
 def identify_files(
-    paths: list[Path], job: FileJob, workers: int | None = None,
+    paths: list[Path], job: FileJob, workers: int = 1,
 ) -> Iterator[tuple[FileOutcome, Path | None]]:
-    """:func:`identify_one` for each file, in ``workers`` processes (default
-    :func:`ema_pipeline.threads.worker_count`;
-    :func:`ema_pipeline.threads.process_imap`), yielded in the files' order.
+    """:func:`identify_one` for each file, in ``workers`` processes
+    (:func:`ema_pipeline.runner.process_imap`; one file: in this process, its
+    identification in ``workers`` processes), yielded in the files' order. A
+    file whose worker process dies gives a failed outcome naming it.
 
     Raises
     ------
@@ -76,4 +80,10 @@ def identify_files(
             raise ConfigError(f"{by_output[key]} and {path} would write the same outputs "
                               f"({key.name}); identify them into different --out folders")
         by_output[key] = Path(path)
-    yield from process_imap(partial(identify_one, job=job), list(paths), workers)
+    yield from process_imap(partial(identify_one, job=replace(job, workers=workers)),
+                            list(paths), workers, crashed=crashed_file)
+
+
+def crashed_file(path: Path, reason: str) -> tuple[FileOutcome, Path | None]:
+    """The outcome of a file whose worker process died (``reason`` names the file)."""
+    return FileOutcome(path=Path(path), status="failed", runtime=True, reason=reason), None

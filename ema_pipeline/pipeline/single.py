@@ -66,7 +66,7 @@ def write_result_uff(
     path: str | Path,
     node_coordinates: dict[int, tuple[float, float, float]] | None = None,
 ) -> Path:
-    """Write identified modes as a Universal File (issue 12 export).
+    """Write identified modes as a Universal File.
 
     Dataset 164 (SI), 15 and 82 when ``node_coordinates`` (m) are known, one
     55 per mode (fn, zeta, complex shape at the response DOFs) and 58 with the
@@ -128,6 +128,7 @@ def identify_file(
     keep: bool = False,
     uff: bool = False,
     picks: Picks | None = None,
+    workers: int = 1,
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
@@ -142,6 +143,7 @@ def identify_file(
     are returned as ``status="failed"`` with the reason, never raised. With
     ``picks`` (a picks file, :func:`ema_pipeline.io.read_picks`) exactly those
     poles are fitted (:func:`ema_pipeline.identification.selection.picks.identify_picks`).
+    ``workers``: worker processes of the identification (``identify(workers=)``).
     """
     options = IdentificationOptions() if options is None else options
     path, out_dir = Path(path), Path(out_dir)
@@ -162,7 +164,7 @@ def identify_file(
         checked = check_input(frf, options, picks=picks)  # every other check, once
         frf = checked.frf  # as identified: the FRFs kept with the result match its shapes
         out_dir.mkdir(parents=True, exist_ok=True)  # an unusable output folder fails now
-        result = identify(checked)
+        result = identify(checked, workers=workers)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_columns(result)  # its found_by column: diagram, ..., expected, picked

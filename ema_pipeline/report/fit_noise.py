@@ -1,5 +1,5 @@
 """The error the noise alone gives a fit: what the fit verdict of the identify
-page compares the fit error with (issue 41).
+page compares the fit error with.
 
 The residual ``R = H - H_fit`` of a fit with every mode holds the noise of
 the data; a mode missing (or wrong) adds a smooth resonance to it, spread over

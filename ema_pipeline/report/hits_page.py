@@ -43,13 +43,14 @@ REASON_TEXT = {
     "not_decayed": "not decayed: the response has not decayed at the record end and no "
                    "exponential window is allowed",
     "low_force": "low force: the force peak is far below the other hits'",
-    "outlier": "outlier: force peak, pulse width or response level far from the other "
-               "hits'",
+    "outlier": "outlier: pulse width, response per unit force or FRF shape far from "
+               "the other hits' (a soft hit is not an outlier)",
 }
 
 #: The verdict of a hit that passes every check (the checks of REASON_TEXT).
 ACCEPTED_TEXT = ("accepted: passed every check (one force pulse, inside the data, no "
-                 "clipping, response decayed, force in line with the other hits)")
+                 "clipping, response decayed, force not far below the other hits, "
+                 "pulse and FRF in line with theirs)")
 
 _W = 720
 _PANEL_W, _PANEL_H = 170, 150

@@ -27,7 +27,8 @@ the most determined modes is used, plus the determined resonances (the peak
 test of :func:`~ema_pipeline.identification.selection.acceptance.resonant` passed too) of the other
 diagrams that none of its candidates covers: at low SNR a mode is sometimes
 resolved at one order and a neighbour's trajectory at another, and the best
-diagram alone loses one of them (SNR hard cases, seeds 600-615: 1 -> 0 missed of 66).
+diagram alone loses one of them (measured on the SNR hard cases:
+``docs/validation.md``).
 
 Wide bands: when the band's top is more than ``zoom_ratio`` times its
 bottom, the same search runs once more on its lowest 1/``zoom_ratio``
@@ -67,7 +68,7 @@ from ema_pipeline.identification.selection.trajectories import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, poles_overlap
-from ema_pipeline.threads import Mapper, SerialMap, map_costliest_first
+from ema_pipeline.runner import Mapper, SerialMap, map_costliest_first
 
 
 def diagram_orders(p: int, n_in: int, max_orders: int) -> np.ndarray:
@@ -152,7 +153,7 @@ class OrderSearch:
     thresholds: SelectionThresholds
     tolerances: tuple[float, float, float] | None = None
     #: worker processes for the diagrams' eigenvalues and the windows'
-    #: searches (:func:`ema_pipeline.threads.process_map`; None: this process)
+    #: searches (:func:`ema_pipeline.runner.process_map`; None: this process)
     map_: Mapper | None = field(default=None, compare=False, repr=False)
 
     def run(

@@ -50,7 +50,7 @@ import numpy as np
 from scipy import linalg
 
 from ema_pipeline.data import DataError
-from ema_pipeline.threads import Mapper, map_costliest_first
+from ema_pipeline.runner import Mapper, map_costliest_first
 
 
 @dataclass(frozen=True)
@@ -281,7 +281,7 @@ def plscf(
     orders : orders to solve (default 1..p).
     weights : (n_freq,) or (n_out, n_freq) line weights, optional.
     dt : z-domain sampling time; default 1 / (2 * freq_hz[-1]) (band top).
-    map_ : a :class:`~ema_pipeline.threads.Mapper` of worker processes: the
+    map_ : a :class:`~ema_pipeline.runner.Mapper` of worker processes: the
         companion eigenvalues of the orders, shared out among them when they
         are worth it (:data:`PARALLEL_MIN_SIZE3`); the same numbers.
 

@@ -29,7 +29,10 @@ from ema_pipeline.identification.options import DEFAULT_MEMORY_LIMIT_GB, Identif
 
 #: Environment variable the command line reads for its ``--memory-limit-gb``
 #: default (GiB); the library never reads it.
-MEMORY_LIMIT_ENV = "EMA_MEMORY_LIMIT_GB"
+MEMORY_LIMIT_ENV = "EMA_PIPELINE_MEMORY_LIMIT_GB"
+#: Its former name (the one variable without the ``EMA_PIPELINE_`` prefix):
+#: the command line still reads it, with a note to rename it.
+OLD_MEMORY_LIMIT_ENV = "EMA_MEMORY_LIMIT_GB"
 #: Fewest frequency lines in the band.
 MIN_BAND_LINES = 16
 _GIB = 1 << 30

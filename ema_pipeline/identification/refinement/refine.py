@@ -48,7 +48,7 @@ from ema_pipeline.identification.refinement.uncertainty import (
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.numerics import MarquardtDamping, marquardt_step
-from ema_pipeline.threads import Mapper, map_each
+from ema_pipeline.runner import Mapper, map_each
 
 
 @dataclass(frozen=True)
@@ -359,7 +359,7 @@ def refine_poles(
     ----------
     freq_hz : (n_freq,) Hz.   H : (n_ch, n_freq) complex FRFs (any quantity).
     poles : (n_modes,) identified poles (rad/s, Im > 0).
-    map_ : a :class:`~ema_pipeline.threads.Mapper` of worker processes: the
+    map_ : a :class:`~ema_pipeline.runner.Mapper` of worker processes: the
         modes' local fits (independent of each other) shared out among them
         from :data:`PARALLEL_MIN_MODES` modes on; the same numbers.
     modes : the indices of the poles to refine (default all); the others keep

@@ -99,7 +99,7 @@ def add_found(
 
     ``screen(candidates, indices)`` says which of the candidates at
     ``indices`` (the new ones) can pass at all, before the fit of all of
-    them (:meth:`~ema_pipeline.identification.plscf_backend.Retest.could_pass`:
+    them (:meth:`~ema_pipeline.identification.plscf_final_tests.Retest.could_pass`:
     the tests of each pole on its own local fit); where none can, that fit
     is not made, and ``found`` stands as it would after it. On a simulated
     paper file the residual peaks of the noise, whose decay rates the data
@@ -397,7 +397,8 @@ def distinct_shapes(
     one stable at more model orders ``n_orders``, else (equal or not given)
     the one with the larger response. Close modes with different shapes stay
     apart, unless one of them is the split of the other (see
-    ``split_max_mpc``, ``split_mpc_gap``).
+    ``split_max_mpc``, ``split_mpc_gap``, ``split_max_gap``: less than 1 %
+    apart by default).
 
     Examples
     --------
@@ -431,7 +432,8 @@ def distinct_shapes(
             if n_orders is not None and n_orders[idx[a]] != n_orders[idx[b]]:
                 na, nb = n_orders[idx[a]], n_orders[idx[b]]
             out[idx[b] if na >= nb else idx[a]] = False
-        elif gap < width and min(collinear[a], collinear[b]) < th.split_max_mpc and (
+        elif gap < min(width, th.split_max_gap * max(pa.imag, pb.imag)) and min(
+                collinear[a], collinear[b]) < th.split_max_mpc and (
                 abs(collinear[a] - collinear[b]) >= th.split_mpc_gap):
             out[idx[a] if collinear[a] < collinear[b] else idx[b]] = False
     return out

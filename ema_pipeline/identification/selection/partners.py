@@ -33,7 +33,7 @@ from ema_pipeline.identification.refinement.refine import (
 from ema_pipeline.identification.selection.acceptance import decay_determined
 from ema_pipeline.identification.selection.pairs import f_test_calibrated, pair_significance
 from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.threads import Mapper, map_each
+from ema_pipeline.runner import Mapper, map_each
 
 
 @dataclass(frozen=True)
@@ -112,7 +112,7 @@ def close_partners(
     ``ClosePartners.calibrated``: the model error of measured data makes a
     split significant beside most modes, and one channel cannot tell a
     hidden mode from it). With ``map_`` (worker processes,
-    :func:`ema_pipeline.threads.map_each`) the modes' split fits are shared
+    :func:`ema_pipeline.runner.map_each`) the modes' split fits are shared
     out from :data:`~ema_pipeline.identification.refinement.refine.PARALLEL_MIN_MODES`
     modes on; the same numbers.
 

@@ -41,13 +41,12 @@ Atomic writes and resume by content hash
     writing into one ``OUT`` at the same time.
 
 Local processes
-    By default tasks run in one worker process per core (``$EMA_PIPELINE_WORKERS``
-    caps them; :mod:`ema_pipeline.threads`), in a
+    Tasks run in ``workers`` local processes (:class:`ema_pipeline.runner.ProcessPool`;
+    the library's default 1, ``ema-pipeline batch`` passes the cores), in a
     :class:`concurrent.futures.ProcessPoolExecutor` forked by a fork server
     that imported the worker code once (see :mod:`.local`: no fork of a parent
-    that has h5py open and threads running, no import per worker). Workers are
-    started with single-threaded BLAS (``OMP_NUM_THREADS=1`` etc., whatever
-    the environment says, unless ``$EMA_PIPELINE_BLAS_THREADS`` overrides):
+    that has h5py open and threads running, no import per worker). Workers run
+    BLAS on one thread (unless ``$EMA_PIPELINE_BLAS_THREADS`` overrides):
     N processes with N BLAS threads each would oversubscribe the cores, and
     the results do not depend on the number of workers. Workers
     ignore SIGINT (the parent coordinates the stop) and exit when the parent
@@ -82,7 +81,7 @@ streaming loop), :mod:`.local` and :mod:`.dask` (where tasks run),
 """
 
 from ema_pipeline.pipeline.batch.dask import DaskBackend
-from ema_pipeline.pipeline.batch.local import LocalBackend, default_workers
+from ema_pipeline.pipeline.batch.local import LocalBackend
 from ema_pipeline.pipeline.batch.resume import (
     LOCK_NAME,
     batch_lock,
@@ -116,7 +115,6 @@ __all__ = [
     "completed_details",
     "count_record",
     "csv_stream",
-    "default_workers",
     "find_inputs",
     "is_inside",
     "naming",

@@ -27,7 +27,7 @@ from ema_pipeline.data import ConfigError, EMAError
 from ema_pipeline.identification.options import IdentificationOptions
 from ema_pipeline.io import FRF_SUFFIXES, sha256_file
 from ema_pipeline.pipeline.batch.dask import DaskBackend
-from ema_pipeline.pipeline.batch.local import LocalBackend, default_workers
+from ema_pipeline.pipeline.batch.local import LocalBackend
 from ema_pipeline.pipeline.batch.resume import batch_lock, remove_stale_temporaries
 from ema_pipeline.pipeline.batch.scan import find_inputs, is_inside, output_dirs
 from ema_pipeline.pipeline.batch.summary import (
@@ -114,7 +114,9 @@ def run_batch(
         docstring), plus ``summary.csv`` and ``failures.csv``.
     options : identification settings, the same for every file (default
         :class:`IdentificationOptions()`).
-    workers : local worker processes (default: the cores this process may use).
+    workers : local worker processes (default 1: one process beside this one,
+        which a crashed or hung file cannot take down; ``ema-pipeline batch``
+        passes the cores).
         With ``scheduler``: how many tasks may run at once (default: the
         cluster's worker threads).
     scheduler : address of a dask.distributed scheduler (``tcp://host:8786``)
@@ -174,8 +176,7 @@ def run_batch(
         def make_backend() -> Backend:
             if scheduler:
                 return DaskBackend(scheduler, workers)
-            n = workers or default_workers()
-            return LocalBackend(max(1, min(n, len(files))))
+            return LocalBackend(max(1, min(workers or 1, len(files))))
 
         run_tasks(tasks, report, make_backend, progress=progress)
     report.seconds = time.perf_counter() - start
@@ -319,9 +320,10 @@ class _Loop:
 class _Bar(tqdm):
     """The batch's progress bar, without tqdm's monitor thread (it is updated at
     every file): the monitor outlives the bars (tqdm 4.70), and a second thread
-    makes every later :func:`ema_pipeline.io.check_hdf5` of the process (the
-    batch report reads each file's result) start a fresh interpreter instead
-    of forking, 1-3 s per file."""
+    makes the runner's fork-safety rule refuse every later fork of the process
+    (:func:`ema_pipeline.runner.fork_is_safe`): each
+    :func:`ema_pipeline.io.check_hdf5` (the batch report reads each file's
+    result) would start a fresh interpreter, 1-3 s per file."""
 
     monitor_interval = 0
 

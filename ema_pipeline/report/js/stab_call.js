@@ -1,0 +1,1 @@
+emaStabDiagram(document.currentScript.parentNode);
