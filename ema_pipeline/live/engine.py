@@ -78,6 +78,11 @@ def identify_session(folder: str, band_hz: tuple[float, float] | None = None) ->
             "dofs": [[int(d.node), int(d.direction)] for d in modes.dofs]}
 
 
+def _finite(x: float) -> float | None:
+    """``x``, or None (JSON null) when not finite: the page's JSON has no NaN."""
+    return float(x) if np.isfinite(x) else None
+
+
 @dataclass
 class PointState:
     """One point of the plan: ``state`` todo / current / done, its stream (while
@@ -449,9 +454,10 @@ class LiveTest:
                          for h in hits],
                 "frf_figure": self.frf_figure if cur is not None else "",
                 "trace_figure": self.trace_figure if cur is not None else "",
-                "modes": ([{"n": k + 1, "fn_hz": f, "zeta": z} for k, (f, z) in
-                           enumerate(zip(self.modes.get("fn_hz", []),
-                                         self.modes.get("zeta", []), strict=True))]),
+                "modes": ([{"n": k + 1, "fn_hz": _finite(f), "zeta": _finite(z)}
+                           for k, (f, z) in enumerate(zip(self.modes.get("fn_hz", []),
+                                                          self.modes.get("zeta", []),
+                                                          strict=True))]),
                 "modes_points": self.modes.get("n_points", 0),
                 "modes_error": self.modes.get("error", ""),
                 "shapes_html": self.shapes_html,

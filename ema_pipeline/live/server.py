@@ -79,7 +79,7 @@ def live_app(test: LiveTest, token: str, title: str) -> Any:
                 if test.version != seen:
                     state = await asyncio.to_thread(test.snapshot)
                     seen = state["version"]
-                    await ws.send_text(json.dumps(state))
+                    await ws.send_text(json.dumps(state, allow_nan=False))
                 await asyncio.sleep(PUSH_EVERY_S)
 
         tasks = [asyncio.create_task(receive()), asyncio.create_task(push())]

@@ -15,6 +15,7 @@ function esc(s){return String(s).replace(/[&<>"]/g,function(c){
 function activate(el){[].slice.call(el.querySelectorAll('script')).forEach(function(old){
  if(old.type==='application/json')return;var s=document.createElement('script');
  s.textContent=old.textContent;old.parentNode.replaceChild(s,old);});}
+function num(x,f,d){return x===null?'-':(f*x).toFixed(d);}
 function render(st){
  root.setAttribute('data-streaming',st.streaming?'true':'false');
  root.setAttribute('data-finished',st.finished?'true':'false');
@@ -52,14 +53,15 @@ function render(st){
  set('#modes',head+(st.modes.length?'<table><tr><th>mode</th><th>fn / Hz</th>'+
   '<th>zeta / %</th></tr>'+st.modes.map(function(m){return '<tr data-live-mode="'+m.n+
   '" data-fn-hz="'+m.fn_hz+'" data-zeta="'+m.zeta+'"><td>'+m.n+'</td><td>'+
-  m.fn_hz.toFixed(2)+'</td><td>'+(100*m.zeta).toFixed(3)+'</td></tr>';}).join('')+
+  num(m.fn_hz,1,2)+'</td><td>'+num(m.zeta,100,3)+'</td></tr>';}).join('')+
   '</table>':''));
  if(set('#shapes',st.shapes_html))activate(q('#shapes'));
  set('#messages',st.messages.map(function(m){return '<li>'+esc(m)+'</li>';}).join(''));
  q('[data-virtual-hit]').hidden=!st.virtual_hammer;
  root.setAttribute('data-version',st.version);}
 function connect(){ws=new WebSocket(proto+location.host+cfg.ws);
- ws.onmessage=function(e){render(JSON.parse(e.data));};
+ ws.onmessage=function(e){try{render(JSON.parse(e.data));}
+  catch(err){q('#state').textContent='page error: '+err;}};
  ws.onclose=function(){q('#state').textContent='disconnected: retrying';
   setTimeout(connect,1000);};
  ws.onopen=function(){q('#state').textContent='connected';};}
