@@ -57,7 +57,24 @@ SHEET_RUN = ("test_channel_sheet.py::"
              "test_init_recordings_then_run_has_shapes_over_the_hammer_points")
 SHEET_KEYS = ("test_channel_sheet.py::"
               "test_experiment_file_takes_the_sheet_inline_or_per_configuration")
+# ema-pipeline live: the replay and simulate browser tests, the options of the virtual hammer
+LIVE_REPLAY = ("test_live_browser.py::"
+               "test_live_replay_of_the_plate_resumes_after_kill_and_matches_frf")
+LIVE_SIMULATE = ("test_live_browser.py::"
+                 "test_live_simulated_plate_struck_with_the_virtual_hammer")
+LIVE_HAMMER = "test_live.py::test_simulate_options_clip_scatter_noise_seed_double_hit"
 INVENTORY: dict[str, tuple[str, ...]] = {
+    # live
+    **{f"live {o}": (LIVE_REPLAY,) for o in ("--channels", "--geometry", "--session",
+                                             "--replay", "--speed", "--band", "--port",
+                                             "--no-browser")},
+    "live --simulate": (LIVE_SIMULATE, LIVE_HAMMER,
+                        "test_live.py::test_simulate_a_universal_file_of_modes"),
+    **{f"live {o}": (LIVE_HAMMER,) for o in ("--seed", "--double-hit", "--force-scatter",
+                                             "--clip-n", "--noise")},
+    "live --host": ("test_live.py::test_live_host_option_listens_there_only",),
+    **{f"live {o}": ("test_live.py::test_sounddevice_backend_at_its_interface",)
+       for o in ("--device", "--sample-rate")},
     # simulate
     "simulate --configuration": (f"{HERE}::test_simulate_configuration_and_zeta_pct",),
     "simulate --added-mass": ("test_closed_loop.py::test_simulate_added_mass_command",

@@ -366,4 +366,5 @@ def test_no_javascript_inside_python_strings():
     data = tomllib.loads((REPO / "pyproject.toml").read_text())["tool"]["setuptools"]
     assert "report/js/*.js" in data["package-data"]["ema_pipeline"]
     assert {p.name for p in (REPO / PACKAGE / "report" / "js").glob("*.js")} == {
-        "hit_choice.js", "shape_views.js", "stab_call.js", "stab_diagram.js", "synthesis.js"}
+        "hit_choice.js", "live.js", "shape_views.js", "stab_call.js", "stab_diagram.js",
+        "synthesis.js"}

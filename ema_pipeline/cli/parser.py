@@ -25,6 +25,7 @@ from ema_pipeline.cli.commands import (
     cmd_simulate,
 )
 from ema_pipeline.cli.frf_command import add_frf_parser
+from ema_pipeline.cli.live_command import add_live_parser
 from ema_pipeline.cli.support import EXIT_INPUT
 from ema_pipeline.identification.options import MAX_ORDER, METHOD_NAMES, MIN_ORDER
 from ema_pipeline.paths import DEFAULT_RAW_FOLDER
@@ -481,5 +482,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quiet", action="store_true", help="print nothing on success")
     p.set_defaults(func=cmd_fe)
     add_frf_parser(sub)  # ema-pipeline frf (cli/frf_command.py)
+    add_live_parser(sub)  # ema-pipeline live (cli/live_command.py)
     return parser
 

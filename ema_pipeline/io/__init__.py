@@ -98,6 +98,7 @@ from ema_pipeline.io.uff import (
     write_modes_uff,
     write_time_uff,
 )
+from ema_pipeline.io.uff_modes import read_modes_uff
 from ema_pipeline.io.uff_units import parse_unit_label
 from ema_pipeline.paths import FRF_FILE_KIND
 
@@ -272,6 +273,7 @@ __all__ = [
     "read_frf_uff",
     "read_geometry",
     "read_geometry_uff",
+    "read_modes_uff",
     "read_identification_result",
     "read_picks",
     "read_results_h5",
