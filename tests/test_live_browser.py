@@ -243,10 +243,11 @@ def test_live_simulated_plate_struck_with_the_virtual_hammer(tmp_path):
                         button.click()
                     # 1.5 s of the plate's time at 5 x between the session's first two
                     # strikes (they set the record length, as frf does: the power of two
-                    # of samples between them, 1 s), 2.25 s from then on: each record
-                    # ends before the next hit
-                    time.sleep(0.3 if point == 1 and k == 0 else 0.45)
-                hits = _wait(lambda: (h if len(h := _hits(driver)) == 3 else None), 10,
+                    # of samples between them, 1 s; 2 s where a loaded machine delays
+                    # the second strike), 4 s from then on: each record ends before
+                    # the next hit whichever it is
+                    time.sleep(0.3 if point == 1 and k == 0 else 0.8)
+                hits = _wait(lambda: (h if len(h := _hits(driver)) == 3 else None), 30,
                              lambda p=point: f"point {p}'s three hits: {_hits(driver)}")
                 if point == 1:  # strike 2 bounced: rejected as a double hit
                     assert [h["status"] for h in hits] == ["accepted", "rejected", "accepted"]
