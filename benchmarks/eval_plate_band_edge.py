@@ -121,7 +121,7 @@ def write_test(folder: Path, case: dict, seed: int) -> None:
     (folder / "channels.csv").write_text("\n".join(rows) + "\n")
 
 
-def run_seed(seed: int, edge: float | None = 0.03) -> dict:
+def run_seed(seed: int, edge: float | None = 0.03, keep: Path | None = None) -> dict:
     import pandas as pd
     import pyuff
 
@@ -132,7 +132,8 @@ def run_seed(seed: int, edge: float | None = 0.03) -> dict:
         return {"seed": seed, "skipped": True}
     plate, band, in_band = case["plate"], case["band"], case["in_band"]
     with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
+        folder = Path(tmp) if keep is None else keep / f"plate{seed}"
+        folder.mkdir(parents=True, exist_ok=True)
         write_test(folder, case, seed)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
@@ -140,7 +141,7 @@ def run_seed(seed: int, edge: float | None = 0.03) -> dict:
                          str(folder / "test.h5"), "--quiet"]) == 0
             assert main(["identify", str(folder / "test.h5"), "--out", str(folder / "id"),
                          "--band", *map(str, band), "--uff", "--quiet"]) == 0
-        modes = pd.read_csv(folder / "id" / "test_modes.csv")
+        modes = pd.read_csv(folder / "id" / "test_modes.csv").sort_values("fn_hz")
         sets = pyuff.UFF(str(folder / "id" / "test_modes.uff")).read_sets()
     exported = sorted((s for s in sets if int(s["type"]) == 55), key=lambda s: s["freq"])
     f_id = np.array([s["freq"] for s in exported])
@@ -148,6 +149,8 @@ def run_seed(seed: int, edge: float | None = 0.03) -> dict:
     out = {"seed": seed, "band": band, "fn_true": plate.fn_hz[in_band].tolist(),
            "above": plate.fn_hz[case["top"] + 1:case["top"] + 3].tolist(),
            "f_id": f_id.tolist(), "zeta_id": (modes["zeta_pct"].to_numpy() / 100).tolist(),
+           "found_by": modes["found_by"].astype(str).tolist(),
+           "doubtful": modes["doubtful_reason"].fillna("").astype(str).tolist(),
            "mac": [], "missed": [], "spurious": []}
     used = set()
     for j in in_band:
@@ -176,12 +179,13 @@ def main_(argv: list[str] | None = None) -> int:
                     help="the top mode's distance below the band's top, a fraction of the "
                          "band's width, or 'mid': halfway to the next mode")
     ap.add_argument("--json")
+    ap.add_argument("--keep", type=Path, help="keep each seed's files in this folder")
     args = ap.parse_args(argv)
     a, _, b = args.seeds.partition("-")
     seeds = list(range(int(a), int(b or a) + 1))
     results = []
     for s in seeds:
-        r = run_seed(s, None if args.edge == "mid" else float(args.edge))
+        r = run_seed(s, None if args.edge == "mid" else float(args.edge), args.keep)
         results.append(r)
         if r.get("skipped"):
             print(f"seed {s}: no band-edge configuration, skipped", flush=True)
@@ -194,6 +198,9 @@ def main_(argv: list[str] | None = None) -> int:
               flush=True)
         tops = ", ".join(f"{r['fn_true'][i]:.1f} Hz MAC {mac[i]:.3f}" for i in top)
         print(f"   min MAC {np.nanmin(mac):.3f}; top modes: {tops}", flush=True)
+        for f, how, why in zip(r["f_id"], r["found_by"], r["doubtful"], strict=True):
+            if f in r["spurious"]:
+                print(f"   spurious {f:.1f} Hz: found by {how}, doubtful: {why or '-'}")
         low = [f"{f:.1f}:{m:.3f}" for f, m in zip(r["fn_true"], mac, strict=True) if not m >= 0.95]
         if low:
             print(f"   MAC < 0.95: {low}", flush=True)
