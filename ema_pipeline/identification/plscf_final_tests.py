@@ -88,7 +88,10 @@ class Retest:
         ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
                            window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
                            thresholds=d.thresholds, map_=self.map_)
-        return ref, self.verdict(ref, candidates.n_members, partner, strict)
+        # a close partner whose local fit wandered off (refinement returns its
+        # start pole) has no fit of its own to stand on: it fails
+        wandered = np.asarray(partner, bool) & (ref.pole == candidates.pole)
+        return ref, self.verdict(ref, candidates.n_members, partner, strict) & ~wandered
 
 
 def first_verdict(found: Candidates, retest: Retest) -> Candidates:

@@ -404,7 +404,8 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
       wandered off (further than ``refine_max_shift`` decay rates and a
       line from its start), so its start pole -- a diagram's trajectory
       or a residual peak -- is reported, with the standard deviations
-      evaluated there (its selected pole is its start pole, bit for bit).
+      evaluated there (its selected pole is its start pole, bit for bit; a
+      close partner whose local fit wanders is not kept).
       On the measured beam in 5-790 Hz a change of the FRFs in their last
       bits turns the 603.0 Hz mode into such a start pole at 601.2 Hz
       (``docs/validation.md``).
