@@ -350,3 +350,21 @@ def test_simulate_a_universal_file_of_modes(tmp_path):
             assert abs(frf.freq_hz[band][np.argmax(mag[band])] - f) <= 2 * frf.freq_hz[1]
     finally:
         test.close()
+
+
+def test_simulate_the_result_file_of_identify(tmp_path, example_dir):
+    """``--simulate RESULT.h5``: the modes ``identify`` identified (the example's
+    genuine beam, four modes), struck at their DOFs; the model is those modes."""
+    from ema_pipeline import io
+    from ema_pipeline.cli import main
+    from ema_pipeline.live.app import make_device
+
+    assert main(["identify", str(example_dir / "genuine.uff"), "--out", str(tmp_path),
+                 "--quiet"]) == 0
+    _, result = io.read_identification_result(tmp_path / "genuine_result.h5")
+    device, title = make_device(None, replay=False, speed=20.0, seed=2,
+                                simulate=str(tmp_path / "genuine_result.h5"))
+    assert title == "simulated genuine_result.h5"
+    np.testing.assert_array_equal(device.model.fn_hz, result.modes.fn_hz)
+    np.testing.assert_array_equal(device.model.zeta, result.modes.zeta)
+    assert len(device.plan) == len(result.modes.dofs)

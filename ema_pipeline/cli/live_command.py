@@ -36,7 +36,8 @@ def add_live_parser(sub: Any) -> None:
                      help="replay the sheet's recordings as if acquired")
     dev.add_argument("--simulate", default=None, metavar="MODEL",
                      help="a virtual structure struck with a virtual hammer: plate (built "
-                     "in) or a Universal File of modes (datasets 55, identify --uff)")
+                     "in), the result file of identify (<stem>_result.h5) or a Universal "
+                     "File of modes (datasets 55, identify --uff)")
     dev.add_argument("--device", default=None, metavar="NAME",
                      help="a DAQ: sounddevice or sounddevice:CARD (a sound card through the "
                      "optional sounddevice package; the sheet's channel column names its "

@@ -142,16 +142,21 @@ def model_from_modes(modes: ModalParameters, geometry: Geometry | None, name: st
 
 
 def simulate_model(spec: str, geometry: Geometry | None = None) -> ModalModel:
-    """The virtual structure of ``--simulate SPEC``: ``plate`` (:func:`builtin_model`)
-    or a Universal File with modes (datasets 55; :func:`model_from_modes`, on
-    ``geometry``, else the file's own, else the DOFs on a line)."""
+    """The virtual structure of ``--simulate SPEC``: ``plate`` (:func:`builtin_model`),
+    the result file of ``identify`` (``<stem>_result.h5``: its modes, on
+    ``geometry``, else the DOFs on a line) or a Universal File with modes
+    (datasets 55; :func:`model_from_modes`, on ``geometry``, else the file's
+    own, else the DOFs on a line)."""
     if spec == "plate":
         return builtin_model(spec)
     path = Path(spec)
     if not path.is_file():
         raise ConfigError(f"--simulate {spec}: neither the built-in 'plate' nor a file")
-    from ema_pipeline.io import read_geometry_uff, read_modes_uff
+    from ema_pipeline.io import read_geometry_uff, read_identification_result, read_modes_uff
 
+    if path.suffix.lower() in (".h5", ".hdf5"):  # identify's result file
+        _, result = read_identification_result(path)
+        return model_from_modes(result.modes, geometry, path.name)
     modes = read_modes_uff(path)
     return model_from_modes(modes, geometry or read_geometry_uff(path), path.name)
 
