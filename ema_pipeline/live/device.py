@@ -31,7 +31,8 @@ from ema_pipeline.data import Channel, Recording
 from ema_pipeline.io.channel_sheet import ChannelSheet
 from ema_pipeline.pipeline.roving import read_sheet_recordings
 
-__all__ = ["BLOCK_S", "Block", "Device", "PlanPoint", "ReplayDevice", "sheet_plan"]
+__all__ = ["BLOCK_S", "Block", "Device", "PlanPoint", "ReplayDevice", "sheet_plan",
+           "wait_until_due"]
 
 #: Length (s of data) of the blocks the built-in devices deliver.
 BLOCK_S = 0.05
@@ -97,6 +98,27 @@ def sheet_plan(sheet: ChannelSheet, recordings: list[Recording]) -> tuple[PlanPo
     return tuple(out)
 
 
+def wait_until_due(due_s: float, speed: float, timeout_s: float) -> bool:
+    """Sleep until the device's clock reaches ``due_s`` (``time.monotonic``
+    seconds; at once when ``speed`` is infinite: as fast as it goes), or for
+    ``timeout_s`` at most: whether the block is due now.
+
+    Examples
+    --------
+    >>> wait_until_due(time.monotonic() - 1.0, 1.0, 0.1)
+    True
+    >>> wait_until_due(time.monotonic() + 60.0, 1.0, 0.01)
+    False
+    """
+    wait = 0.0 if math.isinf(speed) else due_s - time.monotonic()
+    if wait > timeout_s:
+        time.sleep(timeout_s)
+        return False
+    if wait > 0:
+        time.sleep(wait)
+    return True
+
+
 class ReplayDevice:
     """Streams each file of a channel sheet as a point (module docstring)."""
 
@@ -134,12 +156,8 @@ class ReplayDevice:
         while True:
             end = min(self._pos + self.block_n, signals.shape[1])
             due = self._t0 + (end - self._first) / self.sample_rate_hz / self.speed
-            wait = 0.0 if math.isinf(self.speed) else due - time.monotonic()
-            if wait > timeout_s:
-                time.sleep(timeout_s)
+            if not wait_until_due(due, self.speed, timeout_s):
                 return None
-            if wait > 0:
-                time.sleep(wait)
             index = self._pos // self.block_n
             start, self._pos = self._pos, end
             if (self._point, index) in self.lose_blocks and end < signals.shape[1]:

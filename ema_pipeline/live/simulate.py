@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ema_pipeline.data import DOF, Channel, ConfigError, Geometry, ModalParameters
-from ema_pipeline.live.device import BLOCK_S, Block, PlanPoint
+from ema_pipeline.live.device import BLOCK_S, Block, PlanPoint, wait_until_due
 
 __all__ = ["ModalModel", "SimulateDevice", "builtin_model", "model_from_modes", "simulate_model"]
 
@@ -242,12 +242,8 @@ class SimulateDevice:
             return None
         end = self._pos + self.block_n
         due = self._t0 + (end - self._first) / self.sample_rate_hz / self.speed
-        wait = 0.0 if math.isinf(self.speed) else due - time.monotonic()
-        if wait > timeout_s:
-            time.sleep(timeout_s)
+        if not wait_until_due(due, self.speed, timeout_s):
             return None
-        if wait > 0:
-            time.sleep(wait)
         with self._lock:
             n = self.block_n
             out = self._ahead[:, :n].copy()
