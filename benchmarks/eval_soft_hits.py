@@ -52,34 +52,13 @@ def verdicts(rec):
     return hitlib.check_hits(recording, 0, found, exp_window=True)
 
 
-def clean_hits(rec) -> list[int]:
-    last = len(rec.defects) - 1
-    return [i for i, d in enumerate(rec.defects)
-            if not d and not (rec.last_hit_short and i == last)]
-
-
-def corrupted(make_recording, seed: int, case: str, which: str):
+def corrupted(make_recording, corrupt_hit, clean_hits, seed: int, case: str, which: str):
     rec = family(make_recording, seed)
     ok = sorted(clean_hits(rec), key=lambda i: rec.force_peak_n[i])
     k = ok[0] if which == "soft" else ok[len(ok) // 2]
     if case == "wide":
         rec = family(make_recording, seed, odd_pulse=(k, 3.0))
-    fs = rec.sample_rate_hz
-    t0 = int(rec.hit_times_s[k] * fs) - int(0.01 * fs)
-    t1 = (int(rec.hit_times_s[k + 1] * fs) - int(0.01 * fs) if k + 1 < len(rec.defects)
-          else rec.n_samples)
-    span = rec.response[:, t0:t1].copy()
-    hit = int(rec.hit_times_s[k] * fs)
-    if case == "gain":
-        rec.response[:, t0:t1] = 2.5 * span
-    elif case == "shifted":
-        t = np.arange(t1 - t0)
-        rec.response[:, t0:t1] = [np.interp(1.05 * t, t, y) for y in span]
-    elif case == "dropout":
-        rec.response[:, hit + int(0.03 * fs):hit + int(0.13 * fs)] = 0.0
-    elif case == "glitch":
-        j = hit + int(0.3 * fs)
-        rec.response[:, j:j + 3] += 0.5 * np.abs(span).max(axis=1)[:, None]
+    corrupt_hit(rec, k, case)
     return rec, k
 
 
@@ -90,7 +69,7 @@ def main() -> None:
     args = parser.parse_args()
     sys.path.insert(0, str(ROOT / "tests"))
     sys.path.insert(0, str(args.package.resolve()))
-    from impact_recordings import make_recording
+    from impact_recordings import clean_hits, corrupt_hit, make_recording
 
     import ema_pipeline
 
@@ -115,7 +94,7 @@ def main() -> None:
         for case in CASES:
             caught = others = 0
             for seed in SEEDS:
-                rec, k = corrupted(make_recording, seed, case, which)
+                rec, k = corrupted(make_recording, corrupt_hit, clean_hits, seed, case, which)
                 hits = verdicts(rec)
                 caught += bool(set(hits[k].reasons) - {"past_end"})
                 others += sum(set(h.reasons) - {"past_end"} != set(d)

@@ -356,6 +356,41 @@ _ACCEL_UNITS = {"m/s^2": 1.0, "g": STANDARD_GRAVITY, "mm/s^2": 1e-3}
 _FORCE_UNITS = {"N": 1.0, "kN": 1e3, "lbf": 4.4482216152605}
 
 
+def clean_hits(rec: SyntheticRecording) -> list[int]:
+    """0-based hits of ``rec`` without defect that have a record."""
+    last = len(rec.defects) - 1
+    return [i for i, d in enumerate(rec.defects) if not d
+            and not (rec.last_hit_short and i == last)]
+
+
+def corrupt_hit(rec: SyntheticRecording, k: int, case: str) -> None:
+    """Corrupt hit ``k`` of ``rec`` in place: ``gain`` (its responses 2.5 times
+    as large: another point or sensor gain), ``shifted`` (its responses
+    stretched in time by 1.05: every mode 5 % higher, another structure
+    state), ``dropout`` (its responses zero 30-130 ms after the hit: a loose
+    cable) or ``glitch`` (a 3-sample spike 0.3 s after the hit). A pulse of
+    another tip is a recording of its own (``make_recording(odd_pulse=)``)."""
+    fs = rec.sample_rate_hz
+    t0 = int(rec.hit_times_s[k] * fs) - int(0.01 * fs)
+    t1 = (int(rec.hit_times_s[k + 1] * fs) - int(0.01 * fs) if k + 1 < len(rec.defects)
+          else rec.n_samples)
+    span = rec.response[:, t0:t1].copy()
+    hit = int(rec.hit_times_s[k] * fs)
+    if case == "gain":
+        rec.response[:, t0:t1] = 2.5 * span
+    elif case == "shifted":
+        t = np.arange(t1 - t0)
+        rec.response[:, t0:t1] = [np.interp(1.05 * t, t, y) for y in span]
+    elif case == "dropout":
+        j = hit + int(0.03 * fs)
+        rec.response[:, j:j + int(0.1 * fs)] = 0.0
+    elif case == "glitch":
+        j = hit + int(0.3 * fs)
+        rec.response[:, j:j + 3] += 0.5 * np.abs(span).max(axis=1)[:, None]
+    elif case != "wide":
+        raise ValueError(f"unknown corruption {case!r}")
+
+
 def _segments(rec: SyntheticRecording, precut_s: float | None,
               pretrigger_s: float) -> list[tuple[int, int]]:
     """(first, stop) samples of each record to write: the whole recording, or one

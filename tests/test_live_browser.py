@@ -24,12 +24,10 @@ import numpy as np
 import pandas as pd
 import pytest
 from browser import chromium, needs_browser
-from impact_recordings import PLATE_DURATION_S, write_plate_test
-from test_plate_holdout import BAND_HZ, FN_ALL, IN_BAND, POINTS, SENSOR, TEST, ZETA_ALL
+from impact_recordings import PLATE_DURATION_S
+from test_plate_holdout import BAND_HZ, FN_ALL, IN_BAND, ZETA_ALL, write_test_folder
 
-from ema_pipeline import io
 from ema_pipeline.cli import main
-from ema_pipeline.data import Geometry
 
 pytest.importorskip("starlette", reason="ema-pipeline live needs the live extra (starlette)")
 pytest.importorskip("uvicorn", reason="ema-pipeline live needs the live extra (uvicorn)")
@@ -101,19 +99,9 @@ def _point_done_streaming(driver, point: int, n_hits: int) -> list[dict]:
     return _wait(ready, 30, f"point {point}'s hits")
 
 
-def _write_plate(folder: Path) -> None:
-    write_plate_test(folder, TEST)
-    xyz = np.array([[x, y, 0.0] for x, y in POINTS] + [[*SENSOR, 0.0]])
-    grid = np.arange(1, 13).reshape(3, 4)
-    lines = tuple(tuple(int(v) for v in row) for row in grid) + tuple(
-        tuple(int(v) for v in col) for col in grid.T)
-    io.write_geometry_uff(Geometry(node_ids=np.array([*range(1, 13), 100]), xyz_m=xyz,
-                                   lines=lines), folder / "plate.uff")
-
-
 def test_live_replay_of_the_plate_resumes_after_kill_and_matches_frf(tmp_path):
     start = time.monotonic()
-    _write_plate(tmp_path)
+    write_test_folder(tmp_path)
     args = ["--channels", "channels.csv", "--geometry", "plate.uff", "--session", "session",
             "--replay", "--speed", f"{SPEED:g}", "--band", *map(str, BAND_HZ)]
     proc, url = _serve(args, tmp_path)

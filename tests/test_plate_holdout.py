@@ -67,7 +67,7 @@ TEST = PlateTest(PLATE, tuple(POINTS), SENSOR, ("csv", "wav", "tdms") * 4, peak_
                  late_start=(LATE_START_POINT, 0.003))
 
 
-def _write_test(folder) -> None:
+def write_test_folder(folder: Path) -> None:
     """The recordings and ``channels.csv`` of :data:`TEST`
     (tests/impact_recordings.py); ``plate.uff`` (nodes 1-12 and the sensor's
     node 100, the grid's lines). The hammer hits in -Z, the sensor is +Z."""
@@ -83,7 +83,7 @@ def _write_test(folder) -> None:
 def test_held_out_plate_from_recordings_to_shapes_on_the_geometry(tmp_path, monkeypatch):
     fn, zeta = FN_ALL[IN_BAND], ZETA_ALL[IN_BAND]
     assert fn.size == 5 and 0.01 < fn[3] / fn[2] - 1 < 0.02  # the close pair
-    _write_test(tmp_path)
+    write_test_folder(tmp_path)
     monkeypatch.chdir(tmp_path)
     assert main(["frf", "--channels", "channels.csv", "--out", "test.h5", "--quiet"]) == 0
     assert main(["identify", "test.h5", "--out", "id", "--band", *map(str, BAND_HZ),

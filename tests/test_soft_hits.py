@@ -19,7 +19,13 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from impact_recordings import PlateTest, make_recording, write_plate_test
+from impact_recordings import (
+    PlateTest,
+    clean_hits,
+    corrupt_hit,
+    make_recording,
+    write_plate_test,
+)
 from test_hits import as_recording
 from test_plate_holdout import PLATE, POINTS, SENSOR
 
@@ -41,13 +47,6 @@ def checked(rec):
     recording = as_recording(rec)
     found = hitlib.find_hits(recording, 0, pretrigger_s=0.01)
     return hitlib.check_hits(recording, 0, found, exp_window=True)
-
-
-def clean_hits(rec) -> list[int]:
-    """0-based hits without defect that have a record."""
-    last = len(rec.defects) - 1
-    return [i for i, d in enumerate(rec.defects) if not d
-            and not (rec.last_hit_short and i == last)]
 
 
 @pytest.mark.parametrize("seed", SEEDS)
@@ -86,19 +85,7 @@ def corrupt(seed: int, case: str):
     k = min(clean_hits(rec), key=lambda i: rec.force_peak_n[i])
     if case == "wide":
         rec = scattered(seed, odd_pulse=(k, 3.0))
-    fs = rec.sample_rate_hz
-    t0 = int(rec.hit_times_s[k] * fs) - int(0.01 * fs)
-    t1 = (int(rec.hit_times_s[k + 1] * fs) - int(0.01 * fs) if k + 1 < len(rec.defects)
-          else rec.n_samples)
-    span = rec.response[:, t0:t1].copy()
-    if case == "gain":
-        rec.response[:, t0:t1] = 2.5 * span
-    elif case == "shifted":
-        t = np.arange(t1 - t0)
-        rec.response[:, t0:t1] = [np.interp(1.05 * t, t, y) for y in span]
-    elif case == "dropout":
-        j = int(rec.hit_times_s[k] * fs) + int(0.03 * fs)
-        rec.response[:, j:j + int(0.1 * fs)] = 0.0
+    corrupt_hit(rec, k, case)
     return rec, k
 
 
