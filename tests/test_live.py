@@ -36,6 +36,17 @@ TWO = PlateTest(PLATE, tuple(POINTS[:2]), SENSOR, ("csv", "wav"), peak_n=150.0,
                 seed_base=7400, jitter=True, double_hit=(2, PLATE_HIT_TIMES_S[1] + 0.05, 80.0))
 
 
+def _strike(test: LiveTest, n_samples: int, timeout_s: float = 10.0) -> None:
+    """Strike the current point and wait until ``n_samples`` more samples of it
+    have streamed."""
+    test.strike()
+    assert test.stream is not None
+    n0, end = test.stream.n, time.monotonic() + timeout_s
+    while test.stream.n < n0 + n_samples:
+        assert time.monotonic() < end
+        time.sleep(0.002)
+
+
 def _wait_judged(test: LiveTest, timeout_s: float = 20.0) -> None:
     end = time.monotonic() + timeout_s
     while test.snapshot()["streaming"]:
@@ -134,12 +145,7 @@ def test_simulated_strikes_are_judged_with_the_double_hit_rejected(tmp_path):
     test.start()
     try:
         for _ in range(3):
-            test.strike()
-            end = time.monotonic() + 10
-            n0 = test.stream.n if test.stream is not None else 0
-            while test.stream is not None and test.stream.n < n0 + 3000:
-                assert time.monotonic() < end
-                time.sleep(0.002)
+            _strike(test, 3000)
         end = time.monotonic() + 10
         while len(test.points[0].hits) < 2:
             assert time.monotonic() < end, test.points[0].hits
@@ -166,12 +172,7 @@ def _strikes(args: list[str], n: int = 3) -> list:
     test.start()
     try:
         for _ in range(n):
-            test.strike()
-            assert test.stream is not None
-            n0, end = test.stream.n, time.monotonic() + 10
-            while test.stream.n < n0 + 3072:
-                assert time.monotonic() < end
-                time.sleep(0.002)
+            _strike(test, 3072)
         end = time.monotonic() + 10
         while len(test.points[0].hits) < n - 1:
             assert time.monotonic() < end
@@ -333,12 +334,7 @@ def test_simulate_a_universal_file_of_modes(tmp_path):
     try:
         test.next_point()  # point 2
         for _ in range(3):
-            test.strike()
-            assert test.stream is not None
-            n0, end = test.stream.n, time.monotonic() + 10
-            while test.stream.n < n0 + 1536:
-                assert time.monotonic() < end
-                time.sleep(0.002)
+            _strike(test, 1536)
         end = time.monotonic() + 10
         while test.stream.frf is None:
             assert time.monotonic() < end
