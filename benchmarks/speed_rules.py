@@ -56,6 +56,11 @@ def _seeds(text: str) -> list[int]:
 def take(out_path: Path, seeds: list[int], perturb: int | None, package_root: Path,
          families: list[str] | None) -> None:
     sys.path.insert(0, str(package_root))
+    import ema_pipeline  # first: the helpers below put this checkout on the path
+
+    if Path(ema_pipeline.__file__).resolve().parents[1] != package_root:
+        raise SystemExit(f"ema_pipeline imported from {ema_pipeline.__file__}, "
+                         f"not {package_root}")
     sys.path.insert(0, str(ROOT / "tests"))
     sys.path.insert(0, str(HERE))
     import eval_identification as ev
@@ -112,7 +117,7 @@ def take(out_path: Path, seeds: list[int], perturb: int | None, package_root: Pa
                             "--out", str(h5), "--quiet"], check=True,
                            env={**__import__("os").environ, "PYTHONPATH": env_path})
             snap["recording/pyfrf"] = one(io.read_frf(h5))
-    print(f"package: {sys.modules['ema_pipeline'].__file__}", flush=True)
+    print(f"package: {ema_pipeline.__file__}", flush=True)
     out_path.write_text(json.dumps(snap, indent=1))
 
 
