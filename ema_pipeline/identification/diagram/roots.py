@@ -34,6 +34,11 @@ ABERTH_MAX_SWEEPS = 80
 
 _EPS = float(np.finfo(float).eps)
 
+#: A root whose last step was below this (relative) is converged: the
+#: Aberth iteration converges cubically near a simple root, so the error
+#: left is of the order of the step cubed.
+CUBIC_STOP = 1e-7
+
 
 def companion_roots(coeffs: np.ndarray) -> np.ndarray:
     """Roots of ``sum_j coeffs[j] z^j`` (``coeffs[-1]`` = 1) as the eigenvalues
@@ -68,17 +73,22 @@ def newton_corrections(coeffs: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, n
     [-1.5, 0.833333]
     """
     n = coeffs.size - 1
-    outside = np.abs(z) > 1.0
+    az = np.abs(z)
+    outside = az > 1.0
     x = np.where(outside, 1.0 / np.where(outside, z, 1.0), z)
     powers = np.empty((z.size, n + 1), dtype=complex)
     powers[:, 0] = 1.0
     powers[:, 1:] = x[:, None]
     np.cumprod(powers[:, 1:], axis=1, out=powers[:, 1:])
+    magnitude = np.empty((z.size, n + 1))  # |x|^k, real: the bound's powers
+    magnitude[:, 0] = 1.0
+    magnitude[:, 1:] = np.where(outside, 1.0 / np.maximum(az, 1.0), az)[:, None]
+    np.cumprod(magnitude[:, 1:], axis=1, out=magnitude[:, 1:])
     # column 0: p in x = z; column 1: the reversed polynomial q(x) = x^n p(1/x)
     both = np.stack([coeffs, coeffs[::-1]], axis=1)
     value = powers @ both
     slope = powers[:, :-1] @ (both[1:] * np.arange(1, n + 1)[:, None])
-    bound = np.abs(powers) @ np.abs(both)
+    bound = magnitude @ np.abs(both)
     rows, col = np.arange(z.size), outside.astype(int)
     p, dp, e = value[rows, col], slope[rows, col], bound[rows, col]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -114,7 +124,10 @@ def aberth_roots(coeffs: np.ndarray, start: np.ndarray,
         if not np.all(np.isfinite(step)):
             return z, False
         z[idx] -= step
-        done = (backward <= 4 * n * _EPS) | (np.abs(step) <= 2 * _EPS * np.abs(z[idx]))
+        # converged: the residual within the rounding error of p, or a step
+        # below CUBIC_STOP: the iteration converges cubically, the root is
+        # then at the rounding level (a cluster's roots take smaller steps)
+        done = (backward <= 4 * n * _EPS) | (np.abs(step) <= CUBIC_STOP * np.abs(z[idx]))
         active[idx[done]] = False
     if active.any():
         return z, False
