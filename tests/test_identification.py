@@ -13,16 +13,13 @@ import pytest
 
 matplotlib.use("Agg")
 
-from background_job import identify_one  # noqa: E402
-from conftest import REPO, Background  # noqa: E402
-
-from ema_pipeline import io, paper  # noqa: E402
-from ema_pipeline.acquisition import (  # noqa: E402
+from ema_pipeline import io, paper
+from ema_pipeline.acquisition import (
     cantilever_beta_l,
     cantilever_modes,
     modal_frf,
 )
-from ema_pipeline.data import (  # noqa: E402
+from ema_pipeline.data import (
     DOF,
     MIN_FRF_LINES,
     AcquisitionInfo,
@@ -33,7 +30,7 @@ from ema_pipeline.data import (  # noqa: E402
     OptionError,
     Provenance,
 )
-from ema_pipeline.identification import (  # noqa: E402
+from ema_pipeline.identification import (
     FOUND_BY,
     IdentificationResult,
     SelectionThresholds,
@@ -41,13 +38,16 @@ from ema_pipeline.identification import (  # noqa: E402
     identify,
     modes_table,
 )
-from ema_pipeline.identification.diagram.plscf import lag_sums  # noqa: E402
-from ema_pipeline.identification.result import doubtful_flags  # noqa: E402
-from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test  # noqa: E402
-from ema_pipeline.report.matplotlib_plots import (  # noqa: E402
+from ema_pipeline.identification.diagram.plscf import lag_sums
+from ema_pipeline.identification.result import doubtful_flags
+from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
+from ema_pipeline.report.matplotlib_plots import (
     plot_fit_quality,
     plot_stabilization,
 )
+from tests.background_job import identify_one
+from tests.jobs import Background
+from tests.paths import REPO
 
 TH = SelectionThresholds()  # the tuned defaults
 

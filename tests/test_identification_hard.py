@@ -16,19 +16,15 @@ held-out ranges of the README (400+) are not used here.
 
 from __future__ import annotations
 
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import hardcases  # noqa: E402
-from conftest import Background  # noqa: E402
-
-from ema_pipeline.identification import doubtful_reasons, identify  # noqa: E402
+from ema_pipeline.identification import doubtful_reasons, identify
 from ema_pipeline.identification.thresholds import SelectionThresholds
+from tests import hardcases
+from tests.jobs import Background
 
 TH = SelectionThresholds()  # the tuned defaults
 
