@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import re
+import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -26,6 +28,29 @@ def run_cli(argv: list, capsys: pytest.CaptureFixture[str]) -> tuple[int, str, s
     code = main([str(a) for a in argv])
     out, err = capsys.readouterr()
     return code, out, err
+
+
+def count_calls(monkeypatch: pytest.MonkeyPatch, owner: object,
+                name: str) -> list[tuple[str, tuple]]:
+    """Count the calls of ``owner.name`` (a function of a module, or a method of a
+    class): it is wrapped in ``owner`` and wherever a loaded ``ema_pipeline``
+    module holds it (``from X import name`` copies it), for the rest of the
+    test. Returns the list each call appends (the calling module's name, the
+    arguments) to."""
+    func: Callable = getattr(owner, name)
+    calls: list[tuple[str, tuple]] = []
+
+    def counted(*args: object, **kwargs: object) -> object:
+        calls.append((sys._getframe(1).f_globals.get("__name__", ""), args))
+        return func(*args, **kwargs)
+
+    monkeypatch.setattr(owner, name, counted)
+    for module_name, module in list(sys.modules.items()):
+        if module_name.startswith("ema_pipeline") and module is not None:
+            for attr, value in list(vars(module).items()):
+                if value is func:
+                    monkeypatch.setattr(module, attr, counted)
+    return calls
 
 
 def write_experiment(path: Path, text: str) -> Path:

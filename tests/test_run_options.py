@@ -19,7 +19,7 @@ import pandas as pd
 import pytest
 
 from ema_pipeline import io, paper
-from tests.cli_runs import TWO_MODES, run_cli, shape_data, write_experiment
+from tests.cli_runs import TWO_MODES, count_calls, run_cli, shape_data, write_experiment
 
 #: A study simulated on the paper's FE beam, band 5-200 Hz (its first two modes,
 #: Table 3's 19.84 and 124.33 Hz), two simulated configurations and one given as
@@ -277,3 +277,36 @@ def test_a_fixed_order_in_the_experiment_file_is_a_note_of_run(
             "and the windows of a dense band)")
     assert [line for line in out.splitlines() if "narrower searches" in line] == [
         f"note: {note}: the modes found make no dense band, but those of the adaptive order may"]
+
+
+def test_run_checks_each_configuration_once(two_mode_folder: Path, tmp_path: Path,
+                                            monkeypatch: pytest.MonkeyPatch,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """``run`` of two configurations read from a file checks each once, before
+    anything is computed (``prepare_study``), and identifies the checked input
+    as it is: one ``check_input`` each, hence one window, one single reference
+    and one order / memory check per configuration (the report's count of a
+    shape's points, ``report.shape_views.shape_dof_count``, is no check and
+    not counted); the identified modes are the file's 30 Hz / 1 % and 70 Hz /
+    2 % (1e-4)."""
+    import ema_pipeline.pipeline.study  # noqa: F401  (every holder of the checks loaded)
+    from ema_pipeline.identification import IdentificationOptions, common, core
+    from ema_pipeline.identification.diagram import resources
+
+    raw = tmp_path / "raw"
+    raw.mkdir()
+    shutil.copy(two_mode_folder / "two.uff", raw / "two.uff")
+    write_experiment(raw / "experiment.toml", STUDY_FILES)
+    checks = count_calls(monkeypatch, core, "check_input")
+    window = count_calls(monkeypatch, IdentificationOptions, "apply_window")
+    single = count_calls(monkeypatch, common, "single_reference")
+    limits = count_calls(monkeypatch, resources, "check_identification")
+    code, said, err = run_cli(["run", "--raw", raw, "--results", tmp_path / "out",
+                               "--no-figures", "--quiet"], capsys)
+    assert (code, said) == (0, ""), err
+    single = [call for call in single if not call[0].startswith("ema_pipeline.report")]
+    assert [len(c) for c in (checks, window, single, limits)] == [2, 2, 2, 2]
+    t1 = pd.read_csv(tmp_path / "out" / "tables" / "table1_modal_parameters.csv")
+    plain = t1[t1["configuration"] == "plain"]
+    np.testing.assert_allclose(plain["fn_hz"], TWO_MODES.fn_hz, rtol=1e-4)
+    np.testing.assert_allclose(plain["zeta_pct"], 100 * TWO_MODES.zeta, rtol=1e-4)

@@ -154,10 +154,10 @@ def identify_file(
         frf = io.read_frf(path, min_lines=MIN_FRF_LINES, checked=checked)
         outcome.sha256 = outcome.sha256 or sha256 or frf.source.sha256
         outcome.configuration = frf.configuration
-        checked = check_input(frf, options, picks=picks)  # every other check, once
-        frf = checked.frf  # as identified: the FRFs kept with the result match its shapes
+        ready = check_input(frf, options, picks=picks)  # every other check, once
+        frf = ready.frf  # as identified: the FRFs kept with the result match its shapes
         out_dir.mkdir(parents=True, exist_ok=True)  # an unusable output folder fails now
-        result = identify(checked, workers=workers)
+        result = identify(ready, workers=workers)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_columns(result)  # its found_by column: diagram, ..., expected, picked
