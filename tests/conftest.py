@@ -75,7 +75,7 @@ def real_uff() -> Path:
 def beam_identified(real_uff: Path):
     """``identify(io.read_frf(real_uff))``: the library on the measured beam at
     the defaults (the reciprocity rule inside ``identify``), run once per
-    session for test_identification.py and test_library_cli.py (about 10 s)."""
+    session for test_identification_real.py and test_library_cli.py (about 10 s)."""
     from ema_pipeline import io
     from ema_pipeline.identification import identify
 
@@ -206,7 +206,7 @@ def pytest_configure(config: pytest.Config) -> None:
 #: Test modules that run on the xdist worker of another module (``--dist
 #: loadscope``, :func:`pytest_xdist_make_scheduler`): those that share an
 #: in-memory session fixture (``beam_identified``), computed once then.
-SAME_WORKER = {"tests/test_library_cli.py": "tests/test_identification.py"}
+SAME_WORKER = {"tests/test_library_cli.py": "tests/test_identification_real.py"}
 
 
 @pytest.hookimpl(optionalhook=True, tryfirst=True)
