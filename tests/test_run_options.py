@@ -12,6 +12,7 @@ import logging
 import re
 import shutil
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -310,3 +311,24 @@ def test_run_checks_each_configuration_once(two_mode_folder: Path, tmp_path: Pat
     plain = t1[t1["configuration"] == "plain"]
     np.testing.assert_allclose(plain["fn_hz"], TWO_MODES.fn_hz, rtol=1e-4)
     np.testing.assert_allclose(plain["zeta_pct"], 100 * TWO_MODES.zeta, rtol=1e-4)
+
+
+def test_run_refuses_a_configuration_it_cannot_identify_before_any_work(
+        two_mode_folder: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A configuration whose FRFs ``identify`` refuses (a channel all zero in the
+    band) stops ``run`` with exit 2 before the first identification, the
+    message naming the file and the configuration; no results are written."""
+    raw = tmp_path / "raw"
+    raw.mkdir()
+    shutil.copy(two_mode_folder / "two.uff", raw / "two.uff")
+    frf = io.read_frf(raw / "two.uff")
+    H = frf.H.copy()
+    H[1] = 0.0
+    io.write_frf(replace(frf, H=H), raw / "zero.uff", "uff")
+    write_experiment(raw / "experiment.toml", STUDY_FILES.replace(
+        'name = "plain"\nfile = "two.uff"', 'name = "plain"\nfile = "zero.uff"'))
+    code, said, err = run_cli(["run", "--raw", raw, "--results", tmp_path / "out",
+                               "--no-figures"], capsys)
+    assert (code, said) == (2, "")
+    assert f"{raw / 'zero.uff'} (plain): " in err and "all zero in the band" in err
+    assert "[identify" not in err and not (tmp_path / "out").exists()
