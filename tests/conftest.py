@@ -133,7 +133,6 @@ def example_study(request: pytest.FixtureRequest, example_dir: Path) -> Path:
     return shared_folder(request.config, "study", build) / "results"
 
 
-
 @pytest.fixture(scope="session")
 def three_sensor_h5(request: pytest.FixtureRequest) -> Path:
     """The shipped example's larger_tank test simulated with a third accelerometer
@@ -171,7 +170,6 @@ def example_study_uff_no_figures(request: pytest.FixtureRequest, example_dir: Pa
     return shared_folder(request.config, "study_uff", build) / "results"
 
 
-
 @pytest.fixture(scope="module")
 def two_mode_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with one noise-free two-mode FRF file, ``two.uff``
@@ -202,7 +200,6 @@ def pytest_configure(config: pytest.Config) -> None:
     config.stash[OWNER_KEY] = True
 
 
-
 #: Test modules that run on the xdist worker of another module (``--dist
 #: loadscope``, :func:`pytest_xdist_make_scheduler`): those that share an
 #: in-memory session fixture (``beam_identified``), computed once then.
@@ -224,7 +221,6 @@ def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object | 
             return SAME_WORKER.get(module, module)
 
     return ModuleScheduling(config, log)
-
 
 
 def pytest_collection_finish(session: pytest.Session) -> None:
@@ -268,12 +264,11 @@ def pytest_unconfigure(config: pytest.Config) -> None:
         del os.environ[JOBS_ENV]
 
 
-
 @pytest.fixture(scope="session")
 def beam_report(request: pytest.FixtureRequest, real_uff: Path) -> Path:
     """The results folder of ``ema-pipeline identify`` on the measured beam
     with ``--report --no-figures --geometry examples/ufsc-beam-geometry.uff
-    --quiet`` (:func:`beam_report_args`): modes CSV, result and report page.
+    --quiet`` (:func:`tests.jobs.beam_report_args`): modes CSV, result and report page.
     It runs once per run, in a child process started at collection (about
     10 s on the second core); the tests only read it (test_library_cli,
     test_picks, test_picks_browser, test_report)."""
@@ -282,7 +277,6 @@ def beam_report(request: pytest.FixtureRequest, real_uff: Path) -> Path:
     job = start_beam_report(request.config)
     assert job.wait() == 0, f"the measured beam's run failed:\n{job.log_tail()}"
     return job.dir / "out"
-
 
 
 @pytest.fixture(scope="session")

@@ -84,7 +84,7 @@ class Job:
         """Start ``command`` (cwd the repository, output to DIR/``stdout`` and
         DIR/``stderr``, stderr to stdout if None) unless a process of the run
         claimed the job first; in a process group of its own, which the run's
-        owner stops at its end (:func:`pytest_unconfigure`)."""
+        owner stops at its end (``pytest_unconfigure`` in conftest.py)."""
         try:
             self.dir.mkdir()
         except FileExistsError:
@@ -124,6 +124,7 @@ class Job:
 
 
 def suite_job(config: pytest.Config, name: str) -> Job:
+    """The job ``name`` of the run (in the run's jobs folder, :data:`ROOT_KEY`)."""
     return Job(config.stash[ROOT_KEY], name)
 
 
@@ -156,7 +157,8 @@ def job_env(one_worker: bool) -> dict[str, str]:
 
 
 def beam_report_args(out: Path) -> list[str]:
-    """The arguments of the shared run of the measured beam (:func:`beam_report`)."""
+    """The arguments of the shared run of the measured beam (the fixture
+    ``beam_report`` of conftest.py)."""
     return ["identify", str(REAL_UFF), "--out", str(out), "--report", "--no-figures",
             "--geometry", str(BEAM_GEOMETRY), "--quiet"]
 
@@ -293,7 +295,6 @@ class Background:
                 write_outputs(root, key, self.jobs[key])
                 return True
         return False
-
 
 
 class ReadmeOutcomes:

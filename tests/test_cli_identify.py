@@ -22,7 +22,6 @@ from ema_pipeline.identification.selection.expect import match_expected, with_ex
 from ema_pipeline.pipeline.batch import run_batch
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
 from ema_pipeline.pipeline.single import identify_file
-from tests.cli_runs import count_calls, run_cli
 from tests.paths import REPO
 
 TAU_S = 8.192 / 5  # the simulated test's window: tau = T / 5
@@ -98,31 +97,6 @@ def test_identify_applies_reciprocity_to_roving_sets() -> None:
     assert res.modes.shapes.shape == (8, 2)  # one row per hammer point
     assert res.modes.dofs == roving.reference_dofs
     assert res.settings.max_order == ref.settings.max_order
-
-
-def test_identify_checks_each_file_once(example_dir: Path, tmp_path: Path,
-                                        monkeypatch: pytest.MonkeyPatch,
-                                        capsys: pytest.CaptureFixture[str]) -> None:
-    """``identify`` of an HDF5 and a UFF file runs each check once per file: the
-    readable-file check (:func:`ema_pipeline.paths.check_readable`, the
-    command line's, before it imports the readers; neither the reader nor the
-    HDF5 check stats the file again) and those of ``identify`` (the window,
-    the single reference and the order / memory check, once, in
-    ``check_input``)."""
-    import ema_pipeline.pipeline.many  # noqa: F401  (every holder of the checks loaded)
-    from ema_pipeline import paths
-    from ema_pipeline.identification import IdentificationOptions, common
-    from ema_pipeline.identification.diagram import resources
-
-    readable = count_calls(monkeypatch, paths, "check_readable")
-    window = count_calls(monkeypatch, IdentificationOptions, "apply_window")
-    single = count_calls(monkeypatch, common, "single_reference")
-    limits = count_calls(monkeypatch, resources, "check_identification")
-    files = [example_dir / "larger_tank.h5", example_dir / "genuine.uff"]
-    code, said, _ = run_cli(["identify", *files, "--out", tmp_path, "--workers", "1"], capsys)
-    assert code == 0 and said.count("4 modes") == 2, said
-    assert [Path(args[0]) for _, args in readable] == files
-    assert (len(window), len(single), len(limits)) == (2, 2, 2)
 
 
 def test_identify_file_refuses_too_few_lines(tmp_path: Path) -> None:
