@@ -41,14 +41,13 @@ import numpy as np
 
 REPO = Path(__file__).resolve().parents[1]
 PYFRF_UFF = REPO.parent / "shared" / "data" / "pyfrf-impact.uff"
-sys.path.insert(0, str(REPO / "tests"))
-
-from impact_recordings import make_recording  # noqa: E402
+sys.path.insert(0, str(REPO))  # this checkout's package and its tests package
 
 from ema_pipeline import acquisition  # noqa: E402
 from ema_pipeline.data import DOF, Channel, Recording  # noqa: E402
 from ema_pipeline.io.recording import read_recording  # noqa: E402
 from ema_pipeline.pipeline.frf import FRFSettings, frf_from_recording  # noqa: E402
+from tests.impact_recordings import make_recording  # noqa: E402
 
 
 def best(fn, repeat: int) -> tuple[float, object]:

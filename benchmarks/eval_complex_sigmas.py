@@ -32,14 +32,13 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # this checkout's package
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))  # this checkout's package and its tests package
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-import hardcases  # noqa: E402
 from eval_identification import match_modes  # noqa: E402
 
 from ema_pipeline.identification.thresholds import SelectionThresholds  # noqa: E402
+from tests import hardcases  # noqa: E402
 
 TH = SelectionThresholds()  # the tuned defaults
 

@@ -38,12 +38,10 @@ from scipy.optimize import linear_sum_assignment
 ROOT = Path(__file__).resolve().parents[1]
 # this checkout's package, not whichever ema_pipeline is installed
 sys.path.insert(0, str(ROOT))
-sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
-import hardcases  # noqa: E402
-
 from ema_pipeline.data import FRFSet  # noqa: E402
+from tests import hardcases  # noqa: E402
 
 PUBLISHED_HZ = np.array([17.212, 68.840, 118.878, 155.391, 226.395, 235.230, 265.219,
                          362.805, 414.118, 567.539, 602.292, 643.435, 707.200, 740.567])

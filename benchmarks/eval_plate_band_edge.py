@@ -38,14 +38,15 @@ from pathlib import Path
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tests"))
+sys.path.insert(0, str(ROOT))
+import tests  # noqa: E402,F401  (this checkout's test helpers, bound before --package)
+
 # this checkout's package, or the one of --package (a copy of another commit's)
 sys.path.insert(0, sys.argv[sys.argv.index("--package") + 1] if "--package" in sys.argv
                 else str(ROOT))
 
-from test_plate_holdout import make_plate, write_two_sensor_test  # noqa: E402
-
 from ema_pipeline.modal import mac_pairs  # noqa: E402
+from tests.test_plate_holdout import make_plate, write_two_sensor_test  # noqa: E402
 
 
 def run_seed(seed: int, edge: float | None = 0.03, keep: Path | None = None) -> dict:

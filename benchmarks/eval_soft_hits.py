@@ -67,11 +67,12 @@ def main() -> None:
     parser.add_argument("--package", type=Path, default=ROOT,
                         help="checkout whose ema_pipeline is imported (default this one)")
     args = parser.parse_args()
-    sys.path.insert(0, str(ROOT / "tests"))
-    sys.path.insert(0, str(args.package.resolve()))
-    from impact_recordings import clean_hits, corrupt_hit, make_recording
+    sys.path.insert(0, str(ROOT))
+    import tests  # noqa: F401  (this checkout's test helpers, bound before --package)
 
+    sys.path.insert(0, str(args.package.resolve()))
     import ema_pipeline
+    from tests.impact_recordings import clean_hits, corrupt_hit, make_recording
 
     print(f"package: {Path(ema_pipeline.__file__).parent}")
     wrong, n_clean, n_defect = [], 0, 0

@@ -44,12 +44,13 @@ def _seeds(text: str) -> list[int]:
 
 def take(out: Path, seeds: list[int], families: list[str] | None, real: bool,
          package_root: Path) -> None:
-    sys.path.insert(0, str(package_root))
-    sys.path.insert(0, str(ROOT / "tests"))
-    import hardcases
+    sys.path.insert(0, str(ROOT))
+    import tests  # noqa: F401  (this checkout's test helpers, bound before package_root)
 
+    sys.path.insert(0, str(package_root))
     from ema_pipeline import io
     from ema_pipeline.identification import identify
+    from tests import hardcases
 
     def one(frf, band_hz=None) -> dict:
         if frf.n_out == 1 and frf.n_in > 1:

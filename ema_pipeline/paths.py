@@ -17,7 +17,8 @@ from pathlib import Path
 
 from ema_pipeline.data import DataError
 
-__all__ = ["DEFAULT_RAW_FOLDER", "FRF_FILE_KIND", "check_readable", "not_regular"]
+__all__ = ["DEFAULT_RAW_FOLDER", "FRF_FILE_KIND", "check_readable", "not_regular",
+           "refuse_unusable"]
 
 #: What an FRF input must be, as error messages say it.
 FRF_FILE_KIND = "an FRF file (UFF or HDF5)"
@@ -68,9 +69,24 @@ def check_readable(path: str | os.PathLike[str], kind: str) -> os.stat_result:
         if exc.errno == errno.ELOOP:
             raise DataError(f"{path}: symbolic link loop, expected {kind}") from None
         raise DataError(f"{path}: cannot access ({exc.strerror})") from None
+    refuse_unusable(path, st, kind)
+    return st
+
+
+def refuse_unusable(path: str | os.PathLike[str], st: os.stat_result, kind: str) -> None:
+    """Raise a DataError naming ``path`` unless ``st`` (its ``stat`` or the
+    ``fstat`` of its open descriptor) is that of a non-empty regular file;
+    ``kind`` says what the file should be, for the message.
+
+    Examples
+    --------
+    >>> refuse_unusable("x.h5", os.stat("/"), "an HDF5 file")
+    Traceback (most recent call last):
+    ...
+    ema_pipeline.data.DataError: x.h5: is a folder, expected an HDF5 file
+    """
     what = not_regular(st.st_mode)
     if what is not None:
         raise DataError(f"{path}: is {what}, expected {kind}")
     if st.st_size == 0:
         raise DataError(f"{path}: empty file, expected {kind}")
-    return st

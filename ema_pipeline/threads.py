@@ -4,8 +4,7 @@ Identification makes hundreds of thousands of small linear-algebra calls
 (companion eigenvalues, QR and solves of a few dozen columns). A threaded
 BLAS (OpenBLAS starts one thread per core) splits each of them over its
 threads, which spin, wait for each other and fight every other process on
-the machine: on a quiet 2-core machine the measured beam took 2.7x as long
-as on one thread, on a busy one 25x. So every stage runs its linear algebra
+the machine (measured: docs/validation.md). So every stage runs its linear algebra
 on one BLAS thread whatever ``OPENBLAS_NUM_THREADS`` and its kind say, and
 the cores are used by worker processes where the work splits into
 independent pieces (:mod:`ema_pipeline.runner`).

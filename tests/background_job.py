@@ -1,6 +1,6 @@
 """Identify test cases in a child process (a background job of the test run).
 
-``python tests/background_job.py OUT_DIR KIND:NAME:SEED,SEED ...`` writes,
+``python -m tests.background_job OUT_DIR KIND:NAME:SEED,SEED ...`` writes,
 case by case in the order given, [{"seed", "fn_hz", "zeta", "fn_std_hz",
 "zeta_std"}, ...] to OUT_DIR/KIND_NAME.json, each through a temporary file
 and a rename (a test waits only for its own). Before a case it claims it
@@ -10,9 +10,9 @@ neither process waits for work the other has not started. KIND is ``hard`` (a fa
 of ``tests/hardcases.py``, identified as ``test_identification_hard.identify_case``
 does) or ``paper`` (a configuration of the paper's simulated impact test,
 ``pipeline.simulate.simulate_paper_test``, identified at the defaults).
-``tests/conftest.py`` starts it at collection for the slow cases that the
-selected tests read (their modules' ``BACKGROUND``): they then run on the
-second core while the rest of the suite runs on the first.
+``tests/conftest.py`` starts it at collection (:func:`tests.jobs.start_background`)
+for the slow cases that the selected tests read (their modules' ``BACKGROUND``):
+they then run on the second core while the rest of the suite runs on the first.
 """
 
 from __future__ import annotations
@@ -25,14 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
 
 def identify_one(kind: str, name: str, seed: int) -> dict[str, np.ndarray]:
     """fn_hz, zeta, fn_std_hz, zeta_std of one case."""
     if kind == "hard":
-        import hardcases
-        from test_identification_hard import identify_case
+        from tests import hardcases
+        from tests.test_identification_hard import identify_case
 
         return identify_case(hardcases.make_case(name, seed))
     if kind == "paper":

@@ -41,7 +41,7 @@ suite runs it in the background from the start of the session).
 left), ``results`` (earlier results changed), ``escape`` (written outside the
 output folder), ``html`` (unescaped markup), ``table`` (batch tables).
 
-``python tests/fuzz_cases.py [-v] [CATEGORY ...]`` prints the failure counts by
+``python -m tests.fuzz_cases [-v] [CATEGORY ...]`` prints the failure counts by
 category (``EMA_FUZZ_FULL=1``: the whole corpus, else the quick subset that the
 test suite runs; ``EMA_FUZZ_CODE=DIR``: test the package in DIR).
 """
@@ -774,8 +774,9 @@ def recording_cases(root: Path) -> list[Case]:
     """Issue 26: bad raw recordings for ``frf`` (NaN, truncated UFF / TDMS / WAV,
     different sample rates, no force channel, unknown unit, no hit, every hit rejected),
     made from generated recordings; ``--report`` too, so that no page is written either."""
-    from impact_recordings import make_recording, write_tdms, write_uff
     from nptdms import ChannelObject, TdmsWriter
+
+    from tests.impact_recordings import make_recording, write_tdms, write_uff
 
     root.mkdir(parents=True)
     rec = make_recording(5, n_hits=5, n_resp=1, last_hit_short=False)
@@ -872,12 +873,12 @@ def hostile_recording_cases(root: Path) -> list[Case]:
     option, write nothing and change no input."""
     import struct
 
-    from impact_recordings import make_recording
     from nptdms import ChannelObject, TdmsWriter
     from scipy.io import wavfile
 
     from ema_pipeline import acquisition
     from ema_pipeline import io as ema_io
+    from tests.impact_recordings import make_recording
 
     root.mkdir(parents=True)
     rec = make_recording(5, n_hits=5, n_resp=1, last_hit_short=False)
@@ -1395,7 +1396,7 @@ def save_verdicts(root: Path, workers: int = 2) -> Path:
 
 
 if __name__ == "__main__" and sys.argv[1:2] == ["--save"]:
-    # python tests/fuzz_cases.py --save ROOT WORKERS (the test suite's background run)
+    # python -m tests.fuzz_cases --save ROOT WORKERS (the test suite's background run)
     save_verdicts(Path(sys.argv[2]), workers=int(sys.argv[3]))
 elif __name__ == "__main__":
     import tempfile

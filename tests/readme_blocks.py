@@ -2,7 +2,7 @@
 bash block runs (tests/test_readme.py).
 
 Run as a script it is a background job of the test run:
-``python tests/readme_blocks.py OUT_DIR INDEX ...`` runs the bash blocks
+``python -m tests.readme_blocks OUT_DIR INDEX ...`` runs the bash blocks
 ``BLOCKS[INDEX]``, in the order given, each in its own scratch repository
 OUT_DIR/block_INDEX/repo (:func:`make_sandbox`), and writes its outcome
 ({"returncode", "stdout", "stderr", "script"}) to the file
@@ -25,8 +25,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from background_job import claim, output_path  # noqa: E402
+from tests.background_job import claim, output_path
 
 REPO = Path(__file__).resolve().parents[1]
 README = REPO / "README.md"

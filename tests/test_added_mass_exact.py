@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from independent_beam import truth
 
 from ema_pipeline import added_mass as am
 from ema_pipeline import paper
@@ -24,6 +23,7 @@ from ema_pipeline.added_mass.modified_beam import (
     parse_element_fractions,
 )
 from ema_pipeline.data import Beam, ConfigError, DataError, ModalParameters
+from tests.independent_beam import truth
 
 # the paper's beam (section 3): 0.65 x 0.05 x 0.01 m, steel
 BEAM = Beam()  # the same beam for the project's code (defaults are the paper's)

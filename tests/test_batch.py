@@ -22,7 +22,6 @@ import h5py
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import THREE_SENSORS
 
 from ema_pipeline import acquisition, io, paper
 from ema_pipeline.cli import main
@@ -32,6 +31,7 @@ from ema_pipeline.pipeline import batch
 from ema_pipeline.pipeline.batch import BatchReport, run_batch
 from ema_pipeline.pipeline.reports import batch_file_report_path, write_batch_report
 from ema_pipeline.pipeline.simulate import simulate_paper_test
+from tests.paths import THREE_SENSORS
 
 FILE_BAND_HZ = (2.0, 400.0)
 OPTIONS = IdentificationOptions(band_hz=(5.0, 395.0))

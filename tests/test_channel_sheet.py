@@ -16,17 +16,9 @@ import re
 import tomllib
 from pathlib import Path
 
-import impact_recordings
 import numpy as np
 import pandas as pd
 import pytest
-from impact_recordings import (
-    PLATE_FS_HZ,
-    PLATE_HIT_TIMES_S,
-    Plate,
-    PlateTest,
-    plate_hammer_signals,
-)
 
 from ema_pipeline import io
 from ema_pipeline.cli import main
@@ -34,6 +26,14 @@ from ema_pipeline.data import DataError
 from ema_pipeline.io.channel_sheet import read_channel_sheet
 from ema_pipeline.modal import mac_pairs
 from ema_pipeline.pipeline.roving import sheet_frf
+from tests import impact_recordings
+from tests.impact_recordings import (
+    PLATE_FS_HZ,
+    PLATE_HIT_TIMES_S,
+    Plate,
+    PlateTest,
+    plate_hammer_signals,
+)
 
 LX, LY = 0.6, 0.4
 MODES = ((1, 1), (2, 1), (1, 2), (3, 1), (2, 2))  # by frequency

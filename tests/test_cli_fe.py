@@ -6,11 +6,11 @@ import numpy as np
 import pandas as pd
 import pytest
 import scipy.linalg
-from independent_beam import truth
 from scipy.optimize import minimize_scalar
 
 from ema_pipeline import paper
 from ema_pipeline.cli import main
+from tests.independent_beam import truth
 
 
 @pytest.fixture(scope="module")

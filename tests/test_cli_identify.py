@@ -12,7 +12,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import REPO
 
 from ema_pipeline import io
 from ema_pipeline.acquisition import modal_frf
@@ -23,6 +22,7 @@ from ema_pipeline.identification.selection.expect import match_expected, with_ex
 from ema_pipeline.pipeline.batch import run_batch
 from ema_pipeline.pipeline.simulate import paper_modes, simulate_paper_test
 from ema_pipeline.pipeline.single import identify_file
+from tests.paths import REPO
 
 TAU_S = 8.192 / 5  # the simulated test's window: tau = T / 5
 

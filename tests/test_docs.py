@@ -2,9 +2,9 @@
 dangling reference or a failing tutorial fails the suite.
 
 The Sphinx build runs once, in a child process started at collection
-(tests/conftest.py, ``docs_site``), into a temporary folder (sphinx-gallery
-writes the tutorials' generated pages to ``docs/tutorials/``, which git
-ignores). Its ``objects.inv`` must list the public API, and the
+(tests/conftest.py; ``docs_site`` below), into a temporary folder
+(sphinx-gallery writes the tutorials' generated pages to ``docs/tutorials/``,
+which git ignores). Its ``objects.inv`` must list the public API, and the
 tutorials' pages must hold output computed during the build that agrees with
 the simulation's truth (the paper's Table 1).
 """
@@ -13,10 +13,13 @@ from __future__ import annotations
 
 import posixpath
 import re
+import time
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+from tests.jobs import start_docs
 
 REPO = Path(__file__).resolve().parents[1]
 DOCS = REPO / "docs"
@@ -35,9 +38,26 @@ for _module in ("sphinx", "furo", "myst_parser", "sphinx_gallery", "sphinxarg"):
     pytest.importorskip(_module, reason=NO_EXTRA)
 
 
+@pytest.fixture(scope="session")
+def docs_site(request: pytest.FixtureRequest) -> Path:
+    """The folder of the documentation site built with ``sphinx -W`` (about
+    45 s, in a child process started at collection): the build must succeed
+    with no warning and no error."""
+    job = start_docs(request.config)
+    start = time.perf_counter()
+    code = job.wait(timeout_s=600)
+    waited = time.perf_counter() - start
+    stderr = (job.dir / "stderr.txt").read_text(errors="replace")
+    assert code == 0, (
+        f"sphinx -W failed ({waited:.0f} s after its test asked for it):\n{stderr[-6000:]}")
+    assert "WARNING" not in stderr and "ERROR" not in stderr, stderr[-6000:]
+    return job.dir / "html"
+
+
+
 @pytest.fixture(scope="module")
 def site(docs_site: Path) -> Path:
-    """The site's folder (conftest.py's ``docs_site``: built in the background
+    """The site's folder (``docs_site``: built in the background
     from collection on, ``-W``, no warning or error)."""
     return docs_site
 

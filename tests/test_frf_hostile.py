@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from impact_recordings import make_recording, write_uff
 
 from ema_pipeline import io
 from ema_pipeline.cli import main
+from tests.impact_recordings import make_recording, write_uff
 
 
 def digest(path: Path) -> str:

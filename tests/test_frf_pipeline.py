@@ -9,15 +9,15 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import REPO
-from fuzz_cases import fast_inputs
-from impact_recordings import make_recording, write_tdms
 
 from ema_pipeline import acquisition, io, paper
 from ema_pipeline.cli import main
 from ema_pipeline.data import DataError
 from ema_pipeline.io.recording import is_recording
 from ema_pipeline.pipeline.simulate import paper_modes
+from tests.fuzz_cases import fast_inputs
+from tests.impact_recordings import make_recording, write_tdms
+from tests.paths import REPO
 
 
 def test_batch_takes_a_recording_beside_an_frf_file(tmp_path):

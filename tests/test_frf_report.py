@@ -8,11 +8,11 @@ import re
 
 import numpy as np
 import pandas as pd
-from impact_recordings import make_recording, write_tdms
 
 from ema_pipeline.cli import main
 from ema_pipeline.pipeline.frf import frf_from_files
 from ema_pipeline.report.hits_page import ACCEPTED_TEXT, REASON_TEXT
+from tests.impact_recordings import make_recording, write_tdms
 
 
 def sections(page: str) -> dict[int, str]:

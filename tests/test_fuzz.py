@@ -23,8 +23,12 @@ up front); ``EMA_FUZZ_FULL=1`` runs all of it.
 
 from __future__ import annotations
 
-import fuzz_cases as fc
+import json
+
 import pytest
+
+import tests.fuzz_cases as fc
+from tests.jobs import start_fuzz
 
 #: group -> {test: reason} for checks still expected to fail (none since issue 15
 #: phase 2: experiment schema, atomic results swap, exit codes, order/band/memory
@@ -45,6 +49,16 @@ CHECKS = {
     "verdict": {"exit0", "message", "litter", "results", "escape", "html", "table"},
     "exit_status": {"exit_code"},
 }
+
+
+@pytest.fixture(scope="session")
+def fuzz_verdicts(request: pytest.FixtureRequest) -> dict[str, dict]:
+    """Case name -> {"group", "bad" (failed checks), "rc", "signal", "stderr"} of the
+    whole fuzz corpus (tests/fuzz_cases.py), from its background run."""
+    job = start_fuzz(request.config)
+    assert job.wait() == 0, f"fuzz corpus run failed:\n{job.log_tail()}"
+    return json.loads((job.dir / "verdicts.json").read_text())
+
 
 
 @pytest.fixture(scope="session")

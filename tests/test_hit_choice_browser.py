@@ -16,15 +16,15 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 import pytest
-from impact_recordings import write_plate_test
-from test_channel_sheet import plate_test
 
 from ema_pipeline import io
 from ema_pipeline.cli import main
 from ema_pipeline.io.hit_choice import read_hit_choice
+from tests.impact_recordings import write_plate_test
+from tests.test_channel_sheet import plate_test
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
-from browser import chromium, needs_browser  # noqa: E402
+from tests.browser import chromium, needs_browser  # noqa: E402
 
 pytestmark = needs_browser
 

@@ -9,13 +9,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from impact_recordings import make_recording, write_tdms, write_uff
 
 from ema_pipeline import io
 from ema_pipeline.acquisition import hits as hitlib
 from ema_pipeline.cli import main
 from ema_pipeline.data import DOF, Channel, DataError, Recording
 from ema_pipeline.pipeline.frf import FRFSettings, frf_from_recording
+from tests.impact_recordings import make_recording, write_tdms, write_uff
 
 SEEDS = range(6)
 

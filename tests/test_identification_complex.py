@@ -21,24 +21,20 @@ at most 2 % of the true modes missed and 2 % spurious, p68 of
 
 from __future__ import annotations
 
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import hardcases  # noqa: E402
-from conftest import Background  # noqa: E402
-from test_identification_hard import (  # noqa: E402
+from ema_pipeline.identification.thresholds import SelectionThresholds
+from tests import hardcases
+from tests.jobs import Background
+from tests.test_identification_hard import (
     _match,
     assert_window_shift_exact,
     identify_case,
     scores,
 )
-
-from ema_pipeline.identification.thresholds import SelectionThresholds
 
 TH = SelectionThresholds()  # the tuned defaults
 

@@ -9,10 +9,7 @@ among them; ``identify FILE`` reads, checks and hashes the file once.
 from __future__ import annotations
 
 import os
-import sys
 import warnings
-from collections import Counter
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +19,7 @@ from ema_pipeline import io
 from ema_pipeline.cli import main
 from ema_pipeline.data import ConfigError
 from ema_pipeline.identification import IdentificationOptions, check_input, identify
+from tests.cli_runs import count_calls
 
 #: The warnings of the genuine beam (modes 18.1, 112.1, 327.6, 629.6 Hz) with a
 #: fixed order (the narrower searches off) and a guess at 60 Hz no mode answers.
@@ -70,18 +68,6 @@ def _identified(path: Path, out: Path, capsys: pytest.CaptureFixture[str]) -> Pa
     return out / f"{path.stem}_result.h5"
 
 
-def _count(monkeypatch: pytest.MonkeyPatch, func: Callable[..., Any], calls: Counter[str]
-           ) -> None:
-    """Count the calls of ``func`` under every name the package's modules bound it to."""
-    def counted(*args: Any, **kwargs: Any) -> Any:
-        calls[func.__name__] += 1
-        return func(*args, **kwargs)
-
-    for name, module in list(sys.modules.items()):
-        if name.startswith("ema_pipeline") and getattr(module, func.__name__, None) is func:
-            monkeypatch.setattr(module, func.__name__, counted)
-
-
 @pytest.mark.parametrize("name", ["genuine.uff", "larger_tank.h5"])
 def test_identify_file_runs_each_check_once(name: str, example_dir: Path, tmp_path: Path,
                                             monkeypatch: pytest.MonkeyPatch,
@@ -89,34 +75,30 @@ def test_identify_file_runs_each_check_once(name: str, example_dir: Path, tmp_pa
     """``identify FILE`` (UFF and HDF5): the window override and the
     reciprocity rule are applied once, the data checks (order cap, memory) run
     once, the file is hashed once (the hash reaches the result file from the
-    reader's provenance). The file's readability (a stat) is checked by the
-    command line before anything is imported, by ``read_frf`` before it
-    looks at the content, and by the format's own reader (``read_frf_uff`` /
-    ``read_frf_h5``, public readers that check their file themselves)."""
-    from ema_pipeline.identification.common import single_reference
-    from ema_pipeline.identification.diagram.resources import check_identification
-    from ema_pipeline.io.files import sha256_file
-    from ema_pipeline.paths import check_readable
+    reader's provenance), and the file's readability (a stat) is checked
+    once, by the command line before anything is imported (the readers take
+    its word, ``read_frf(checked=True)``; the HDF5 check looks at the open
+    file's descriptor)."""
+    from ema_pipeline import paths
+    from ema_pipeline.identification import common
+    from ema_pipeline.identification.diagram import resources
+    from ema_pipeline.io import files
     from ema_pipeline.pipeline import single  # noqa: F401  (loaded: its names are counted too)
 
-    calls: Counter[str] = Counter()
-    for func in (single_reference, check_identification, sha256_file, check_readable):
-        _count(monkeypatch, func, calls)
-    apply_window = IdentificationOptions.apply_window
-
-    def counted_window(self: IdentificationOptions, frf: Any) -> Any:
-        calls["apply_window"] += 1
-        return apply_window(self, frf)
-
-    monkeypatch.setattr(IdentificationOptions, "apply_window", counted_window)
+    calls = {name: count_calls(monkeypatch, owner, name) for owner, name in (
+        (common, "single_reference"), (resources, "check_identification"),
+        (files, "sha256_file"), (paths, "check_readable"),
+        (IdentificationOptions, "apply_window"))}
     path = example_dir / name
     code, err = _cli(["identify", path, "--out", tmp_path, "--quiet", "--band", "5", "400",
                       "--exp-window-tau", "2.0"], capsys)
     assert code == 0, err
-    assert calls == {"apply_window": 1, "single_reference": 1, "check_identification": 1,
-                     "sha256_file": 1, "check_readable": 3}, calls
+    assert {name: len(c) for name, c in calls.items()} == {
+        "apply_window": 1, "single_reference": 1, "check_identification": 1,
+        "sha256_file": 1, "check_readable": 1}, calls
+    assert [Path(args[0]) for _, args in calls["check_readable"]] == [path]
     stored = io.completed_result_sha256(tmp_path / f"{path.stem}_result.h5")
-    assert stored == sha256_file(path)
+    assert stored == io.sha256_file(path)
 
 
 def test_library_refuses_a_diagram_over_the_memory_limit(example_dir: Path, tmp_path: Path,

@@ -22,32 +22,29 @@ the true modes missed and 2 % spurious (on these seeds: none).
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import hardcases  # noqa: E402
-from conftest import Background  # noqa: E402
-from test_identification_hard import scores  # noqa: E402
-
-from ema_pipeline.data import FRFSet  # noqa: E402
-from ema_pipeline.identification import (  # noqa: E402
+from ema_pipeline.data import FRFSet
+from ema_pipeline.identification import (
     SelectionThresholds,
     doubtful_reasons,
     identify,
 )
-from ema_pipeline.identification.selection.pairs import (  # noqa: E402
+from ema_pipeline.identification.selection.pairs import (
     close_pairs,
     f_quantile,
     pair_significance,
     peaks_apart,
     unsupported_partners,
 )
-from ema_pipeline.identification.selection.partners import close_partners  # noqa: E402
+from ema_pipeline.identification.selection.partners import close_partners
+from tests import hardcases
+from tests.jobs import Background
+from tests.test_identification_hard import scores
 
 TH = SelectionThresholds()  # the tuned defaults
 

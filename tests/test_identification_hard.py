@@ -16,19 +16,15 @@ held-out ranges of the README (400+) are not used here.
 
 from __future__ import annotations
 
-import sys
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import hardcases  # noqa: E402
-from conftest import Background  # noqa: E402
-
-from ema_pipeline.identification import doubtful_reasons, identify  # noqa: E402
+from ema_pipeline.identification import doubtful_reasons, identify
 from ema_pipeline.identification.thresholds import SelectionThresholds
+from tests import hardcases
+from tests.jobs import Background
 
 TH = SelectionThresholds()  # the tuned defaults
 
@@ -293,7 +289,7 @@ def test_no_resonance_listed_as_not_kept_where_no_mode_was_missed(
     over SIGMA_SEEDS of all families (about 150 files) no entry lies away
     from a true mode that the identification missed (measured: none listed
     at all; on the measured beam 42.1, 274.7 and 325.1 Hz, in
-    tests/test_identification.py)."""
+    tests/test_identification_real.py)."""
     alarms = {f: _family_scores(f, background, sigma=True)["false_alarms"]
               for f in hardcases.FAMILIES}
     assert sum(alarms.values()) == 0, alarms

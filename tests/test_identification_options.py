@@ -5,20 +5,40 @@ Options tested elsewhere: ``band_hz`` and ``max_order`` (test_identification.py:
 test_band_of_few_lines_finds_its_modes, test_too_few_lines_for_order), ``method``
 (test_sdypy_backend_agrees), ``expect_hz`` (test_expect_picks_nearest_clusters),
 ``weighting`` (test_coherence_weighting_helps_against_a_bad_channel).
+
+The command line's identification options (``identify`` and ``batch``: band,
+order, method, window searches, final tests, memory limit, verbosity,
+geometry) change what they write, on noise-free FRFs of known modes (every
+option's test: test_option_inventory.py).
 """
 
 from __future__ import annotations
 
 import re
+import shutil
+import subprocess
+import sys
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
-from hardcases import make_case
 
+from ema_pipeline import io
 from ema_pipeline.acquisition import modal_frf
-from ema_pipeline.data import FRFSet, ModalParameters
-from ema_pipeline.identification import SelectionThresholds, doubtful_reasons, identify
+from ema_pipeline.cli import main
+from ema_pipeline.data import DOF, FRFSet, ModalParameters
+from ema_pipeline.identification import (
+    IdentificationOptions,
+    SelectionThresholds,
+    doubtful_reasons,
+    identify,
+)
+from ema_pipeline.io import experiment as schema
+from ema_pipeline.io.hdf5 import read_results_h5
+from tests.cli_runs import TWO_MODES, run_cli, shape_data
+from tests.hardcases import make_case
 
 # four modes; a band of 50-110 Hz leaves 30 Hz below it and 160 Hz above it
 FREQ = np.linspace(0.0, 200.0, 2001)
@@ -361,3 +381,303 @@ def test_the_alternates_gate_has_thresholds_of_its_own():
     assert shown_by_the_frfs(f, H, off, thresholds=th).tolist() == [True]
     assert shown_by_the_frfs(f, H, off,
                              thresholds=replace(th, alternate_peak_lines=0.5)).tolist() == [False]
+
+
+# the command line's identification options (identify, batch)
+def _orders(result_h5: Path) -> np.ndarray:
+    return np.asarray(read_results_h5(result_h5)["identification"]["settings"]["orders"])
+
+
+def test_identify_options_change_the_result(two_mode_folder: Path, tmp_path: Path,
+                                            capsys: pytest.CaptureFixture[str]) -> None:
+    """On the noise-free 30/70 Hz FRF: --band 50 100 keeps only the 70 Hz mode;
+    --max-order 16 is the diagram's highest order; --method sdypy-lscf is the
+    stored method and still finds both modes; --quiet prints nothing; --out is
+    where the tables go."""
+    src = two_mode_folder / "two.uff"
+    code, said, _ = run_cli(["identify", src, "--out", tmp_path / "base"], capsys)
+    assert code == 0 and "2 modes" in said
+    base = pd.read_csv(tmp_path / "base" / "two_modes.csv")
+    np.testing.assert_allclose(base["fn_hz"], TWO_MODES.fn_hz, rtol=1e-5)
+    assert _orders(tmp_path / "base" / "two_result.h5").max() != 16
+    code, said, _ = run_cli(["identify", src, "--out", tmp_path / "band", "--band", "50", "100",
+                          "--quiet"], capsys)
+    assert code == 0 and said == ""
+    np.testing.assert_allclose(pd.read_csv(tmp_path / "band" / "two_modes.csv")["fn_hz"],
+                               [70.0], rtol=1e-5)
+    assert run_cli(["identify", src, "--out", tmp_path / "order", "--max-order", "16", "--quiet"],
+                capsys)[0] == 0
+    assert _orders(tmp_path / "order" / "two_result.h5").max() == 16
+    assert run_cli(["identify", src, "--out", tmp_path / "sdypy", "--method", "sdypy-lscf",
+                 "--max-order", "20", "--quiet"], capsys)[0] == 0
+    stored = read_results_h5(tmp_path / "sdypy" / "two_result.h5")["identification"]
+    assert stored["settings"]["method"] == "sdypy-lscf"
+    assert read_results_h5(tmp_path / "base" / "two_result.h5")["identification"][
+        "settings"]["method"] == "plscf"
+    np.testing.assert_allclose(pd.read_csv(tmp_path / "sdypy" / "two_modes.csv")["fn_hz"],
+                               TWO_MODES.fn_hz, rtol=1e-3)
+
+
+def test_batch_options_change_the_result(two_mode_folder: Path, tmp_path: Path,
+                                         capsys: pytest.CaptureFixture[str]) -> None:
+    """batch passes the identification options on: --band 50 100 keeps the 70 Hz
+    mode, --expect 70 fills expect_hz, --exp-window-tau 10 s removes
+    1/(tau 2 pi fn) from the damping (2 % -> 1.977 %), --max-order 20 and --method
+    sdypy-lscf reach the stored settings; --quiet prints nothing, --no-figures
+    leaves the report without figures; a rerun skips the file, --force redoes it."""
+    out = tmp_path / "out"
+    options = ["--band", "50", "100", "--expect", "70", "--exp-window-tau", "10",
+               "--max-order", "20", "--method", "sdypy-lscf", "--workers", "1"]
+    code, said, _ = run_cli(["batch", two_mode_folder, "--out", out, *options, "--quiet",
+                          "--report", "--no-figures"], capsys)
+    assert code == 0 and said == ""
+    modes = pd.read_csv(out / "two_modes.csv")
+    assert modes["expect_hz"].tolist() == [70.0]
+    assert modes["fn_hz"].tolist() == pytest.approx([70.0], rel=1e-4)
+    zeta_pct = 2.0 - 100 / (10 * 2 * np.pi * 70.0)
+    assert modes["zeta_pct"].iloc[0] == pytest.approx(zeta_pct, rel=2e-3)
+    stored = read_results_h5(out / "two_result.h5")["identification"]["settings"]
+    assert stored["method"] == "sdypy-lscf" and stored["max_order"] == 20
+    assert "<svg" not in (out / "report.html").read_text()
+    code, said, _ = run_cli(["batch", two_mode_folder, "--out", out, *options, "--report"], capsys)
+    assert code == 0 and "1 skipped" in said
+    code, said, _ = run_cli(["batch", two_mode_folder, "--out", out, *options, "--force",
+                          "--report"], capsys)
+    assert code == 0 and "1 ok, 0 skipped" in said
+    assert "<svg" in (out / "report.html").read_text()
+
+
+#: Twelve well-separated modes, enough candidates for the window searches of a
+#: dense band (``SelectionThresholds.window_min_modes``).
+TWELVE_MODES = ModalParameters(
+    fn_hz=[40.0, 85.0, 130.0, 180.0, 225.0, 270.0, 330.0, 380.0, 430.0, 490.0, 545.0, 610.0],
+    zeta=[0.01] * 12)
+
+
+def _twelve_frf() -> FRFSet:
+    """:data:`TWELVE_MODES` noise-free, 3 x 1 receptances, 0-800 Hz."""
+    f = np.linspace(0.0, 800.0, 2049)
+    phi = np.random.default_rng(3).standard_normal((3, 12))
+    return FRFSet(freq_hz=f, H=modal_frf(f, TWELVE_MODES, phi, phi[:1], quantity="receptance"),
+                  quantity="receptance")
+
+
+@pytest.fixture(scope="module")
+def twelve(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, str]:
+    """:func:`_twelve_frf` as IN/twelve.uff and ``identify --quiet`` of it at the
+    defaults, run once for the window-search and fixed-order tests: (the file,
+    the output folder, the run's stderr)."""
+    import contextlib
+    import io as text_io
+
+    root = tmp_path_factory.mktemp("twelve")
+    (root / "in").mkdir()
+    src = io.write_frf(_twelve_frf(), root / "in" / "twelve.uff", "uff")
+    err = text_io.StringIO()
+    with contextlib.redirect_stderr(err):
+        code = main(["identify", str(src), "--out", str(root / "default"), "--quiet"])
+    assert code == 0, err.getvalue()
+    return src, root / "default", err.getvalue()
+
+
+def test_no_window_search_skips_the_window_searches(twelve: tuple[Path, Path, str],
+                                                    tmp_path: Path,
+                                                    capsys: pytest.CaptureFixture[str]) -> None:
+    """On a noise-free twelve-mode FRF (3 x 1, 0-800 Hz): by default the band is
+    searched again in windows of consecutive candidates, so the middle modes are
+    held by two of the narrower searches (``band_support``); with
+    ``--no-window-search`` (identify and batch) only the low-band search is left,
+    which holds none of them, the stored settings say so, and the twelve modes
+    are the same. The experiment file's ``[identification] window_searches``
+    is the same option. The default run is the module's (``twelve``)."""
+    toml = tmp_path / "experiment.toml"
+    assert schema.read_identification_options({"window_searches": False}, toml) == \
+        IdentificationOptions(window_searches=False)
+    with pytest.raises(io.DataError, match="window_searches"):
+        schema.read_identification_options({"window_searches": "no"}, toml)
+    src, default, _ = twelve
+    folder = src.parent
+    assert run_cli(["identify", src, "--out", tmp_path / "off", "--quiet", "--no-window-search"],
+                capsys)[0] == 0
+    stored = {}
+    for name, out in (("default", default), ("off", tmp_path / "off")):
+        stored[name] = read_results_h5(out / "twelve_result.h5")["identification"]
+        np.testing.assert_allclose(pd.read_csv(out / "twelve_modes.csv")["fn_hz"],
+                                   TWELVE_MODES.fn_hz, rtol=1e-5)
+    middle = (np.asarray(TWELVE_MODES.fn_hz) > 200) & (np.asarray(TWELVE_MODES.fn_hz) < 500)
+    held = {k: np.asarray(v["band_support"])[:, 0] for k, v in stored.items()}
+    assert np.all(held["default"][middle] >= 2) and np.all(held["off"][middle] == 0)
+    assert bool(stored["default"]["settings"]["window_searches"]) is True
+    assert bool(stored["off"]["settings"]["window_searches"]) is False
+    assert run_cli(["batch", folder, "--out", tmp_path / "batch", "--workers", "1", "--quiet",
+                 "--no-window-search"], capsys)[0] == 0
+    batch = read_results_h5(tmp_path / "batch" / "twelve_result.h5")["identification"]
+    assert bool(batch["settings"]["window_searches"]) is False
+    np.testing.assert_array_equal(np.asarray(batch["band_support"]), stored["off"]["band_support"])
+
+
+def test_no_accept_keeps_the_untested_candidates(tmp_path: Path,
+                                                capsys: pytest.CaptureFixture[str]) -> None:
+    """Hard case impact-1 (six modes, 2-900 Hz): ``identify`` keeps the six
+    true modes; with ``--no-accept`` (identify and batch) the final tests are
+    skipped and the three untested candidates above 780 Hz stay as well, with
+    the same refined poles for the six (the library's ``accept=False``,
+    ``test_identification_options.py::test_accept_runs_the_final_tests``);
+    the stored settings say so. The experiment file's ``[identification]
+    accept`` is the same option."""
+    from tests.hardcases import make_case
+
+    toml = tmp_path / "experiment.toml"
+    assert schema.read_identification_options({"accept": False}, toml) == \
+        IdentificationOptions(accept=False)
+    with pytest.raises(io.DataError, match="accept"):
+        schema.read_identification_options({"accept": "no"}, toml)
+    case = make_case("impact", 1)
+    folder = tmp_path / "in"
+    folder.mkdir()
+    io.write_frf(case.frf, folder / "impact.h5", "h5")
+    src = folder / "impact.h5"
+    band = ["--band", *map(str, case.band_hz)]
+    table, stored = {}, {}
+    for name, extra in (("default", []), ("untested", ["--no-accept"])):
+        assert run_cli(["identify", src, "--out", tmp_path / name, "--quiet", *band, *extra],
+                    capsys)[0] == 0
+        table[name] = pd.read_csv(tmp_path / name / "impact_modes.csv")
+        stored[name] = read_results_h5(tmp_path / name / "impact_result.h5")["identification"]
+    np.testing.assert_allclose(table["default"]["fn_hz"], case.fn_hz, rtol=1e-3)
+    untested = table["untested"]["fn_hz"].to_numpy()
+    assert untested.size == 9 and np.all(untested[6:] > 780.0)
+    np.testing.assert_allclose(untested[:6], table["default"]["fn_hz"], rtol=1e-6)
+    assert bool(stored["default"]["settings"]["accept"]) is True
+    assert bool(stored["untested"]["settings"]["accept"]) is False
+    assert run_cli(["batch", folder, "--out", tmp_path / "batch", "--workers", "1", "--quiet",
+                 *band, "--no-accept"], capsys)[0] == 0
+    batch = pd.read_csv(tmp_path / "batch" / "impact_modes.csv")
+    np.testing.assert_allclose(batch["fn_hz"], untested, rtol=1e-12)
+
+
+def test_memory_limit_refuses_before_any_work(two_mode_folder: Path, tmp_path: Path,
+                                              capsys: pytest.CaptureFixture[str],
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    """--memory-limit-gb below the estimate of a fixed --max-order refuses it (exit 2
+    in identify, a failed file in batch) and writes no result; the default limit
+    lets the same settings run. Without --max-order the adaptive order search is
+    estimated at the highest order it may reach, so the limit refuses it too."""
+    src = two_mode_folder / "two.uff"
+    # the option travels in the options (to batch workers too) and wins over the variable
+    monkeypatch.setenv("EMA_PIPELINE_MEMORY_LIMIT_GB", "4")
+    assert run_cli(["identify", src, "--out", tmp_path / "ok", "--max-order", "40", "--quiet"],
+                capsys)[0] == 0
+    code, _, err = run_cli(["identify", src, "--out", tmp_path / "id", "--max-order", "40",
+                         "--memory-limit-gb", "1e-6"], capsys)
+    assert code == 2 and "more than the limit" in err and "--memory-limit-gb" in err
+    assert not (tmp_path / "id" / "two_modes.csv").exists()
+    code, _, err = run_cli(["identify", src, "--out", tmp_path / "ad", "--memory-limit-gb", "1e-6"],
+                        capsys)
+    assert code == 2 and "more than the limit" in err
+    assert not (tmp_path / "ad" / "two_modes.csv").exists()
+    code, _, err = run_cli(["batch", two_mode_folder, "--out", tmp_path / "b", "--max-order", "40",
+                         "--memory-limit-gb", "1e-6", "--workers", "1", "--quiet"], capsys)
+    assert code == 1 and "more than the limit" in (tmp_path / "b" / "failures.csv").read_text()
+
+
+def test_verbose_reaches_the_batch_workers(two_mode_folder: Path, tmp_path: Path) -> None:
+    """--verbose prints the package's INFO messages (here: a UFF dataset the reader
+    skips) on stderr, in identify and from batch's worker processes (which do not
+    inherit the parent's logging set-up by themselves); without it they stay quiet."""
+    folder = tmp_path / "in"
+    folder.mkdir()
+    text = (two_mode_folder / "two.uff").read_text()
+    (folder / "two.uff").write_text(text + "    -1\n  2420\n         1\nSI\n    -1\n")
+    def run(*argv: object) -> str:
+        done = subprocess.run([sys.executable, "-m", "ema_pipeline", *map(str, argv)],
+                              capture_output=True, text=True, check=True)
+        return done.stderr
+    said = "skipped datasets not needed for FRFs: 2420"
+    for verbose in (True, False):
+        extra = ["--verbose"] if verbose else []
+        assert (said in run("identify", folder / "two.uff", "--out", tmp_path / f"i{verbose}",
+                            "--quiet", *extra)) is verbose
+        assert (said in run("batch", folder, "--out", tmp_path / f"b{verbose}", "--workers", "2",
+                            *extra)) is verbose
+
+
+def test_batch_geometry(two_mode_folder: Path, tmp_path: Path,
+                        capsys: pytest.CaptureFixture[str]) -> None:
+    """batch --report --geometry FILE: each file's report page animates its modes on
+    the given nodes (the UFF file three.uff holds none: without --geometry no shape
+    view); --geometry without --report is a usage error (exit 2) before any work.
+    three.uff is two.uff with a third response: shapes of two points are not
+    drawn (issue 41), as two.uff's page shows."""
+    from ema_pipeline.data import Geometry
+
+    folder = tmp_path / "in"
+    folder.mkdir()
+    shutil.copy(two_mode_folder / "two.uff", folder / "two.uff")
+    f = np.linspace(0.0, 100.0, 801)
+    phi = np.array([[1.0, 0.6], [0.5, -1.0], [-0.4, 0.8]])
+    frf = FRFSet(freq_hz=f, H=modal_frf(f, TWO_MODES, phi, phi[:1], quantity="receptance"),
+                 quantity="receptance", response_dofs=(DOF(1), DOF(2), DOF(3)),
+                 reference_dofs=(DOF(1),))
+    io.write_frf(frf, folder / "three.uff", "uff")
+    xyz = np.array([[0.0, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.5, 0.25]])
+    geometry = io.write_geometry_uff(Geometry(node_ids=np.array([1, 2, 3]), xyz_m=xyz,
+                                              lines=((1, 2, 3),)), tmp_path / "geometry.uff")
+    out = tmp_path / "out"
+    code, _, err = run_cli(["batch", folder, "--out", out, "--geometry", geometry,
+                         "--workers", "1", "--quiet"], capsys)
+    assert code == 2 and "--report" in err and not out.exists()
+    assert run_cli(["batch", folder, "--out", out, "--report", "--geometry", geometry,
+                 "--workers", "1", "--quiet"], capsys)[0] == 0
+    data = shape_data((out / "three_report.html").read_text())
+    np.testing.assert_allclose(data["nodes"], xyz)
+    assert data["lines"] == [[0, 1, 2]] and data["modes"][0]["m"] == [0, 1, 2]
+    assert "data-mode-shape" not in (out / "two_report.html").read_text()
+    assert run_cli(["batch", folder, "--out", out, "--report", "--force",
+                 "--workers", "1", "--quiet"], capsys)[0] == 0
+    assert "data-mode-shape" not in (out / "three_report.html").read_text()
+
+
+def test_a_fixed_order_says_it_turned_the_narrower_searches_off(
+        twelve: tuple[Path, Path, str], tmp_path: Path,
+        capsys: pytest.CaptureFixture[str]) -> None:
+    """Issue 38, item 3: ``--max-order`` fixes the diagram and turns off the
+    narrower searches, which run with the adaptive order only. On the twelve-mode
+    FRF (a dense band, 0-800 Hz) ``identify --max-order 60`` says so on stderr and
+    the stored band support is empty; the adaptive run (the module's,
+    ``twelve``) says nothing and its windows hold the middle modes."""
+    from ema_pipeline.identification import identify
+
+    src, default, default_err = twelve
+    code, _, err = run_cli(["identify", src, "--out", tmp_path / "fixed", "--quiet",
+                         "--max-order", "60"], capsys)
+    assert code == 0
+    assert "--max-order" in err and "the windows of a dense band" in err
+    fixed = read_results_h5(tmp_path / "fixed" / "twelve_result.h5")["identification"]
+    assert np.asarray(fixed["band_support"]).sum() == 0
+    assert "narrower searches" not in default_err
+    auto = read_results_h5(default / "twelve_result.h5")["identification"]
+    middle = (np.asarray(TWELVE_MODES.fn_hz) > 200) & (np.asarray(TWELVE_MODES.fn_hz) < 500)
+    assert np.all(np.asarray(auto["band_support"])[middle, 0] >= 2)
+    with pytest.warns(UserWarning, match="turned off the narrower searches"):
+        identify(_twelve_frf(), max_order=60)
+
+
+def test_a_fixed_order_says_so_where_the_modes_look_sparse(
+        example_dir: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``--max-order`` on a band the window searches would search only if its modes
+    were dense (the example beam, 100-700 Hz: three modes, no band of their lowest
+    1/8): the warning still says the window searches are off, since the modes of a
+    fixed order need not be the adaptive order's; with ``--no-window-search`` nothing
+    the user left on is turned off, and nothing is said."""
+    src = example_dir / "genuine.uff"
+    base = ["identify", src, "--band", "100", "700", "--max-order", "40", "--quiet"]
+    with pytest.warns(UserWarning, match="the modes found make no dense band"):  # identify()'s
+        code, _, err = run_cli([*base, "--out", tmp_path / "fixed"], capsys)
+    assert code == 0
+    assert err.strip() == (
+        f"ema-pipeline identify: warning: {src}: max_order (--max-order) turned off the "
+        "narrower searches that run with the adaptive order only (the windows of a dense "
+        "band): the modes found make no dense band, but those of the adaptive order may")
+    code, _, err = run_cli([*base, "--out", tmp_path / "off", "--no-window-search"], capsys)
+    assert (code, err) == (0, "")

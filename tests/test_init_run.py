@@ -21,6 +21,7 @@ import pandas as pd
 import pytest
 
 from ema_pipeline.cli import main
+from tests.cli_runs import run_cli
 
 pyuff = pytest.importorskip("pyuff")
 
@@ -166,3 +167,20 @@ def test_dofs_map_puts_the_file_points_on_the_geometry(tmp_path, capsys):
     assert main(["run", "--raw", str(raw), "--results", str(tmp_path / "out2"),
                  "--quiet"]) == 2
     assert "reference.uff: [dofs] fixed 13+Z: not among the file's DOFs" in capsys.readouterr().err
+
+
+def test_init_writes_the_template_and_force_overwrites(tmp_path: Path,
+                                                       capsys: pytest.CaptureFixture[str]) -> None:
+    """init DIR creates DIR (nested) with experiment.toml, a TOML template with the
+    [test], [geometry], [dofs] and [[configurations]] tables; an existing file is
+    kept (exit 2) unless --force, which replaces it with the template."""
+    folder = tmp_path / "new" / "test"
+    assert run_cli(["init", folder], capsys)[0] == 0
+    template = (folder / "experiment.toml").read_text()
+    assert {"test", "geometry", "dofs", "configurations"} <= set(tomllib.loads(template))
+    (folder / "experiment.toml").write_text("# mine\n")
+    code, _, err = run_cli(["init", folder], capsys)
+    assert code == 2 and "--force" in err
+    assert (folder / "experiment.toml").read_text() == "# mine\n"
+    assert run_cli(["init", folder, "--force"], capsys)[0] == 0
+    assert (folder / "experiment.toml").read_text() == template

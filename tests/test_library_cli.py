@@ -14,11 +14,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from hardcases import make_case
 
 from ema_pipeline import io
 from ema_pipeline.cli import main
 from ema_pipeline.identification import IdentificationResult, identify, modes_table
+from tests.hardcases import make_case
 
 CSV_RTOL = 1e-8  # the modes CSV keeps 10 significant digits
 

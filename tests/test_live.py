@@ -18,8 +18,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from impact_recordings import PLATE_HIT_TIMES_S, PlateTest, write_plate_test
-from test_plate_holdout import PLATE, POINTS, SENSOR
 
 from ema_pipeline.cli import main
 from ema_pipeline.data import ConfigError
@@ -30,6 +28,8 @@ from ema_pipeline.io.live_session import SessionFolder
 from ema_pipeline.live.device import ReplayDevice
 from ema_pipeline.live.engine import LiveTest
 from ema_pipeline.pipeline.frf import frf_from_recording
+from tests.impact_recordings import PLATE_HIT_TIMES_S, PlateTest, write_plate_test
+from tests.test_plate_holdout import PLATE, POINTS, SENSOR
 
 REPO = Path(__file__).resolve().parents[1]
 TWO = PlateTest(PLATE, tuple(POINTS[:2]), SENSOR, ("csv", "wav"), peak_n=150.0,

@@ -23,11 +23,11 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from browser import chromium, needs_browser
-from impact_recordings import PLATE_DURATION_S
-from test_plate_holdout import BAND_HZ, FN_ALL, IN_BAND, ZETA_ALL, write_test_folder
 
 from ema_pipeline.cli import main
+from tests.browser import chromium, needs_browser
+from tests.impact_recordings import PLATE_DURATION_S
+from tests.test_plate_holdout import BAND_HZ, FN_ALL, IN_BAND, ZETA_ALL, write_test_folder
 
 pytest.importorskip("starlette", reason="ema-pipeline live needs the live extra (starlette)")
 pytest.importorskip("uvicorn", reason="ema-pipeline live needs the live extra (uvicorn)")

@@ -15,7 +15,7 @@ import pytest
 from ema_pipeline.cli import main
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
-from browser import chromium, needs_browser  # noqa: E402
+from tests.browser import chromium, needs_browser  # noqa: E402
 
 pytestmark = needs_browser
 

@@ -14,8 +14,6 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from browser import CHROMEDRIVER, CHROMIUM, chromium
-from test_picks import simulated
 
 from ema_pipeline import io
 from ema_pipeline.data import DataError
@@ -32,6 +30,8 @@ from ema_pipeline.io.picks import (
     picks_toml,
 )
 from ema_pipeline.report.stab_diagram import stab_diagram_html
+from tests.browser import CHROMEDRIVER, CHROMIUM, chromium
+from tests.test_picks import simulated
 
 #: A companion put into the plate's result so that the page writes that line too.
 COMPANION = complex(-3.0, 2 * np.pi * 120.0)

@@ -27,7 +27,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from impact_recordings import (
+
+from ema_pipeline import io
+from ema_pipeline.cli import main
+from ema_pipeline.data import Geometry
+from ema_pipeline.modal import mac_pairs
+from tests.impact_recordings import (
     PLATE_FS_HZ,
     PLATE_HIT_TIMES_S,
     SHEET_HEADER,
@@ -36,11 +41,6 @@ from impact_recordings import (
     plate_hammer_signals,
     write_plate_test,
 )
-
-from ema_pipeline import io
-from ema_pipeline.cli import main
-from ema_pipeline.data import Geometry
-from ema_pipeline.modal import mac_pairs
 
 pyuff = pytest.importorskip("pyuff", reason="pyuff reads the UFF 55 export back")
 

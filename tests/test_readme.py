@@ -35,7 +35,9 @@ import tomllib
 from pathlib import Path
 
 import pytest
-from readme_blocks import (
+
+from tests.jobs import README_INDICES_KEY, ReadmeOutcomes, suite_job
+from tests.readme_blocks import (
     BLOCKS,
     INDEX,
     make_sandbox,
@@ -44,6 +46,14 @@ from readme_blocks import (
     run_bash,
     runnable_body,
 )
+
+
+@pytest.fixture(scope="session")
+def readme_outcomes(request: pytest.FixtureRequest) -> ReadmeOutcomes:
+    """The readme bash blocks run in the background (:class:`ReadmeOutcomes`)."""
+    indices = request.config.stash.get(README_INDICES_KEY, [])
+    job = suite_job(request.config, "readme")
+    return ReadmeOutcomes(job if indices and job.started else None, indices)
 
 
 @pytest.fixture
@@ -79,7 +89,7 @@ def test_readme_has_blocks_of_each_kind_and_skips_give_reasons():
 def test_readme_block_runs(lang, body, directive, line, request, monkeypatch):
     """The block runs without error. A bash block that needs nothing of the
     suite's results may have run in the background job started at collection
-    (tests/conftest.py, ``readme_outcomes``): its exit status and output are
+    (``readme_outcomes``, started by tests/conftest.py): its exit status and output are
     that run's."""
     if directive.startswith("skip"):
         pytest.skip(f"{line}: {directive}")

@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from impact_recordings import STANDARD_GRAVITY, make_recording, write_tdms, write_uff
 from scipy.io import wavfile
 
 from ema_pipeline.acquisition import from_sep005
 from ema_pipeline.data import DataError
 from ema_pipeline.io import read_recording
 from ema_pipeline.io.channel_sheet import read_channel_sheet
+from tests.impact_recordings import STANDARD_GRAVITY, make_recording, write_tdms, write_uff
 
 LBF_N = 4.4482216152605  # hand value: 1 lbf = 0.45359237 kg * 9.80665 m/s^2
 INCH_M = 0.0254

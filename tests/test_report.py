@@ -344,11 +344,10 @@ def test_fit_verdict_against_the_noise_on_a_simulated_test(tmp_path):
     noise of 0.1 % of the largest |H| per part): the noise estimate matches the
     known noise within 10 %, the complete fit is at the noise level, and with the
     97 Hz mode left out (picks of the other two) the page says a mode may be missing."""
-    from test_picks import simulated
-
     from ema_pipeline.identification.picked import Picks
     from ema_pipeline.identification.selection.picks import picks_from_result
     from ema_pipeline.report.fit_noise import noise_error
+    from tests.test_picks import simulated
 
     frf = simulated()
     result = identify(frf)

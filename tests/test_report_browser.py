@@ -16,7 +16,7 @@ import pytest
 from ema_pipeline.cli import main
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
-from browser import chromium, needs_browser  # noqa: E402
+from tests.browser import chromium, needs_browser  # noqa: E402
 
 #: A4 (210 mm) less the print style sheet's 14 mm margins, in CSS px (96 per inch).
 PRINT_WIDTH_PX = round((210 - 2 * 14) / 25.4 * 96)

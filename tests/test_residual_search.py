@@ -4,24 +4,19 @@ noise alone gives none."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import hardcases  # noqa: E402
-
-from ema_pipeline.data import DOF, FRFSet  # noqa: E402
-from ema_pipeline.identification import identify  # noqa: E402
-from ema_pipeline.identification.selection.residual_search import (  # noqa: E402
+from ema_pipeline.data import DOF, FRFSet
+from ema_pipeline.identification import identify
+from ema_pipeline.identification.selection.residual_search import (
     mean_of_three_lines,
     peak_pole,
     residual_peaks,
     residual_ratio,
 )
-from ema_pipeline.identification.thresholds import SelectionThresholds  # noqa: E402
+from ema_pipeline.identification.thresholds import SelectionThresholds
+from tests import hardcases
 
 TH = SelectionThresholds()  # the tuned defaults
 

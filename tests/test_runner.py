@@ -414,7 +414,7 @@ def test_run_gives_each_identification_its_workers(monkeypatch, tmp_path, exampl
     seen: list[int] = []
     real = study_run.identify
 
-    def spy(frf, options, *, workers=1, **kwargs):
+    def spy(frf, options=None, *, workers=1, **kwargs):  # frf: run's CheckedInput
         seen.append(workers)
         return real(frf, options, workers=1, **kwargs)  # the numbers of one process
 

@@ -15,7 +15,7 @@ from ema_pipeline.cli import main
 from ema_pipeline.data import Beam
 
 webdriver = pytest.importorskip("selenium.webdriver", reason="selenium is not installed")
-from browser import chromium, needs_browser  # noqa: E402
+from tests.browser import chromium, needs_browser  # noqa: E402
 
 pytestmark = needs_browser
 

@@ -19,19 +19,19 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from impact_recordings import (
+
+from ema_pipeline.acquisition import hits as hitlib
+from ema_pipeline.acquisition.hit_checks import frf_agreement
+from ema_pipeline.cli import main
+from tests.impact_recordings import (
     PlateTest,
     clean_hits,
     corrupt_hit,
     make_recording,
     write_plate_test,
 )
-from test_hits import as_recording
-from test_plate_holdout import PLATE, POINTS, SENSOR
-
-from ema_pipeline.acquisition import hits as hitlib
-from ema_pipeline.acquisition.hit_checks import frf_agreement
-from ema_pipeline.cli import main
+from tests.test_hits import as_recording
+from tests.test_plate_holdout import PLATE, POINTS, SENSOR
 
 SEEDS = range(5300, 5310)
 NOISE = (3e-4, 1e-3, 3e-3)

@@ -13,11 +13,11 @@ import h5py
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import REPO
 
 from ema_pipeline import acquisition, io, paper
 from ema_pipeline.cli import main
 from ema_pipeline.data import Beam
+from tests.paths import REPO
 
 TABLES = {
     "table1_modal_parameters": ["configuration", "mode", "fd_hz", "zeta_pct"],

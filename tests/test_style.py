@@ -4,6 +4,7 @@ its modules import downhill (no cycle, no private name from another module)."""
 from __future__ import annotations
 
 import ast
+import importlib.util
 import os
 import re
 import shutil
@@ -13,7 +14,20 @@ import tomllib
 from pathlib import Path
 
 import pytest
-from conftest import REPO
+
+from tests.jobs import start_mypy
+from tests.paths import REPO
+
+
+@pytest.fixture
+def mypy_outcome(request: pytest.FixtureRequest) -> tuple[int, str]:
+    """(exit status, output) of :data:`MYPY_COMMAND`, started at collection (or now)."""
+    if importlib.util.find_spec("mypy") is None:
+        pytest.skip("mypy not installed (it is in the [test] extra)")
+    job = start_mypy(request.config)
+    code = job.wait()
+    return code, (job.dir / "runner.log").read_text()
+
 
 
 def test_ruff_clean():

@@ -11,7 +11,6 @@ import json
 
 import numpy as np
 import pytest
-from browser import chromium, needs_browser
 
 from ema_pipeline.acquisition import modal_frf
 from ema_pipeline.data import FRFSet, ModalParameters
@@ -20,6 +19,7 @@ from ema_pipeline.identification.refinement.lsfd import design_matrix
 from ema_pipeline.report import synthesis_view
 from ema_pipeline.report.renderers import render_identify_html
 from ema_pipeline.report.synthesis_view import DECADES, MAG_LEVELS, decode_levels
+from tests.browser import chromium, needs_browser
 
 FN_HZ = (30.0, 55.0, 80.0)
 #: log10 difference between the drawn synthesis and the drawn sum FRF allowed

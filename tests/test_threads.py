@@ -102,7 +102,7 @@ def _same_modes(a, b) -> None:
 def test_same_modes_whatever_the_blas_threads(monkeypatch):
     """Close modes at one reference: the modes at two BLAS threads
     (``EMA_PIPELINE_BLAS_THREADS=2``) are those of one, within 0.01 Hz."""
-    from hardcases import make_case
+    from tests.hardcases import make_case
 
     case = make_case("close_1ref", 7)
     monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
@@ -119,7 +119,7 @@ def test_same_modes_whatever_the_last_bits():
     docs/guide/identification.md)."""
     from dataclasses import replace
 
-    from hardcases import make_case
+    from tests.hardcases import make_case
 
     case = make_case("impact", 7)
     base = identify(case.frf, band_hz=case.band_hz)

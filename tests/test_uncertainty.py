@@ -151,12 +151,7 @@ def test_coherence_overstates_the_error_of_windowed_impact_h1() -> None:
     3-5 hits of varying force, the actual error of the averaged H1 near the
     modes (true model fitted, window shift 1/tau) is far below the textbook
     random error (1 - g^2)/(g^2 n_d)|H|^2 (pooled over seeds 1-3 and every channel: 0.07)."""
-    import sys
-
-    from conftest import REPO
-
-    sys.path.insert(0, str(REPO / "tests"))
-    import hardcases
+    from tests import hardcases
 
     err2 = var = 0.0
     for seed in (1, 2, 3):

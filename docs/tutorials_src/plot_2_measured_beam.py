@@ -26,7 +26,7 @@ if path is None:
 # Reciprocity turns 30 references and one response into one reference and 30
 # responses, which keeps the poly-reference model small (``identify`` on the
 # command line does it by itself). A band of 100-400 Hz keeps the example fast;
-# the whole band is identified in ``tests/test_identification.py``.
+# the whole band is identified in ``tests/test_identification_real.py``.
 if path is not None:
     roving = io.read_frf(path).reciprocal()
     print(roving)

@@ -290,7 +290,7 @@ def cmd_identify(args: argparse.Namespace) -> int:
 
         picks = io.read_picks(args.picks)
     job = FileJob(args.out, options, report=args.report, figures=not args.no_figures,
-                  uff=args.uff, picks=picks, geometry=geometry)
+                  uff=args.uff, picks=picks, geometry=geometry, checked=True)
     failed, runtime = len(args.files) - len(readable), 0
     for outcome, page in identify_files(readable, job, command_workers(args.workers)):
         if outcome.status == "failed":

@@ -61,10 +61,9 @@ def run() -> int:
     """The process's own entry point (the ``ema-pipeline`` script, ``python -m
     ema_pipeline``): :func:`main`, then the objects that exist at that moment
     frozen (``gc.freeze``), so that the interpreter's exit does not walk
-    them all again in its final garbage collections. That walk over the
-    objects of numpy, scipy and h5py cost every command 0.21 s of its exit
-    (12 paper files, the measured beam, the pyFRF recording alike), frozen
-    0.06 s. Every output is written, closed and renamed into place before
+    them all again in its final garbage collections (the walk over the
+    objects of numpy, scipy and h5py was a measurable share of every
+    command: docs/validation.md). Every output is written, closed and renamed into place before
     :func:`main` returns, and the exit handlers (``atexit``) still run. Code
     that calls :func:`main` in its own process (the tests) is not affected.
 

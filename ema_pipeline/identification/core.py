@@ -72,7 +72,7 @@ class CheckedInput:
 
 def check_input(
     frf: FRFSet, options: IdentificationOptions | None = None, *, picks: Picks | None = None,
-    **overrides: Any,
+    source: str | None = None, **overrides: Any,
 ) -> CheckedInput:
     """The FRF set and options :func:`identify` works on, each check run once.
 
@@ -84,8 +84,8 @@ def check_input(
     and the order cap, the band's lines and the memory estimate against
     ``options.memory_limit_gb``
     (:func:`~ema_pipeline.identification.diagram.resources.check_identification`),
-    all before anything is computed. Errors name the FRF file
-    (``frf.source.path``) when the set has one.
+    all before anything is computed. Errors name ``source``, by default the
+    FRF file (``frf.source.path``) when the set has one.
 
     Raises
     ------
@@ -113,7 +113,7 @@ def check_input(
     if overrides:
         options = replace(options, **overrides)
     frf = single_reference(frf)
-    where = source_prefix(frf)
+    where = f"{source}: " if source else source_prefix(frf)
     if picks is not None:
         if options.method != "plscf" or options.expect_hz:
             raise DataError(f"{where}picks are poles of the 'plscf' diagram; they go with "
@@ -121,7 +121,10 @@ def check_input(
         options = picks.options(options)
     frf = options.apply_window(frf)
     frf.check_finite()
-    lo, hi = resolve_band(frf, options.band_hz)
+    try:
+        lo, hi = resolve_band(frf, options.band_hz)
+    except DataError as exc:
+        raise DataError(f"{where}{exc}") from None
     sub = frf.band(lo, hi)
     p = (
         default_max_order(frf.n_in, sub.freq_hz.size)
@@ -136,7 +139,7 @@ def check_input(
         raise DataError(
             f"expected frequencies {expect_hz} must lie inside the band [{lo:g}, {hi:g}] Hz"
         )
-    check_identification(frf, options, source=frf.source.path)  # order cap, memory
+    check_identification(frf, options, source=source or frf.source.path)  # order cap, memory
     checked = replace(options, band_hz=(lo, hi), expect_hz=tuple(expect_hz))
     return CheckedInput(frf=frf, options=checked, picks=picks)
 

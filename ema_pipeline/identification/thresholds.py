@@ -323,33 +323,25 @@ class SelectionThresholds:
     pair_min_dip: float = 0.8
     #: ... and two kept poles are a close pair when they lie within this many
     #: times the sum of their half-power half-widths of each other (the
-    #: impact families' close pairs 1-4.5, the pyFRF recording's three pairs of
-    #: issue 42 1.05-2.04).
+    #: measured gaps: docs/validation.md, impact tests with one to three
+    #: channels).
     pair_max_gap: float = 4.0
     #: A pair under one peak is not marked (``plscf_backend.with_pair_flags``)
     #: when the F test that adds close partners (``pair_significance``, the
     #: window's correction applied) is calibrated on the file
     #: (``pairs.f_test_calibrated``) and prefers the two poles by at
-    #: least this. Measured on seeds 300-339 of impact_1ch, impact_2ch and
-    #: impact_close (99 files with one or two channels, all calibrated:
-    #: medians 0.20-0.995): a second pole beside a mode with no true mode
-    #: near gives 0.55 median, 1.68 at the 99th percentile, 3.49 at most (553
-    #: splits); the 49 true pairs under one peak 2.65-3e6, all but one above
-    #: 8.7 (impact_close-308 14.09/14.87 Hz, 2.65, stays marked). The pyFRF
-    #: recording is not calibrated (median 5.8): its pairs stay marked, as
-    #: do the pairs of a simulated mode whose frequency varies by +-0.5 %
-    #: between hits (F test 500-820, but beside every mode).
+    #: least this: above what a second pole beside a lone mode gives, below
+    #: what true pairs under one peak give (measured: docs/validation.md).
+    #: A file whose F test is not calibrated keeps its pairs marked, as do
+    #: the pairs of a mode whose frequency varies between hits.
     pair_clear_significance: float = 5.0
     #: The kept candidates are refined again without those that failed
     #: (``acceptance.refit_kept``) while some fail, at most this many times.
     refit_rounds: int = 3
     #: A refined pole is kept only when its decay rate has a relative standard
-    #: deviation below this (5 sigma from zero). On the hard families (about 540
-    #: true modes, seeds 600-607) true modes reach 0.15, the poles that are not
-    #: modes start at 0.16 in frequency-domain data. In the impact tests (seeds
-    #: 600-639, 300 true modes) they start at 0.25, while two weak true modes
-    #: reach 0.20 and 0.24 (impact-605 105.6 Hz and impact-618 115.0 Hz, peak SNR
-    #: about 4, both dropped). The decay rate itself, not the structure's share
+    #: deviation below this (5 sigma from zero; where true modes and the poles
+    #: that are not modes lie: docs/validation.md). The decay rate itself, not
+    #: the structure's share
     #: of it: a lightly damped low mode under a strong window (12.6 Hz, zeta
     #: 0.27 %, 1/tau 2.6 1/s) has its total decay determined to 2 % and the
     #: structure's only to 50 %.
@@ -427,10 +419,9 @@ class SelectionThresholds:
     #: candidate that covers it (``found_only_in_some_bands``: the band's own
     #: diagram, a close-partner or residual search found it, no narrower band
     #: did). Two searches that miss a true mode are common: a close partner
-    #: hidden in its neighbour's resonance (impact_close-9 23.1 Hz beside
-    #: 21.5 Hz) or a weak mode of a dense band (dense_log-1 48.7 Hz), held by
-    #: two searches and found by neither; 3 marks no true mode of the families
-    #: (seeds 1-9) ...
+    #: hidden in its neighbour's resonance or a weak mode of a dense band,
+    #: held by two searches and found by neither; 3 marks no true mode of the
+    #: hard families (docs/validation.md) ...
     min_band_searches: int = 3
     #: ... a search holds a mode when the mode lies inside its band by this
     #: fraction of its frequency.

@@ -108,9 +108,10 @@ SNIFFED_SUFFIXES = {".frf"}
 FRF_SUFFIXES = UFF_SUFFIXES | HDF5_SUFFIXES | SNIFFED_SUFFIXES
 
 
-def frf_format(path: str | os.PathLike[str]) -> str:
+def frf_format(path: str | os.PathLike[str], *, checked: bool = False) -> str:
     """``"uff"`` or ``"h5"`` from the file name (any letter case), else from the
-    first bytes.
+    first bytes (of a file checked first, :func:`check_readable`, unless
+    ``checked``: the caller has checked it).
 
     Examples
     --------
@@ -123,7 +124,8 @@ def frf_format(path: str | os.PathLike[str]) -> str:
         return "uff"
     if suffix in HDF5_SUFFIXES:
         return "h5"
-    check_readable(path, "an FRF file")
+    if not checked:
+        check_readable(path, "an FRF file")
     with open_regular(path, "an FRF file") as fh:
         head = fh.read(8)
     if head.startswith(b"\x89HDF"):
@@ -133,23 +135,28 @@ def frf_format(path: str | os.PathLike[str]) -> str:
     raise DataError(f"{path}: unknown FRF file format (expected UFF dataset 58 or HDF5)")
 
 
-def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
+def read_frf(path: str | os.PathLike[str], *, min_lines: int = 2,
+             checked: bool = False) -> FRFSet:
     """Read an FRF file: UFF dataset 58 (ASCII or binary) or the project's HDF5.
 
     ``min_lines``: refuse FRFs with fewer frequency lines; pass
     :data:`ema_pipeline.data.MIN_FRF_LINES` when the FRFs are to be identified.
 
     Anything but a non-empty regular file (a FIFO, a device, a folder, a
-    symlink loop) is refused before it is opened, whatever its name.
+    symlink loop) is refused before it is opened, whatever its name
+    (:func:`check_readable` with :data:`~ema_pipeline.paths.FRF_FILE_KIND`),
+    once: ``checked`` says the caller has run that check already (the command
+    line checks its inputs before it imports the readers).
     """
     path = Path(path)
-    check_readable(path, FRF_FILE_KIND)
+    if not checked:
+        check_readable(path, FRF_FILE_KIND)
     if is_recording(path):  # time data: the FRFs come from `ema-pipeline frf` first
         raise DataError(f"{path}: a raw recording (time data), not FRFs; make the FRFs "
                         f"first: ema-pipeline frf {path} --out {path.stem}.h5 (a roving "
                         "test of many files: ema-pipeline frf --channels SHEET.csv)")
-    if frf_format(path) == "uff":
-        frf = read_frf_uff(path, min_lines=min_lines)
+    if frf_format(path, checked=True) == "uff":
+        frf = read_frf_uff(path, min_lines=min_lines, checked=True)
     else:
         frf = read_frf_h5(path)
     if frf.freq_hz.size < min_lines:

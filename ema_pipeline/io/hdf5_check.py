@@ -49,7 +49,7 @@ from pathlib import Path
 import h5py
 
 from ema_pipeline.data import DataError
-from ema_pipeline.io.files import check_readable, open_regular
+from ema_pipeline.io.files import open_regular
 from ema_pipeline.io.hdf5_access import (
     MAX_DATASET_BYTES,
     MAX_DEPTH,
@@ -58,6 +58,7 @@ from ema_pipeline.io.hdf5_access import (
     check_dataset,
     member,
 )
+from ema_pipeline.paths import refuse_unusable
 from ema_pipeline.runner import checked_fork
 
 __all__ = ["CHILD_READ_RATE", "CHILD_START_S", "CHILD_TIMEOUT_S", "check_hdf5", "open_checked",
@@ -72,14 +73,18 @@ _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
 _EXIT_OK, _EXIT_DATA, _EXIT_OTHER = 0, 3, 4
 
 
-def _check_signature(path: Path, size: int) -> None:
-    """An HDF5 superblock starts at 0, 512, 1024, 2048, ... bytes."""
-    with open_regular(path, "an HDF5 file") as fh:
+def _checked_size(path: Path) -> int:
+    """The size of ``path`` from its open descriptor, once it is a non-empty
+    regular file with an HDF5 superblock (at 0, 512, 1024, 2048, ... bytes)."""
+    kind = "an HDF5 file"
+    with open_regular(path, kind) as fh:
+        st = os.fstat(fh.fileno())
+        refuse_unusable(path, st, kind)
         offset = 0
-        while offset + 8 <= size:
+        while offset + 8 <= st.st_size:
             fh.seek(offset)
             if fh.read(8) == _HDF5_SIGNATURE:
-                return
+                return st.st_size
             offset = 512 if offset == 0 else 2 * offset
     raise DataError(f"{path}: not an HDF5 file (no HDF5 signature)")
 
@@ -252,8 +257,7 @@ def check_hdf5(path: str | os.PathLike[str], timeout_s: float | None = None) -> 
     ema_pipeline.data.DataError: /dev/zero: is a device, expected an HDF5 file
     """
     path = Path(path)
-    size = check_readable(path, "an HDF5 file").st_size
-    _check_signature(path, size)
+    size = _checked_size(path)
     default = timeout_s is None
     timeout_s = _child_timeout(size) if timeout_s is None else timeout_s
     found = _fork_check(path, timeout_s)

@@ -47,12 +47,14 @@ _FORCE_DIMS = Unit(1.0, (0, 0, -1), "1/N")  # dividing by it multiplies by N
 _ENTITY_DOF = re.compile(r"^\W*(\d+)\W*?([+-]?)([XYZ])([+-]?)\W*$", re.IGNORECASE)
 
 
-def read_uff(path: str | os.PathLike[str]) -> UffContents:
+def read_uff(path: str | os.PathLike[str], *, checked: bool = False) -> UffContents:
     """All dataset-58 records of a Universal File, as stored, with the unit system
     in force for each, the dataset-151 header and the datasets skipped.
 
     Raises DataError (naming the file, record and reason) for any unreadable
-    file; nothing else escapes.
+    file; nothing else escapes. Anything but a non-empty regular file is
+    refused before it is opened (:func:`~ema_pipeline.io.files.check_readable`),
+    unless ``checked``: the caller has checked it already.
 
     Examples
     --------
@@ -64,7 +66,8 @@ def read_uff(path: str | os.PathLike[str]) -> UffContents:
     {18: 1}
     """
     path = Path(path)
-    check_readable(path, "a Universal File (dataset 58)")
+    if not checked:
+        check_readable(path, "a Universal File (dataset 58)")
     try:
         return read_uff_file(path)
     except DataError:
@@ -73,8 +76,8 @@ def read_uff(path: str | os.PathLike[str]) -> UffContents:
         raise DataError(f"{path}: not a readable Universal File ({exc})") from exc
 
 
-def _read_58(path: Path) -> tuple[UffContents, list[Record58]]:
-    contents = read_uff(path)
+def _read_58(path: Path, checked: bool = False) -> tuple[UffContents, list[Record58]]:
+    contents = read_uff(path, checked=checked)
     if not contents.dataset_numbers:
         raise DataError(f"{path}: no UFF datasets found (not a Universal File, or empty)")
     if not contents.records:
@@ -227,7 +230,8 @@ def _function_summary(records: Sequence[Record58]) -> str:
     return ", ".join(f"{t} ({_FUNCTION_NAMES.get(t, 'other')})" for t in types)
 
 
-def read_frf_uff(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
+def read_frf_uff(path: str | os.PathLike[str], *, min_lines: int = 2,
+                 checked: bool = False) -> FRFSet:
     """Read FRFs (dataset 58 / 58b, function type 4) from a Universal File.
 
     Parameters
@@ -235,6 +239,9 @@ def read_frf_uff(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     path : file name (.uff, .unv, .ufb, any case).
     min_lines : refuse FRFs with fewer frequency lines (pass
         :data:`ema_pipeline.data.MIN_FRF_LINES` before identification).
+    checked : the caller has checked that ``path`` is a non-empty regular file
+        (:func:`~ema_pipeline.io.files.check_readable`, as
+        :func:`ema_pipeline.io.read_frf` does); else it is checked here.
 
     Returns
     -------
@@ -257,7 +264,7 @@ def read_frf_uff(path: str | os.PathLike[str], *, min_lines: int = 2) -> FRFSet:
     >>> tmp.cleanup()
     """
     path = Path(path)
-    contents, sets = _read_58(path)
+    contents, sets = _read_58(path, checked)
     frf_recs = [r for r in sets if r.func_type == UFF_FUNC_FRF]
     if not frf_recs:
         hint = ""

@@ -44,6 +44,7 @@ class FileJob:
     picks: Picks | None = None
     geometry: Geometry | None = None
     workers: int = 1  # worker processes of one file's identification
+    checked: bool = False  # the files passed paths.check_readable (the command line's check)
 
 
 def identify_one(path: Path, job: FileJob) -> tuple[FileOutcome, Path | None]:
@@ -52,7 +53,7 @@ def identify_one(path: Path, job: FileJob) -> tuple[FileOutcome, Path | None]:
     Returns the outcome without the FRFs and the result (what the caller
     prints) and the report page (``None`` without one)."""
     outcome = identify_file(path, job.out_dir, job.options, keep=job.report, uff=job.uff,
-                            picks=job.picks, workers=job.workers)
+                            picks=job.picks, workers=job.workers, checked=job.checked)
     page = None
     if job.report and outcome.status != "failed":
         page = write_identify_report(outcome, job.out_dir, job.options, figures=job.figures,

@@ -28,7 +28,7 @@ from ema_pipeline.identification import (
     identify,
     modes_columns,
 )
-from ema_pipeline.identification.common import ends_at_usable_top, single_reference
+from ema_pipeline.identification.common import ends_at_usable_top
 from ema_pipeline.identification.picked import Picks
 from ema_pipeline.identification.selection.expect import with_expected_rows
 from ema_pipeline.report.wording import model_text
@@ -106,18 +106,6 @@ def output_paths(path: Path, out_dir: Path) -> tuple[Path, Path]:
     return out_dir / f"{stem}_modes.csv", out_dir / f"{stem}_result.h5"
 
 
-def load_frf(path: Path, options: IdentificationOptions) -> FRFSet:
-    """Read an FRF file for identification as ``run`` does (fewer than
-    :data:`ema_pipeline.data.MIN_FRF_LINES` lines is a :class:`DataError` naming
-    the file), apply the window override (``options.exp_window_tau_s``), and
-    make roving-hammer sets single-reference
-    (:func:`ema_pipeline.identification.common.single_reference`, the set
-    :func:`~ema_pipeline.identification.identify` works on, so the FRFs kept
-    with the result match its shapes and fitted FRFs)."""
-    frf = options.apply_window(io.read_frf(path, min_lines=MIN_FRF_LINES))
-    return single_reference(frf)
-
-
 def identify_file(
     path: str | Path,
     out_dir: str | Path,
@@ -129,6 +117,7 @@ def identify_file(
     uff: bool = False,
     picks: Picks | None = None,
     workers: int = 1,
+    checked: bool = False,
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
@@ -144,6 +133,9 @@ def identify_file(
     ``picks`` (a picks file, :func:`ema_pipeline.io.read_picks`) exactly those
     poles are fitted (:func:`ema_pipeline.identification.selection.picks.identify_picks`).
     ``workers``: worker processes of the identification (``identify(workers=)``).
+    ``checked``: the caller has checked that ``path`` is a readable file
+    (:func:`ema_pipeline.paths.check_readable`, as the command line does before
+    it imports the readers), so :func:`ema_pipeline.io.read_frf` does not again.
     """
     options = IdentificationOptions() if options is None else options
     path, out_dir = Path(path), Path(out_dir)
@@ -158,13 +150,14 @@ def identify_file(
                 outcome.reason = "complete result with the same content hash exists"
                 outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
                 return outcome
-        frf = io.read_frf(path, min_lines=MIN_FRF_LINES)  # checks the file, hashes it once
+        # checks the file (unless the caller did), hashes it once
+        frf = io.read_frf(path, min_lines=MIN_FRF_LINES, checked=checked)
         outcome.sha256 = outcome.sha256 or sha256 or frf.source.sha256
         outcome.configuration = frf.configuration
-        checked = check_input(frf, options, picks=picks)  # every other check, once
-        frf = checked.frf  # as identified: the FRFs kept with the result match its shapes
+        ready = check_input(frf, options, picks=picks)  # every other check, once
+        frf = ready.frf  # as identified: the FRFs kept with the result match its shapes
         out_dir.mkdir(parents=True, exist_ok=True)  # an unusable output folder fails now
-        result = identify(checked, workers=workers)
+        result = identify(ready, workers=workers)
         if result.modes.n_modes == 0:
             raise DataError(f"{path}: no physical modes found in the band")
         table = modes_columns(result)  # its found_by column: diagram, ..., expected, picked

@@ -11,14 +11,12 @@ from pathlib import Path
 import pandas as pd
 
 from ema_pipeline import io
-from ema_pipeline.data import DOF, ConfigError, DataError, FRFSet
+from ema_pipeline.data import DOF, MIN_FRF_LINES, ConfigError, DataError, FRFSet
 from ema_pipeline.experiment import ConfigurationSpec, Experiment
-from ema_pipeline.identification.common import single_reference
-from ema_pipeline.identification.diagram.resources import check_identification
+from ema_pipeline.identification import CheckedInput, IdentificationOptions, check_input
 from ema_pipeline.io.experiment import experiment_channel_sheet, experiment_recording_paths
 from ema_pipeline.pipeline.frf import FRFSettings, configuration_frf
 from ema_pipeline.pipeline.roving import sheet_frf
-from ema_pipeline.pipeline.single import load_frf
 
 
 def load_experiment(path: str | os.PathLike[str]) -> Experiment:
@@ -50,7 +48,9 @@ def recorded_frf(exp: Experiment, spec: ConfigurationSpec) -> tuple[FRFSet, pd.D
 
     Channels without a DOF (TDMS, WAV, CSV) are placed on the experiment's sensors:
     the force at ``hammer_node``, the responses at ``response_nodes`` in channel
-    order (their numbers must agree), in ``direction``.
+    order (their numbers must agree), in ``direction``. The FRFs are as
+    measured: :func:`~ema_pipeline.identification.check_input` makes a
+    roving-hammer set single-reference.
     """
     if spec.channels or spec.channel_rows:  # a channel sheet: a roving test
         sheet = experiment_channel_sheet(exp, spec)
@@ -72,7 +72,23 @@ def recorded_frf(exp: Experiment, spec: ConfigurationSpec) -> tuple[FRFSet, pd.D
             )
         frf = replace(frf, response_dofs=tuple(DOF(n, exp.direction) for n in exp.response_nodes),
                       reference_dofs=(DOF(exp.hammer_node, exp.direction),))
-    return single_reference(frf), result.hits_table()
+    return frf, result.hits_table()
+
+
+def configuration_options(exp: Experiment, spec: ConfigurationSpec) -> IdentificationOptions:
+    """The identification options of a configuration: the experiment's, with the
+    configuration's ``exp_window_tau_s``."""
+    return replace(exp.identification, exp_window_tau_s=spec.exp_window_tau_s)
+
+
+def read_configuration(exp: Experiment, spec: ConfigurationSpec) -> FRFSet:
+    """The FRFs of a configuration that names an FRF file: read (fewer than
+    :data:`~ema_pipeline.data.MIN_FRF_LINES` lines is a :class:`DataError` naming
+    the file), named after the configuration, the experiment's ``[dofs]``
+    applied (:func:`map_dofs`)."""
+    path = io.experiment_file_path(exp, spec)
+    frf = replace(io.read_frf(path, min_lines=MIN_FRF_LINES), configuration=spec.name)
+    return map_dofs(exp, frf, path)
 
 
 def map_dofs(exp: Experiment, frf: FRFSet, path: Path | str = "") -> FRFSet:
@@ -109,33 +125,35 @@ def map_dofs(exp: Experiment, frf: FRFSet, path: Path | str = "") -> FRFSet:
 def prepare_study(
     experiment: Experiment, experiment_file: str | os.PathLike[str] = "experiment.toml",
     *, hits: dict[str, pd.DataFrame] | None = None,
-) -> dict[str, FRFSet]:
+) -> dict[str, CheckedInput]:
     """Read and check every configuration's FRF file before anything is computed.
 
     Each file is read (HDF5 checked in a child process first, see
     :func:`ema_pipeline.io.check_hdf5`), its sensors compared with the
-    experiment's, and the identification settings checked against it
-    (:func:`ema_pipeline.identification.diagram.resources.check_identification`: band,
-    orders, window time constant, memory). Returns the FRF sets by
-    configuration name; raises DataError / ConfigError (input errors) naming
-    the file. A configuration naming raw recordings gets its FRFs from them
-    (:func:`recorded_frf`); its hit table goes into ``hits`` when given.
+    experiment's, and checked for identification with the configuration's
+    options (:func:`~ema_pipeline.identification.check_input`: window,
+    single reference, band, orders, expected frequencies, memory). Returns
+    the checked inputs by configuration name, which
+    :func:`~ema_pipeline.pipeline.study_run.run_study` identifies as they
+    are; raises DataError / ConfigError (input errors) naming the file and
+    the configuration. A configuration naming raw recordings gets its FRFs
+    from them (:func:`recorded_frf`); its hit table goes into ``hits`` when
+    given.
     """
-    frfs: dict[str, FRFSet] = {}
+    checked: dict[str, CheckedInput] = {}
     for spec in experiment.configurations:
-        options = replace(experiment.identification, exp_window_tau_s=spec.exp_window_tau_s)
         if spec.added_mass is not None:
             continue
         path = io.experiment_file_path(experiment, spec)
         if spec.recording:
             frf, table = recorded_frf(experiment, spec)
+            frf = map_dofs(experiment, frf, path)
             if hits is not None:
                 hits[spec.name] = table
         else:
-            frf = replace(load_frf(path, options), configuration=spec.name)
-        frf = map_dofs(experiment, frf, path)
+            frf = read_configuration(experiment, spec)
         if experiment.has_beam:  # the beam's [sensors]; any other structure: its own DOFs
             _check_sensors(experiment, frf, path, str(experiment_file))
-        check_identification(frf, options, source=f"{path} ({spec.name})")
-        frfs[spec.name] = frf
-    return frfs
+        checked[spec.name] = check_input(frf, configuration_options(experiment, spec),
+                                         source=f"{path} ({spec.name})")
+    return checked

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -16,11 +16,14 @@ import pandas as pd
 from ema_pipeline import io
 from ema_pipeline.data import ConfigError, DataError, EMAError, FRFSet, ModalParameters
 from ema_pipeline.experiment import Experiment
-from ema_pipeline.identification import identify
+from ema_pipeline.identification import CheckedInput, check_input, identify
 from ema_pipeline.identification.diagram.narrower_searches import searches_turned_off
 from ema_pipeline.pipeline.simulate import simulate_configuration
-from ema_pipeline.pipeline.single import load_frf
-from ema_pipeline.pipeline.study_inputs import map_dofs, recorded_frf
+from ema_pipeline.pipeline.study_inputs import (
+    configuration_options,
+    read_configuration,
+    recorded_frf,
+)
 from ema_pipeline.report.wording import plural
 
 Progress = Callable[[str], None]
@@ -67,7 +70,7 @@ def table1(measured: dict[str, ModalParameters]) -> pd.DataFrame:
 
 
 def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
-                  loaded: dict[str, FRFSet] | None = None, workers: int = 1) -> None:
+                  loaded: dict[str, CheckedInput] | None = None, workers: int = 1) -> None:
     loaded = loaded or {}
     turned_off: dict[str, list[str]] = {}  # a fixed order's note: the configurations
     for k, spec in enumerate(exp.configurations, start=1):
@@ -77,20 +80,21 @@ def _identify_all(exp: Experiment, result: StudyResult, say: Progress,
         start = time.perf_counter()
         say(f"[identify {k}/{len(exp.configurations)}] {spec.name}: {source}")
         try:
-            options = replace(exp.identification, exp_window_tau_s=spec.exp_window_tau_s)
-            if spec.name in loaded:
-                frf = loaded[spec.name]
-            elif spec.recording:
-                frf, result.hits[spec.name] = recorded_frf(exp, spec)
-            else:
-                frf = simulate_configuration(exp, spec) if path is None else map_dofs(
-                    exp, replace(load_frf(path, options), configuration=spec.name), path)
-            ident = identify(frf, options, workers=workers)
+            checked = loaded.get(spec.name)  # checked by prepare_study
+            if checked is None:
+                if spec.recording:
+                    frf, result.hits[spec.name] = recorded_frf(exp, spec)
+                else:
+                    frf = (simulate_configuration(exp, spec) if path is None
+                           else read_configuration(exp, spec))
+                checked = check_input(frf, configuration_options(exp, spec))
+            ident = identify(checked, workers=workers)
         except DataError as exc:
             result.problems.append(f"configuration {spec.name!r}: {exc}")
             say(f"    failed: {exc}")
             continue
-        result.frfs[spec.name] = frf
+        options = configuration_options(exp, spec)
+        result.frfs[spec.name] = checked.frf  # as identified: the result's shapes are of these
         result.identification[spec.name] = ident
         note = (searches_turned_off(options, ident.settings.band_hz, ident.fn_hz)
                 if ident.settings.method == "plscf" else "")  # identify()'s warning, a note
@@ -177,11 +181,12 @@ def _fe_stage(exp: Experiment, result: StudyResult, say: Progress, progress_bars
 
 def run_study(
     experiment: Experiment, *, progress: Progress | None = None, progress_bars: bool = False,
-    frfs: dict[str, FRFSet] | None = None, hits: dict[str, pd.DataFrame] | None = None,
+    frfs: dict[str, CheckedInput] | None = None, hits: dict[str, pd.DataFrame] | None = None,
     workers: int = 1,
 ) -> StudyResult:
     """Run identification, added mass and the FE stage for an experiment
-    (``frfs``: the FRF sets :func:`prepare_study` read, by configuration;
+    (``frfs``: the checked inputs :func:`prepare_study` read, by configuration,
+    identified as they are; the other configurations are read and checked here;
     ``hits``: the hit tables of the recorded configurations among them;
     ``workers``: worker processes of each identification)."""
     say = progress or (lambda _msg: None)

@@ -1,9 +1,9 @@
 """A small SVG chart writer for the report's figures.
 
-Why written here instead of drawing with matplotlib: importing matplotlib costs
-about 0.75 s of CPU and saving the report's twelve PNG figures (8193-point
-lines, constrained layout, tight bounding boxes) cost 6-9 s, most of a study's
-run time, and gave a 1 MB report. The report needs only lines and markers on
+Why written here instead of drawing with matplotlib: importing matplotlib and
+saving the report's PNG figures (8193-point lines, constrained layout, tight
+bounding boxes) took most of a study's run time and made a large report
+(measured: docs/validation.md). The report needs only lines and markers on
 linear or logarithmic axes, which this module writes as SVG text directly:
 
 * every line is reduced to a per-pixel min/max envelope (:func:`envelope`), so

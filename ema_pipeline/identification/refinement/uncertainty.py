@@ -35,7 +35,7 @@ the weighted noise, so
   the hit-to-hit change of the force spectrum lower the coherence at a
   resonance without a random error in the averaged H1), away from the modes
   1.2-2 times more; as a floor it doubled the damping sigmas of those tests
-  (p68 of |error|/sigma 1.01 -> 0.46, seeds 600-615). On the paper's
+  (docs/validation.md). On the paper's
   simulated test the residual is 3-300 times the coherence's variance
   (leakage, the windows' bias). The residual, which sees all of it, decides.
 * **Line-to-line correlation**: windows correlate the noise of neighbouring
@@ -61,8 +61,8 @@ the weighted noise, so
   exponential window is known (the part of the noise proportional to |H|
   keeps diag(P)). Without it the damping scatter of such modes was 1.3-2
   times the sigma (Monte Carlo of a windowed mode,
-  ``tests/test_uncertainty.py``, and of the impact hard cases; p68 of
-  |error|/sigma 1.45-1.5 for those modes on seeds 600-615, 1.11-1.14 with it).
+  ``tests/test_uncertainty.py``, and of the impact hard cases:
+  docs/validation.md).
 * **Local model** (:func:`ema_pipeline.identification.refinement.refine.band_sensitivity`):
   the local fit stands for the modes outside its band by a quadratic
   background and subtracted LSFD terms; where that is not exact the pole
@@ -149,8 +149,7 @@ def nonnegative_line_fit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.n
     coefficients are >= 0, otherwise the better of a alone (mean of y) and
     b alone (x.y / x.x). A convex problem has one minimum, which is on one of
     these faces, so this is the NNLS solution; it replaces one
-    ``scipy.optimize.nnls`` call per channel (30 channels per fit on the
-    measured beam: about 1 s of its identification).
+    ``scipy.optimize.nnls`` call per channel.
 
     Examples
     --------

@@ -6,10 +6,8 @@ resolved leaves its own resonance in that residual: at low SNR the poles of
 a clearly visible mode scatter too much between orders to form a trajectory
 at the orders the search reaches; a heavily damped mode's trajectory breaks
 up; a weak mode beside strong ones loses its poles to them. The noise leaves
-a floor. On the hard cases of ``tests/hardcases.py`` that the selection
-missed (seeds 400-403, 700-703, 800-803), every missed mode was the highest
-residual peak away from the kept modes, 10-60 times the floor, while the
-other peaks stood at 3-7 times it.
+a floor, and a missed mode stands well above it (measured on the hard
+cases: docs/validation.md).
 
 :func:`residual_peaks` finds those peaks: the squared residual of each
 channel over its median (the floor; a median ignores the peaks), averaged
@@ -109,8 +107,7 @@ def residual_peaks(
     lines of every pole (:func:`near`) and outside the band's edge zones,
     the fractions ``thresholds.band_edge`` of its lines at the bottom and the
     top (0.5 and 2 %, as :func:`~ema_pipeline.identification.selection.acceptance.inside_band`
-    asks of a pole; 2 % at the bottom too hid the modes below 20 Hz of an
-    impact test of 2-900 Hz with 0.16 Hz lines, issue 42).
+    asks of a pole; why the bottom zone is the narrower: docs/validation.md).
 
     A peak that does not fall to half its height before the band's edge
     zone is the tail of a mode outside the band or a heavily damped mode
