@@ -61,15 +61,15 @@ def take(out_path: Path, seeds: list[int], perturb: int | None, package_root: Pa
     if Path(ema_pipeline.__file__).resolve().parents[1] != package_root:
         raise SystemExit(f"ema_pipeline imported from {ema_pipeline.__file__}, "
                          f"not {package_root}")
-    sys.path.insert(0, str(ROOT / "tests"))
+    sys.path.insert(1, str(ROOT))  # the tests package (after the package under test)
     sys.path.insert(0, str(HERE))
     import eval_identification as ev
-    import hardcases
     from bench_identification import simulate_paper_test
 
     from ema_pipeline import io
     from ema_pipeline.identification import identify
     from ema_pipeline.identification.result import doubtful_modes
+    from tests import hardcases
 
     rng = np.random.default_rng(perturb) if perturb is not None else None
 
