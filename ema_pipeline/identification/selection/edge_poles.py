@@ -234,10 +234,10 @@ def edge_poles(
         if ratio[k] < th.residual_peak_ratio:
             break
         lo, hi = descent_region(ratio, k)
-        if k in (0, freq_hz.size - 1) or any(
+        if lo == 0 or hi == freq_hz.size - 1 or any(
                 skip[j] and raw[j] >= raw[k] for j in (k - 1, k + 1) if 0 <= j < raw.size):
-            # still rising at the widened band's end (a mode past it), or
-            # rising into such a slope
+            # not down to half its height at the widened band's end (a mode
+            # past it), or rising into such a slope
             skip[lo : hi + 1] = True
             continue
         width = hi - lo + 1
@@ -251,6 +251,7 @@ def edge_poles(
         # (the new poles free to move: a start from a residual that a bent
         # kept mode shapes can lie far from the resonance; where they end up
         # is checked below)
+        before = kept, start[:-1]
         both = np.concatenate([kept, start])
         both = refine_poles(freq_hz, H, both, quantity=quantity, thresholds=free,
                             modes=np.arange(m, both.size), **windows).pole
@@ -259,9 +260,13 @@ def edge_poles(
                             **windows).pole
         kept, start = both[:m], both[m:]
         f_got = pole_fd_hz(start[-1])
-        if not (is_physical(start[-1], thresholds=th) and freq_hz[0] < f_got < freq_hz[-1]):
+        if not (is_physical(start[-1], thresholds=th) and freq_hz[0] < f_got < freq_hz[-1]
+                and outer[int(np.argmin(np.abs(freq_hz - f_got)))]
+                and 2 * pole_half_width_hz(start[-1]) >= th.min_bandwidth_lines * df):
+            # not a resonance outside the band's inner part that the lines
+            # resolve: passed over
             skip[lo : hi + 1] = True
-            start = start[:-1]
+            kept, start = before
     else:
         complete = False  # more peaks than max_residual_peaks
     # kept when outside the band's inner part and not within a kept mode's
