@@ -359,10 +359,14 @@ class EdgeFit:
     ----------
     sub : the FRF set cut to the widened band.
     pole : (n,) complex  the poles at the band's edges (not reported).
+    reaches : whether the local band of a kept mode holds one of them: only
+        then are the shapes fitted on the widened band with them (else they
+        change no number of the result).
     """
 
     sub: FRFSet
     pole: np.ndarray
+    reaches: bool
 
 
 def with_edge_poles(frf: FRFSet, data: BandData, kept: KeptModes,
@@ -372,9 +376,11 @@ def with_edge_poles(frf: FRFSet, data: BandData, kept: KeptModes,
     (:func:`~ema_pipeline.identification.selection.edge_poles.edge_poles` on
     the band widened by
     :func:`~ema_pipeline.identification.selection.edge_poles.widened_band`),
-    and the kept modes whose local band holds one refined again on the
-    widened band beside them (:func:`refine_poles`, the covariance with
-    :func:`band_sensitivity`); the kept modes unchanged and None without."""
+    and the kept modes whose local band holds one
+    (:func:`~ema_pipeline.identification.selection.edge_poles.edge_neighbours`)
+    refined again on the widened band beside them (:func:`refine_poles`, the
+    covariance with :func:`band_sensitivity`); the kept modes unchanged and
+    None without edge poles."""
     th = data.thresholds
     pole = kept.sel.pole
     windows = {"window_tau_s": data.window_tau_s, "force_window_s": data.force_window_s}
@@ -396,15 +402,16 @@ def with_edge_poles(frf: FRFSet, data: BandData, kept: KeptModes,
             sub.freq_hz, Hc, both, quantity=data.quantity, thresholds=th, map_=map_,
             **windows)[near]
         kept = replace(kept, sel=replace(kept.sel, pole=both[: pole.size]), cov=cov)
-    return kept, EdgeFit(sub=sub, pole=edge)
+    return kept, EdgeFit(sub=sub, pole=edge, reaches=bool(near.size))
 
 
 # ------------------------------------------------------------------ 7. the result
 def finished(data: BandData, diagrams: Diagrams, kept: KeptModes,
              options: IdentificationOptions, edge: EdgeFit | None = None) -> IdentificationResult:
     """Stage 7a: LSFD, window correction and indicators of the kept modes
-    (:func:`finish_identification`; with ``edge``, on the widened band with
-    the edge poles), with the settings used."""
+    (:func:`finish_identification`; with ``edge`` that reaches a kept mode's
+    local band, on the widened band with the edge poles), with the settings
+    used and the edge poles' natural frequencies."""
     link_freq, link_zeta, link_mac = options.link_tolerances()
     poles = diagrams.poles
     result = finish_identification(
@@ -439,7 +446,7 @@ def finished(data: BandData, diagrams: Diagrams, kept: KeptModes,
             accept=options.accept,
             thresholds=data.thresholds,
         ),
-        edge=None if edge is None else (edge.sub, edge.pole),
+        edge=(edge.sub, edge.pole) if edge is not None and edge.reaches else None,
     )
     if edge is None:
         return result
