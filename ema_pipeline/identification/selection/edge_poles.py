@@ -182,21 +182,23 @@ def edge_poles(
     (:func:`~ema_pipeline.identification.selection.residual_search.peak_pole`)
     and refined beside the kept poles, which are refined with it where their
     local band holds it (:func:`~ema_pipeline.identification.refinement.refine.refine_poles`,
-    the new pole free to move, before the next residual is formed). A pole
-    that ends decaying, below ``max_zeta`` and on the lines is kept when it
-    lies outside the band's inner part and not within a kept mode's
-    half-power half-width (nor that within its); one inside the band (in an
-    edge zone) only when it also shows as a peak of its own in at least
-    ``min_frf_share`` (and ``min_frfs``) of the FRFs within half its
-    half-power half-width (the test of a resonance not kept,
-    :func:`~ema_pipeline.identification.selection.not_kept.visible_peaks`):
-    it is named in a warning. A residual that still rises at the lines' ends
-    (a resonance past them) is passed over.
+    the new pole free to move, before the next residual is formed). A peak
+    that does not fall to half its height before the lines' ends (a
+    resonance past them) is passed over, and so is one whose pole does not
+    end decaying, below ``max_zeta``, on the lines outside the band's inner
+    part, with a half-power bandwidth of at least ``min_bandwidth_lines``
+    lines and apart from the edge poles found before (not within the
+    half-power half-width of one, nor it within its). The poles are then
+    kept when not within a kept mode's half-power half-width (nor it within
+    theirs); one inside the band (in an edge zone) only when it also shows
+    as a peak of its own in at least ``min_frf_share`` (and ``min_frfs``) of
+    the FRFs within half its half-power half-width (the test of a resonance
+    not kept, :func:`~ema_pipeline.identification.selection.not_kept.visible_peaks`):
+    it is named in a warning.
 
-    Returns the poles and whether the fit is complete: False when a peak's
-    pole ended inside the band's inner part or on a kept mode, or there were
-    more than ``max_residual_peaks`` peaks (the fit then leaves a resonance
-    of the widened band out of the model).
+    Returns the poles and whether the fit is complete: False when a pole lay
+    on a kept mode, or there were more than ``max_residual_peaks`` peaks
+    (the fit then leaves a resonance of the widened band out of the model).
 
     Examples
     --------
@@ -259,12 +261,16 @@ def edge_poles(
                             modes=edge_neighbours(freq_hz, both, m, thresholds=th),
                             **windows).pole
         kept, start = both[:m], both[m:]
-        f_got = pole_fd_hz(start[-1])
-        if not (is_physical(start[-1], thresholds=th) and freq_hz[0] < f_got < freq_hz[-1]
+        new = start[-1]
+        f_got = pole_fd_hz(new)
+        same = np.abs(start[:-1].imag - new.imag) < np.maximum(np.abs(start[:-1].real),
+                                                               abs(new.real))
+        if not (is_physical(new, thresholds=th) and freq_hz[0] < f_got < freq_hz[-1]
                 and outer[int(np.argmin(np.abs(freq_hz - f_got)))]
-                and 2 * pole_half_width_hz(start[-1]) >= th.min_bandwidth_lines * df):
+                and 2 * pole_half_width_hz(new) >= th.min_bandwidth_lines * df
+                and not same.any()):
             # not a resonance outside the band's inner part that the lines
-            # resolve: passed over
+            # resolve, or one already found: passed over
             skip[lo : hi + 1] = True
             kept, start = before
     else:
