@@ -184,11 +184,12 @@ def edge_poles(
     local band holds it (:func:`~ema_pipeline.identification.refinement.refine.refine_poles`,
     the new pole free to move, before the next residual is formed). A peak
     that does not fall to half its height before the lines' ends (a
-    resonance past them) is passed over, and so is one whose pole does not
-    end decaying, below ``max_zeta``, on the lines outside the band's inner
-    part, with a half-power bandwidth of at least ``min_bandwidth_lines``
-    lines and apart from the edge poles found before (not within the
-    half-power half-width of one, nor it within its). The poles are then
+    resonance past them) is passed over, and so is one after whose
+    refinement not every edge pole ends decaying, below ``max_zeta``, on
+    the lines outside the band's inner part, with a half-power bandwidth of
+    at least ``min_bandwidth_lines`` lines and a line or more from each
+    other (a pole that splits one resonance into two makes them narrower,
+    or closer, than the lines resolve). The poles are then
     kept when not within a kept mode's half-power half-width (nor it within
     theirs); one inside the band (in an edge zone) only when it also shows
     as a peak of its own in at least ``min_frf_share`` (and ``min_frfs``) of
@@ -261,16 +262,15 @@ def edge_poles(
                             modes=edge_neighbours(freq_hz, both, m, thresholds=th),
                             **windows).pole
         kept, start = both[:m], both[m:]
-        new = start[-1]
-        f_got = pole_fd_hz(new)
-        same = np.abs(start[:-1].imag - new.imag) < np.maximum(np.abs(start[:-1].real),
-                                                               abs(new.real))
-        if not (is_physical(new, thresholds=th) and freq_hz[0] < f_got < freq_hz[-1]
-                and outer[int(np.argmin(np.abs(freq_hz - f_got)))]
-                and 2 * pole_half_width_hz(new) >= th.min_bandwidth_lines * df
-                and not same.any()):
+        f_got = pole_fd_hz(start)
+        if not (all(is_physical(p, thresholds=th) for p in start)
+                and np.all((f_got > freq_hz[0]) & (f_got < freq_hz[-1]))
+                and outer[np.argmin(np.abs(freq_hz[:, None] - f_got[None, :]), axis=0)].all()
+                and np.all(2 * pole_half_width_hz(start) >= th.min_bandwidth_lines * df)
+                and np.all(np.diff(np.sort(f_got)) >= df)):
             # not a resonance outside the band's inner part that the lines
-            # resolve, or one already found: passed over
+            # resolve, or one that splits a resonance found before into two
+            # the lines do not resolve: passed over
             skip[lo : hi + 1] = True
             kept, start = before
     else:
