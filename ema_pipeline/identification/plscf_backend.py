@@ -383,9 +383,9 @@ def with_edge_poles(frf: FRFSet, data: BandData, kept: KeptModes,
     None without edge poles."""
     th = data.thresholds
     pole = kept.sel.pole
-    windows = {"window_tau_s": data.window_tau_s, "force_window_s": data.force_window_s}
+    tau, force = data.window_tau_s, data.force_window_s
     found = edge_fit(frf.freq_hz, frf.H.reshape(-1, frf.freq_hz.size), data.band_hz, pole,
-                     data.quantity, thresholds=th, **windows)
+                     data.quantity, thresholds=th, window_tau_s=tau, force_window_s=force)
     if found is None:
         return kept, None
     band, edge = found
@@ -395,12 +395,12 @@ def with_edge_poles(frf: FRFSet, data: BandData, kept: KeptModes,
     near = edge_neighbours(sub.freq_hz, both, pole.size, thresholds=th)
     if near.size and kept.cov is not None:
         ref = refine_poles(sub.freq_hz, Hc, both, quantity=data.quantity, thresholds=th,
-                           map_=map_, modes=near, **windows)
+                           map_=map_, modes=near, window_tau_s=tau, force_window_s=force)
         both[near] = ref.pole[near]
         cov = kept.cov.copy()
         cov[near] = ref.cov[near] + band_sensitivity(
             sub.freq_hz, Hc, both, quantity=data.quantity, thresholds=th, map_=map_,
-            **windows)[near]
+            window_tau_s=tau, force_window_s=force)[near]
         kept = replace(kept, sel=replace(kept.sel, pole=both[: pole.size]), cov=cov)
     return kept, EdgeFit(sub=sub, pole=edge, reaches=bool(near.size))
 

@@ -223,7 +223,6 @@ def edge_poles(
     kept = np.array(pole, dtype=complex, copy=True)
     free = replace(th, refine_max_shift=np.inf)
     m = kept.size
-    windows = {"window_tau_s": window_tau_s, "force_window_s": force_window_s}
     complete = True
     while start.size < th.max_residual_peaks:
         try:
@@ -257,10 +256,11 @@ def edge_poles(
         before = kept, start[:-1]
         both = np.concatenate([kept, start])
         both = refine_poles(freq_hz, H, both, quantity=quantity, thresholds=free,
-                            modes=np.arange(m, both.size), **windows).pole
+                            modes=np.arange(m, both.size), window_tau_s=window_tau_s,
+                            force_window_s=force_window_s).pole
         both = refine_poles(freq_hz, H, both, quantity=quantity, thresholds=th,
                             modes=edge_neighbours(freq_hz, both, m, thresholds=th),
-                            **windows).pole
+                            window_tau_s=window_tau_s, force_window_s=force_window_s).pole
         kept, start = both[:m], both[m:]
         f_got = pole_fd_hz(start)
         if not (all(is_physical(p, thresholds=th) for p in start)
