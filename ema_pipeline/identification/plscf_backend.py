@@ -40,7 +40,10 @@ are its arguments and its return value:
    pole, and whose peaks do not show apart, is one mode
    (:func:`~ema_pipeline.identification.plscf_final_tests.merge_unsupported_pairs`).
 6. :func:`kept_modes`: the kept modes at their refined poles with covariance
-   (``options.refine``) or at their start poles.
+   (``options.refine``) or at their start poles; :func:`with_edge_poles`
+   (judged and refined): resonances at the band's edges, found past it,
+   kept in their neighbours' refinement and the shapes' fits, not reported
+   (:mod:`~ema_pipeline.identification.selection.edge_poles`).
 7. :func:`finished`, :func:`with_band_support`, :func:`with_pair_flags`,
    :func:`with_not_kept`: LSFD and the result, which narrower searches hold
    each mode, which close pairs fewer than three channels cannot support, the

@@ -8,24 +8,26 @@ the nearest kept mode: its pole is pulled towards it and its shape bent (a
 plate's top mode at MAC 0.84 with its analytic shape, the next mode 0.8 %
 above the band's top; docs/validation.md).
 
-Where the FRFs go on past the band, :func:`edge_poles` finds such poles:
+Where the FRFs go on past the band, :func:`edge_fit` finds such poles:
 when the residual of the kept modes' fit over the band (the global LSFD with
 the residual terms) rises into an edge zone to ``residual_peak_ratio`` times
 its floor -- the slope that
 :func:`~ema_pipeline.identification.selection.residual_search.residual_peaks`
 passes over -- the band is widened on that side by ``edge_margin`` of its
-width, as far as the lines go (:func:`widened_band`); the residual peaks of
-the kept poles' fit over the widened band
-(:func:`~ema_pipeline.identification.selection.residual_search.residual_peaks`)
-that lie in the edge zone or past it are refined there beside the kept
-poles (:func:`~ema_pipeline.identification.refinement.refine.refine_poles`),
-and those that stay decaying, below ``max_zeta`` and there are the edge
-poles. The backend refines the kept modes whose local band holds one
-(:func:`edge_neighbours`) and fits every mode's shape on the widened band
-with the edge poles among the poles; it reports only the band's modes, and
-names an edge pole that lies inside the band (:func:`edge_message`).
-Without a rising residual at an edge, or without lines past it, nothing
-changes.
+width, as far as the lines go (:func:`widened_band`); the peaks of the kept
+poles' residual over the widened band that lie in the edge zone or past it
+(measured as the residual check measures them) get start poles, refined
+there beside the kept poles (:func:`edge_poles`), and while the residual
+still rises into a widened end, that end is widened once more
+(``edge_steps``). The backend
+(:func:`~ema_pipeline.identification.plscf_backend.with_edge_poles`) refines
+the kept modes whose local band holds an edge pole (:func:`edge_neighbours`)
+and fits every mode's shape on the widened band with the edge poles among
+the poles; it reports only the band's modes, lists the edge poles
+(``IdentificationResult.edge_hz``) and names one that lies inside the band
+in a warning (:func:`edge_message`). Without a rising residual at an edge,
+without lines past it, or when no kept mode's local band holds an edge
+pole, no number changes.
 """
 
 from __future__ import annotations
