@@ -244,6 +244,7 @@ def finish_identification(
     selected: SelectedPoles | None,
     settings: ResolvedSettings,
     pole_cov: np.ndarray | None = None,
+    edge: tuple[FRFSet, np.ndarray] | None = None,
 ) -> IdentificationResult:
     """LSFD, window correction, standard deviations, indicators.
 
@@ -260,6 +261,10 @@ def finish_identification(
     ``pole_cov`` (n_modes, 2, 2), the covariance of (sigma, omega_d) of refined
     poles, gives their standard deviations; without it the scatter of the
     selected trajectories over the model orders does (NaN without ``selected``).
+    ``edge``, the FRF set cut to a widened band and poles at the band's edges
+    (:mod:`~ema_pipeline.identification.selection.edge_poles`): both fits run
+    on the widened band with those poles among the poles, which are not
+    reported; ``H_fit`` is cut back to the band's lines.
     """
     freq = sub.freq_hz
     n_out, n_in, n_freq = sub.H.shape
@@ -274,14 +279,23 @@ def finish_identification(
     pole = pole_id + decay
     fn, fd, zeta = pole_to_modal(pole)
     if m:
-        fit = lsfd(freq, Hc, pole_id, sub.quantity, lower=lower_residual, upper=upper_residual)
+        fit_freq, fit_H, fit_pole, lines = freq, Hc, pole_id, slice(None)
+        if edge is not None:  # the widened band, the edge poles among the poles
+            wide, edge_pole = edge
+            fit_freq, fit_pole = wide.freq_hz, np.concatenate([pole_id, edge_pole])
+            fit_H = wide.H.reshape(n_out * n_in, fit_freq.size)
+            i0 = int(np.argmin(np.abs(fit_freq - freq[0])))
+            lines = slice(i0, i0 + n_freq)
+        fit = lsfd(fit_freq, fit_H, fit_pole, sub.quantity, lower=lower_residual,
+                   upper=upper_residual)
         # the residues (and shapes) from each mode's local band, the global
         # fit's terms of the other modes subtracted; the synthesis stays the
         # global fit's
-        a_local, _ = local_residues(freq, Hc, pole_id, fit.a, thresholds=settings.thresholds)
+        a_local, _ = local_residues(fit_freq, fit_H, fit_pole, fit.a,
+                                    thresholds=settings.thresholds)
         q = quantity_power(sub.quantity)
-        residues = (a_local / pole[:, None] ** q).reshape(m, n_out, n_in)
-        H_fit = fit.H_fit.reshape(n_out, n_in, n_freq)
+        residues = (a_local[:m] / pole[:, None] ** q).reshape(m, n_out, n_in)
+        H_fit = fit.H_fit[:, lines].reshape(n_out, n_in, n_freq)
         low = fit.lower.reshape(n_out, n_in)
         up = fit.upper.reshape(n_out, n_in)
     else:

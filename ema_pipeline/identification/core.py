@@ -31,6 +31,7 @@ from ema_pipeline.identification.picked import Picks
 from ema_pipeline.identification.plscf_backend import identify_plscf
 from ema_pipeline.identification.result import IdentificationResult
 from ema_pipeline.identification.sdypy_backend import identify_sdypy
+from ema_pipeline.identification.selection.edge_poles import edge_message
 from ema_pipeline.identification.selection.expect import match_expected, not_found_message
 from ema_pipeline.identification.selection.not_kept import not_kept_message
 from ema_pipeline.identification.selection.picks import identify_picks
@@ -179,6 +180,7 @@ def result_warnings(checked: CheckedInput, result: IdentificationResult) -> tupl
     message = not_kept_message(result.not_kept_hz, result.not_kept_frfs, frf.n_out * frf.n_in)
     if message:
         out.append(message)
+    out.append(edge_message(result.edge_hz, band_hz, thresholds=result.settings.thresholds))
     force_band = frf.acquisition.force_band_hz  # FRFs from `ema-pipeline frf`
     if force_band is not None and band_hz[1] > force_band[1] * (1 + 1e-9):
         out.append(f"the identification band ends at {band_hz[1]:.5g} Hz, past the usable "

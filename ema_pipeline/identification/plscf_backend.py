@@ -40,7 +40,10 @@ are its arguments and its return value:
    pole, and whose peaks do not show apart, is one mode
    (:func:`~ema_pipeline.identification.plscf_final_tests.merge_unsupported_pairs`).
 6. :func:`kept_modes`: the kept modes at their refined poles with covariance
-   (``options.refine``) or at their start poles.
+   (``options.refine``) or at their start poles; :func:`with_edge_poles`
+   (judged and refined): resonances at the band's edges, found past it,
+   kept in their neighbours' refinement and the shapes' fits, not reported
+   (:mod:`~ema_pipeline.identification.selection.edge_poles`).
 7. :func:`finished`, :func:`with_band_support`, :func:`with_pair_flags`,
    :func:`with_not_kept`: LSFD and the result, which narrower searches hold
    each mode, which close pairs fewer than three channels cannot support, the
@@ -100,6 +103,10 @@ from ema_pipeline.identification.result import (
 from ema_pipeline.identification.selection.acceptance import (
     Candidates,
 )
+from ema_pipeline.identification.selection.edge_poles import (
+    edge_fit,
+    edge_neighbours,
+)
 from ema_pipeline.identification.selection.not_kept import resonances_not_kept
 from ema_pipeline.identification.selection.pairs import (
     close_pairs,
@@ -113,7 +120,7 @@ from ema_pipeline.identification.selection.trajectories import (
     select_expected,
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
-from ema_pipeline.modal import poles_overlap
+from ema_pipeline.modal import pole_fn_hz, poles_overlap
 from ema_pipeline.runner import Mapper, process_map
 
 
@@ -145,6 +152,7 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
     retest = Retest(data, map_)
     merged = np.zeros(0, dtype=complex)
     calibration = None
+    edge: EdgeFit | None = None
     if start.sel.pole.size and (options.refine or judged):
         found, near = refine_candidates(data, start, map_)
         if judged:
@@ -155,14 +163,18 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
             found, merged = merge_unsupported_pairs(found, retest)
         kept = kept_modes(found, start.neighbours, near, data, refine=options.refine,
                           map_=map_)
+        if judged and options.refine:
+            kept, edge = with_edge_poles(frf, data, kept, map_)
     else:
         kept = as_selected(start.sel)
-    result = finished(data, diagrams, kept, options)
+    result = finished(data, diagrams, kept, options, edge)
     result = with_band_support(result, start.auto, kept.sel.pole, diagrams.searched,
                                data.thresholds)
     if judged:
         result = with_pair_flags(result, data, kept.judged, merged, calibration)
-    return with_not_kept(result, data, retest.rejected, kept.judged)
+    # a resonance at the band's edge is in the model: not also listed as not kept
+    return with_not_kept(result, data, retest.rejected,
+                         kept.judged if edge is None else np.concatenate([kept.judged, edge.pole]))
 
 
 # ------------------------------------------------------------------ 2. the diagrams
@@ -342,14 +354,70 @@ def kept_modes(found: Candidates, neighbours: np.ndarray, near: np.ndarray, data
     return KeptModes(sel=kept, start=start, companions=companions, cov=cov, judged=judged)
 
 
+@dataclass(frozen=True)
+class EdgeFit:
+    """Resonances at the band's edges (:func:`with_edge_poles`).
+
+    Attributes
+    ----------
+    sub : the FRF set cut to the widened band.
+    pole : (n,) complex  the poles at the band's edges (not reported).
+    reaches : whether the local band of a kept mode holds one of them: only
+        then are the shapes fitted on the widened band with them (else they
+        change no number of the result).
+    """
+
+    sub: FRFSet
+    pole: np.ndarray
+    reaches: bool
+
+
+def with_edge_poles(frf: FRFSet, data: BandData, kept: KeptModes,
+                    map_: Mapper) -> tuple[KeptModes, EdgeFit | None]:
+    """Stage 6b: where the kept modes' residual rises into an edge of the band
+    and the FRFs go on past it, the resonances there
+    (:func:`~ema_pipeline.identification.selection.edge_poles.edge_poles` on
+    the band widened by
+    :func:`~ema_pipeline.identification.selection.edge_poles.widened_band`),
+    and the kept modes whose local band holds one
+    (:func:`~ema_pipeline.identification.selection.edge_poles.edge_neighbours`)
+    refined again on the widened band beside them (:func:`refine_poles`, the
+    covariance with :func:`band_sensitivity`); the kept modes unchanged and
+    None without edge poles."""
+    th = data.thresholds
+    pole = kept.sel.pole
+    tau, force = data.window_tau_s, data.force_window_s
+    found = edge_fit(frf.freq_hz, frf.H.reshape(-1, frf.freq_hz.size), data.band_hz, pole,
+                     data.quantity, thresholds=th, window_tau_s=tau, force_window_s=force)
+    if found is None:
+        return kept, None
+    band, edge = found
+    sub = frf.band(*band)
+    Hc = sub.H.reshape(-1, sub.freq_hz.size)
+    both = np.concatenate([pole, edge])
+    near = edge_neighbours(sub.freq_hz, both, pole.size, thresholds=th)
+    if near.size and kept.cov is not None:
+        ref = refine_poles(sub.freq_hz, Hc, both, quantity=data.quantity, thresholds=th,
+                           map_=map_, modes=near, window_tau_s=tau, force_window_s=force)
+        both[near] = ref.pole[near]
+        cov = kept.cov.copy()
+        cov[near] = ref.cov[near] + band_sensitivity(
+            sub.freq_hz, Hc, both, quantity=data.quantity, thresholds=th, map_=map_,
+            window_tau_s=tau, force_window_s=force)[near]
+        kept = replace(kept, sel=replace(kept.sel, pole=both[: pole.size]), cov=cov)
+    return kept, EdgeFit(sub=sub, pole=edge, reaches=bool(near.size))
+
+
 # ------------------------------------------------------------------ 7. the result
 def finished(data: BandData, diagrams: Diagrams, kept: KeptModes,
-             options: IdentificationOptions) -> IdentificationResult:
+             options: IdentificationOptions, edge: EdgeFit | None = None) -> IdentificationResult:
     """Stage 7a: LSFD, window correction and indicators of the kept modes
-    (:func:`finish_identification`), with the settings used."""
+    (:func:`finish_identification`; with ``edge`` that reaches a kept mode's
+    local band, on the widened band with the edge poles), with the settings
+    used and the edge poles' natural frequencies."""
     link_freq, link_zeta, link_mac = options.link_tolerances()
     poles = diagrams.poles
-    return finish_identification(
+    result = finish_identification(
         data.sub,
         kept.sel.pole,
         decay=data.window_decay_rate,
@@ -381,7 +449,11 @@ def finished(data: BandData, diagrams: Diagrams, kept: KeptModes,
             accept=options.accept,
             thresholds=data.thresholds,
         ),
+        edge=(edge.sub, edge.pole) if edge is not None and edge.reaches else None,
     )
+    if edge is None:
+        return result
+    return replace(result, edge_hz=np.sort(pole_fn_hz(edge.pole + data.window_decay_rate)))
 
 
 def with_band_support(result: IdentificationResult, auto: IdentificationResult | None,

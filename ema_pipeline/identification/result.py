@@ -223,6 +223,11 @@ class IdentificationResult:
         not show apart) and :data:`SECOND_POLE_DROPPED` (a second pole beside
         it was dropped: the data did not prefer two); empty when not judged
         (three or more channels, picks, ``expect_hz``, the sdypy backend).
+    edge_hz : (n,) float  natural frequencies (Hz, ascending) of resonances in
+        the band's edge zones or just past them, fitted beside their
+        neighbours on a widened band and not reported
+        (:mod:`~ema_pipeline.identification.selection.edge_poles`); empty when
+        there is none.
     warnings : tuple of str  what the user should know about this result, one
         line each, prefixed with the FRF file's path when the set has one:
         resonances no mode was kept for, a band past the hammer's usable band,
@@ -252,6 +257,7 @@ class IdentificationResult:
     not_kept_frfs: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
     band_support: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), dtype=int))
     pair_flags: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    edge_hz: np.ndarray = field(default_factory=lambda: np.zeros(0))
     warnings: tuple[str, ...] = ()
 
     def __repr__(self) -> str:

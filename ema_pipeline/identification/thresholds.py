@@ -383,6 +383,15 @@ class SelectionThresholds:
     residual_contrast_lines: int = 20
     #: At most this many residual peaks (the highest) are tried per band.
     max_residual_peaks: int = 6
+    #: Where the residual of the kept modes' fit rises into an edge zone of the
+    #: band (``band_edge``) and the FRFs go on past it, the band is widened there
+    #: by this fraction of its width to find the resonance at the edge, which is
+    #: kept in its neighbours' fits and not reported
+    #: (:mod:`~ema_pipeline.identification.selection.edge_poles`).
+    edge_margin: float = 0.05
+    #: ... again while the residual of the kept and edge poles' fit rises into
+    #: the widened end (a resonance past it), at most this many widenings.
+    edge_steps: int = 2
 
     # ------------------------------------------------ resonances not kept
     #: A peak of |H| stands out when its prominence in log|H| exceeds this: a

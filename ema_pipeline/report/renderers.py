@@ -17,6 +17,7 @@ import pandas as pd
 from ema_pipeline.added_mass.modal import pair_modes as pair_configurations
 from ema_pipeline.data import FRFSet, Geometry
 from ema_pipeline.identification.common import ends_at_usable_top
+from ema_pipeline.identification.selection.edge_poles import edge_message
 from ema_pipeline.identification.selection.not_kept import not_kept_message
 from ema_pipeline.report import figures as figs
 from ema_pipeline.report.fit_noise import noise_error
@@ -428,10 +429,12 @@ def render_identify_html(
         stab_diagram_html(frf, result, geometry=geometry)
         + no + figure("stabilization_one", fg, "Stabilization diagram")
     )
-    not_kept = not_kept_message(result.not_kept_hz, result.not_kept_frfs, frf.n_out * frf.n_in)
+    notes = [not_kept_message(result.not_kept_hz, result.not_kept_frfs, frf.n_out * frf.n_in),
+             edge_message(result.edge_hz, result.settings.band_hz,
+                          thresholds=result.settings.thresholds)]
     page.section("modes", "Modes (MPC, MPD, stable orders)").append(
         mode_table_html(result) + _doubtful_note([result])
-        + item_list([not_kept] if not_kept else [], "notes")
+        + item_list([note for note in notes if note], "notes")
         + (_few_dofs_note(frf, n_dof) if few else "")
     )
     if not few:
