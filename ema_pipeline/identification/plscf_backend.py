@@ -89,6 +89,7 @@ from ema_pipeline.identification.plscf_final_tests import (
     merge_unsupported_pairs,
     try_alternates,
 )
+from ema_pipeline.identification.refinement.lsfd import reused_lsfds
 from ema_pipeline.identification.refinement.refine import (
     RefinedPoles,
     band_sensitivity,
@@ -136,9 +137,10 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions, *,
     companion eigenvalues of a large diagram, the searches of a dense band's
     windows, the local fits of the modes) is shared out among worker
     processes (``workers`` of them, :func:`ema_pipeline.runner.process_map`;
-    1: none); the numbers are those of one process.
+    1: none); the numbers are those of one process. The stages' LSFDs of
+    the same poles over the band are solved once (:func:`reused_lsfds`).
     """
-    with process_map(workers, workers) as map_:
+    with process_map(workers, workers) as map_, reused_lsfds():
         return identify_with(frf, options, map_)
 
 

@@ -20,6 +20,9 @@ in :mod:`ema_pipeline.modal`.
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+from contextvars import ContextVar
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -104,6 +107,64 @@ class LSFDFit:
     H_fit: np.ndarray
 
 
+#: The LSFDs of one identification (:func:`reused_lsfds`), None outside one.
+_REUSED: ContextVar[list | None] = ContextVar("ema_pipeline_reused_lsfds", default=None)
+
+#: How many of an identification's latest LSFDs :func:`reused_lsfds` keeps.
+REUSED_LSFDS = 8
+
+
+@contextlib.contextmanager
+def reused_lsfds() -> Iterator[None]:
+    """Inside the block, :func:`lsfd` of the same lines, FRFs
+    (:func:`same_values`), poles and terms as one of the :data:`REUSED_LSFDS` latest fits
+    of the block gives that fit again (its arrays read-only) instead of
+    solving again: the stages of one identification fit the same kept poles
+    to the whole band several times (the close partners, the residual
+    peaks, the band sensitivity, the final residues). The same numbers; a
+    block inside a block shares its fits.
+
+    Examples
+    --------
+    >>> f = np.linspace(10.0, 30.0, 201)
+    >>> pole = np.array([-1.0 + 2j * np.pi * 20.0])
+    >>> H = (1 / (2j * np.pi * f - pole[0]))[None]
+    >>> with reused_lsfds():
+    ...     first, again = lsfd(f, H, pole, "receptance"), lsfd(f, H, pole, "receptance")
+    >>> again is first, bool(np.allclose(first.a, lsfd(f, H, pole, "receptance").a))
+    (True, True)
+    """
+    if _REUSED.get() is not None:
+        yield
+        return
+    token = _REUSED.set([])
+    try:
+        yield
+    finally:
+        _REUSED.reset(token)
+
+
+def same_values(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether ``a`` and ``b`` hold the same numbers: the same array, views
+    of the same elements, or equal copies.
+
+    Examples
+    --------
+    >>> x = np.arange(6.0).reshape(2, 3)
+    >>> same_values(x, x.reshape(2, 3)), same_values(x, x.copy()), same_values(x, x + 1)
+    (True, True, False)
+    """
+    if a is b:
+        return True
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape != b.shape or a.dtype != b.dtype:
+        return False
+    if (a.__array_interface__["data"][0] == b.__array_interface__["data"][0]
+            and a.strides == b.strides):
+        return True
+    return bool(np.array_equal(a, b))
+
+
 def lsfd(
     freq_hz: np.ndarray,
     H: np.ndarray,
@@ -121,7 +182,30 @@ def lsfd(
     freq_hz : (n_freq,) Hz.   H : (n_ch, n_freq) complex FRFs.
     poles : (n_modes,) complex, Im > 0, rad/s.
     weights : (n_freq,) optional line weights (same for every channel).
+
+    Inside :func:`reused_lsfds` a fit of the same problem is given again.
     """
+    reused = _REUSED.get()
+    if reused is not None and weights is None:
+        poles = np.asarray(poles)
+        for entry in reused:
+            f0, H0, p0, terms, fit = entry
+            if (terms == (quantity, lower, upper) and np.array_equal(p0, poles)
+                    and same_values(f0, freq_hz) and same_values(H0, H)):
+                return fit
+        fit = _solve(freq_hz, H, poles, quantity, lower, upper, None)
+        for array in (fit.a, fit.lower, fit.upper, fit.H_fit):
+            array.flags.writeable = False
+        reused.append((np.array(freq_hz), np.array(H), poles.copy(), (quantity, lower, upper),
+                       fit))
+        del reused[:-REUSED_LSFDS]
+        return fit
+    return _solve(freq_hz, H, poles, quantity, lower, upper, weights)
+
+
+def _solve(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, quantity: str, lower: bool,
+           upper: bool, weights: np.ndarray | None) -> LSFDFit:
+    """:func:`lsfd` solved."""
     B = design_matrix(freq_hz, poles, quantity, lower, upper)
     # real_stack(B) in column-major order: LAPACK's QR takes it without a
     # copy, and the column maxima run down contiguous columns
