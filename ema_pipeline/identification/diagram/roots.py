@@ -85,12 +85,15 @@ def newton_corrections(coeffs: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, n
     magnitude[:, 1:] = np.where(outside, 1.0 / np.maximum(az, 1.0), az)[:, None]
     np.cumprod(magnitude[:, 1:], axis=1, out=magnitude[:, 1:])
     # column 0: p in x = z; column 1: the reversed polynomial q(x) = x^n p(1/x)
+    # columns 2, 3: their derivatives (power k: (k + 1) c_(k+1)); one product
     both = np.stack([coeffs, coeffs[::-1]], axis=1)
-    value = powers @ both
-    slope = powers[:, :-1] @ (both[1:] * np.arange(1, n + 1)[:, None])
+    sums = np.zeros((n + 1, 4), dtype=complex)
+    sums[:, :2] = both
+    sums[:-1, 2:] = both[1:] * np.arange(1, n + 1)[:, None]
+    value = powers @ sums
     bound = magnitude @ np.abs(both)
     rows, col = np.arange(z.size), outside.astype(int)
-    p, dp, e = value[rows, col], slope[rows, col], bound[rows, col]
+    p, dp, e = value[rows, col], value[rows, col + 2], bound[rows, col]
     with np.errstate(divide="ignore", invalid="ignore"):
         # outside: p(z) = z^n q(1/z), so p/p' = z q / (n q - x q')
         correction = np.where(outside, z * p / (n * p - x * dp), p / dp)
@@ -117,10 +120,11 @@ def aberth_roots(coeffs: np.ndarray, start: np.ndarray,
         if idx.size == 0:
             break
         newton, backward = newton_corrections(coeffs, z[idx])
-        diff = z[idx, None] - z[None, :]
-        diff[np.arange(idx.size), idx] = np.inf
+        inverse = np.subtract.outer(z[idx], z)  # 1 / (z_i - z_j), in place
+        inverse[np.arange(idx.size), idx] = np.inf
         with np.errstate(divide="ignore", invalid="ignore"):
-            step = newton / (1.0 - newton * np.sum(1.0 / diff, axis=1))
+            np.reciprocal(inverse, out=inverse)
+            step = newton / (1.0 - newton * inverse.sum(axis=1))
         if not np.all(np.isfinite(step)):
             return z, False
         z[idx] -= step
