@@ -144,6 +144,7 @@ def coverage(rows: list[dict], key: str) -> tuple[float, float]:
 def compare(a_path: Path, b_path: Path, last_bits: bool) -> int:
     a, b = json.loads(a_path.read_text()), json.loads(b_path.read_text())
     shifts: list[float] = []
+    steady: list[tuple[float, float]] = []  # modes not doubtful: (shift in sigma, |df| Hz)
     detection: list[str] = []
     flips: list[str] = []
     large: list[str] = []
@@ -172,6 +173,8 @@ def compare(a_path: Path, b_path: Path, last_bits: bool) -> int:
             sz = abs(y["zeta"][j] - x["zeta"][i]) / x["zeta_std"][i]
             s = float(np.nanmax([sf, sz]))
             shifts.extend([sf, sz])
+            if not (da[i] or db[j]):
+                steady.append((s, abs(fb[j] - fa[i])))
             if last_bits and s > 0.1 and abs(fb[j] - fa[i]) > 0.01:
                 entry = (f"{key} {fa[i]:.2f} Hz moved {s:.2f} sigma, doubtful "
                          f"{bool(da[i])}/{bool(db[j])}")
@@ -190,6 +193,12 @@ def compare(a_path: Path, b_path: Path, last_bits: bool) -> int:
     for d in large:
         print(f"  {d}")
     if last_bits:
+        st = np.array(steady, dtype=float).reshape(-1, 2)
+        over = st[st[:, 0] > 0.1]
+        largest = np.max(over[:, 1], initial=0)
+        print(f"modes not doubtful: {st.shape[0]}, max shift {np.nanmax(st[:, 0], initial=0):.3g} "
+              f"sigma; {over.shape[0]} above 0.1 sigma, all within 0.01 Hz: "
+              f"{bool(largest <= 0.01)} (largest {largest:.4f} Hz)")
         print(f"changes of doubtful modes (allowed when doubtful in both answers): {len(flips)}")
         for d in flips:
             print(f"  {d}")
