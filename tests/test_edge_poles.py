@@ -83,3 +83,21 @@ def test_band_without_a_resonance_at_its_edges_unchanged(case):
     assert result.edge_hz.size == 0
     np.testing.assert_array_equal(result.fn_hz, bare.fn_hz)
     np.testing.assert_array_equal(result.modes.shapes, bare.modes.shapes)
+
+
+def test_band_is_not_widened_past_the_hammer_usable_top(case):
+    """Above the force spectrum's -20 dB point the FRFs hold noise: a band
+    that ends there is not widened, whatever lies past it."""
+    from ema_pipeline.data import AcquisitionInfo
+
+    frf, _ = case
+    band = (20.0, 256.0)
+    driven = replace(frf, acquisition=AcquisitionInfo(force_band_hz=(0.0, 256.0)))
+    result = run(driven, band)
+    bare = run(frf, band, edge_margin=0.0)
+    assert result.edge_hz.size == 0
+    np.testing.assert_array_equal(result.fn_hz, bare.fn_hz)
+    # with the hammer driving past it, the same band is widened (the first test)
+    edge = run(replace(frf, acquisition=AcquisitionInfo(force_band_hz=(0.0, 300.0))),
+               band).edge_hz
+    assert np.min(np.abs(edge / FN[5] - 1)) < 1e-3

@@ -65,6 +65,7 @@ from ema_pipeline.data import FRFSet
 from ema_pipeline.identification.common import (
     default_max_order,
     finish_identification,
+    usable_top_hz,
 )
 from ema_pipeline.identification.diagram.narrower_searches import (
     band_support,
@@ -88,6 +89,7 @@ from ema_pipeline.identification.plscf_final_tests import (
     merge_unsupported_pairs,
     try_alternates,
 )
+from ema_pipeline.identification.refinement.lsfd import reused_lsfds
 from ema_pipeline.identification.refinement.refine import (
     RefinedPoles,
     band_sensitivity,
@@ -135,9 +137,10 @@ def identify_plscf(frf: FRFSet, options: IdentificationOptions, *,
     companion eigenvalues of a large diagram, the searches of a dense band's
     windows, the local fits of the modes) is shared out among worker
     processes (``workers`` of them, :func:`ema_pipeline.runner.process_map`;
-    1: none); the numbers are those of one process.
+    1: none); the numbers are those of one process. The stages' LSFDs of
+    the same poles over the band are solved once (:func:`reused_lsfds`).
     """
-    with process_map(workers, workers) as map_:
+    with process_map(workers, workers) as map_, reused_lsfds():
         return identify_with(frf, options, map_)
 
 
@@ -387,8 +390,13 @@ def with_edge_poles(frf: FRFSet, data: BandData, kept: KeptModes,
     th = data.thresholds
     pole = kept.sel.pole
     tau, force = data.window_tau_s, data.force_window_s
-    found = edge_fit(frf.freq_hz, frf.H.reshape(-1, frf.freq_hz.size), data.band_hz, pole,
-                     data.quantity, thresholds=th, window_tau_s=tau, force_window_s=force)
+    # the FRFs go on past the band where the hammer still drove the structure
+    # (above the force's -20 dB point they hold noise: no resonance to find)
+    top = usable_top_hz(frf)
+    usable = frf.freq_hz <= (np.inf if top is None else max(top, data.band_hz[1]))
+    found = edge_fit(frf.freq_hz[usable], frf.H.reshape(-1, frf.freq_hz.size)[:, usable],
+                     data.band_hz, pole, data.quantity, thresholds=th, window_tau_s=tau,
+                     force_window_s=force)
     if found is None:
         return kept, None
     band, edge = found

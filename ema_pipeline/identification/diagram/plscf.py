@@ -50,6 +50,7 @@ import numpy as np
 from scipy import linalg
 
 from ema_pipeline.data import DataError
+from ema_pipeline.identification.diagram.roots import diagram_roots
 from ema_pipeline.runner import Mapper, map_costliest_first
 
 
@@ -245,8 +246,20 @@ PARALLEL_MIN_SIZE3 = 2e7
 
 def _order_poles(alpha: np.ndarray, dt: float, f_top: float) -> tuple[np.ndarray, np.ndarray]:
     """One order's poles below the band top ``f_top`` (Hz) and their participation vectors."""
-    z, lam = companion_poles(alpha, dt)
+    z, _ = companion_poles(alpha, dt)
+    return _band_poles(alpha, z, dt, f_top)
+
+
+def _band_poles(alpha: np.ndarray, z: np.ndarray, dt: float,
+                f_top: float) -> tuple[np.ndarray, np.ndarray]:
+    """Of one order's discrete poles ``z``: the continuous poles of positive
+    frequency below the band top ``f_top`` (Hz), in ascending frequency, and
+    their participation vectors."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        lam = np.log(z.astype(complex)) / dt
     keep = np.isfinite(lam) & (lam.imag > 0) & (lam.imag < 2 * np.pi * f_top * 0.9999)
+    keep = np.flatnonzero(keep)
+    keep = keep[np.argsort(lam.imag[keep], kind="stable")]
     return lam[keep], participation_vectors(alpha, z[keep])
 
 
@@ -298,7 +311,11 @@ def plscf(
     alphas = plscf_denominators(M, n_in, orders)
     solve = partial(_order_poles, dt=float(dt), f_top=float(freq_hz[-1]))
     work = sum(float(a.shape[0] * n_in) ** 3 for a in alphas)
-    if map_ is None or map_.workers < 2 or work < PARALLEL_MIN_SIZE3:
+    if n_in == 1:  # scalar denominators: each order's roots from the previous ones
+        roots = diagram_roots([a[:, 0, 0] for a in alphas])
+        per_order = [_band_poles(a, z, float(dt), float(freq_hz[-1]))
+                     for a, z in zip(alphas, roots, strict=True)]
+    elif map_ is None or map_.workers < 2 or work < PARALLEL_MIN_SIZE3:
         per_order = [solve(alpha) for alpha in alphas]
     else:  # one order per task, the largest first (fixed shares left one worker
         # 36 % more of an order-480 diagram than the other)

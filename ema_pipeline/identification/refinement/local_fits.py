@@ -20,7 +20,8 @@ they must be cheaper still than the refinement.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
@@ -33,7 +34,7 @@ from ema_pipeline.identification.refinement.local_band import (
     pole_jacobian_factors,
     scaled_solve,
 )
-from ema_pipeline.identification.refinement.refine import vp_covariance, vp_fit
+from ema_pipeline.identification.refinement.refine import VPFit, vp_covariance, vp_fit
 from ema_pipeline.identification.thresholds import SelectionThresholds
 
 
@@ -169,13 +170,27 @@ class SplitFit:
     Attributes
     ----------
     pole : (2,) complex   the refined pole and the extra one (rad/s)
-    cov : (2, 2, 2)       their covariance in (sigma, omega_d), (rad/s)^2
     residual_ratio : float  residual variance with the extra pole over without it
+    cov : (2, 2, 2)       their covariance in (sigma, omega_d), (rad/s)^2,
+        computed when first asked (the sandwich covariance of
+        :func:`~ema_pipeline.identification.refinement.refine.vp_covariance`:
+        a split that fails on its residual ratio never needs it)
     """
 
     pole: np.ndarray
-    cov: np.ndarray
     residual_ratio: float
+    fit: VPFit = field(repr=False)
+    at: tuple[int, int] = field(repr=False)
+    windows_s: tuple[float | None, float | None] = field(repr=False)
+
+    @cached_property
+    def cov(self) -> np.ndarray:
+        try:
+            Finv = vp_covariance(self.fit, *self.windows_s)
+        except (np.linalg.LinAlgError, ValueError):  # undetermined: NaN, as no decay rate
+            return np.full((2, 2, 2), np.nan)
+        k, j = self.at
+        return np.stack([Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2], Finv[2 * j :, 2 * j :]])
 
 
 def split_fit(
@@ -225,8 +240,8 @@ def split_fit(
     if local is None:
         return None
     f, Y, members, background, k, _ = local
-    # the covariance of the better split only (vp_covariance: the fit without
-    # the extra pole and the worse split need none)
+    # the covariance of the better split only, when asked (SplitFit.cov: the
+    # fit without the extra pole and the worse split need none)
     fits = []
     try:
         s_a = vp_fit(f, Y, poles[members], background, 10).noise_std
@@ -235,9 +250,9 @@ def split_fit(
             fit = vp_fit(f, Y, start, background, 20)
             fits.append((float(np.mean(fit.noise_std**2) / np.mean(s_a**2)), fit))
         ratio, best = min(fits, key=lambda fit: fit[0])
-        lam, Finv = best.lam, vp_covariance(best, window_tau_s, force_window_s)
     except (np.linalg.LinAlgError, ValueError):
         return None
+    lam = best.lam
     j = lam.size - 1
-    cov = np.stack([Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2], Finv[2 * j :, 2 * j :]])
-    return SplitFit(pole=lam[[k, j]], cov=cov, residual_ratio=ratio)
+    return SplitFit(pole=lam[[k, j]], residual_ratio=ratio, fit=best, at=(k, j),
+                    windows_s=(window_tau_s, force_window_s))

@@ -20,6 +20,9 @@ in :mod:`ema_pipeline.modal`.
 
 from __future__ import annotations
 
+import contextlib
+from collections.abc import Iterator
+from contextvars import ContextVar
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -104,6 +107,64 @@ class LSFDFit:
     H_fit: np.ndarray
 
 
+#: The LSFDs of one identification (:func:`reused_lsfds`), None outside one.
+_REUSED: ContextVar[list | None] = ContextVar("ema_pipeline_reused_lsfds", default=None)
+
+#: How many of an identification's latest LSFDs :func:`reused_lsfds` keeps.
+REUSED_LSFDS = 8
+
+
+@contextlib.contextmanager
+def reused_lsfds() -> Iterator[None]:
+    """Inside the block, :func:`lsfd` of the same lines, FRFs
+    (:func:`same_values`), poles and terms as one of the :data:`REUSED_LSFDS` latest fits
+    of the block gives that fit again (its arrays read-only) instead of
+    solving again: the stages of one identification fit the same kept poles
+    to the whole band several times (the close partners, the residual
+    peaks, the band sensitivity, the final residues). The same numbers; a
+    block inside a block shares its fits.
+
+    Examples
+    --------
+    >>> f = np.linspace(10.0, 30.0, 201)
+    >>> pole = np.array([-1.0 + 2j * np.pi * 20.0])
+    >>> H = (1 / (2j * np.pi * f - pole[0]))[None]
+    >>> with reused_lsfds():
+    ...     first, again = lsfd(f, H, pole, "receptance"), lsfd(f, H, pole, "receptance")
+    >>> again is first, bool(np.allclose(first.a, lsfd(f, H, pole, "receptance").a))
+    (True, True)
+    """
+    if _REUSED.get() is not None:
+        yield
+        return
+    token = _REUSED.set([])
+    try:
+        yield
+    finally:
+        _REUSED.reset(token)
+
+
+def same_values(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether ``a`` and ``b`` hold the same numbers: the same array, views
+    of the same elements, or equal copies.
+
+    Examples
+    --------
+    >>> x = np.arange(6.0).reshape(2, 3)
+    >>> same_values(x, x.reshape(2, 3)), same_values(x, x.copy()), same_values(x, x + 1)
+    (True, True, False)
+    """
+    if a is b:
+        return True
+    a, b = np.asarray(a), np.asarray(b)
+    if a.shape != b.shape or a.dtype != b.dtype:
+        return False
+    if (a.__array_interface__["data"][0] == b.__array_interface__["data"][0]
+            and a.strides == b.strides):
+        return True
+    return bool(np.array_equal(a, b))
+
+
 def lsfd(
     freq_hz: np.ndarray,
     H: np.ndarray,
@@ -121,7 +182,30 @@ def lsfd(
     freq_hz : (n_freq,) Hz.   H : (n_ch, n_freq) complex FRFs.
     poles : (n_modes,) complex, Im > 0, rad/s.
     weights : (n_freq,) optional line weights (same for every channel).
+
+    Inside :func:`reused_lsfds` a fit of the same problem is given again.
     """
+    reused = _REUSED.get()
+    if reused is not None and weights is None:
+        poles = np.asarray(poles)
+        for entry in reused:
+            f0, H0, p0, terms, fit = entry
+            if (terms == (quantity, lower, upper) and np.array_equal(p0, poles)
+                    and same_values(f0, freq_hz) and same_values(H0, H)):
+                return fit
+        fit = _solve(freq_hz, H, poles, quantity, lower, upper, None)
+        for array in (fit.a, fit.lower, fit.upper, fit.H_fit):
+            array.flags.writeable = False
+        reused.append((np.array(freq_hz), np.array(H), poles.copy(), (quantity, lower, upper),
+                       fit))
+        del reused[:-REUSED_LSFDS]
+        return fit
+    return _solve(freq_hz, H, poles, quantity, lower, upper, weights)
+
+
+def _solve(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, quantity: str, lower: bool,
+           upper: bool, weights: np.ndarray | None) -> LSFDFit:
+    """:func:`lsfd` solved."""
     B = design_matrix(freq_hz, poles, quantity, lower, upper)
     # real_stack(B) in column-major order: LAPACK's QR takes it without a
     # copy, and the column maxima run down contiguous columns
@@ -136,8 +220,7 @@ def lsfd(
         w2 = np.concatenate([w, w])[:, None]
         A *= w2
         Y = Y * w2
-    Qm, Rm, triangular = qr_factor(A)
-    X = solve_r(Rm, Qm.T @ Y, triangular) / scale[:, None]
+    X = least_squares(A, Y) / scale[:, None]
     m = poles.size
     a = X[0 : 2 * m : 2] + 1j * X[1 : 2 * m : 2]
     rest = X[2 * m :]
@@ -147,6 +230,35 @@ def lsfd(
     up = res[int(lower)] if upper else zeros
     H_fit = (B @ X).T
     return LSFDFit(a=a, lower=low, upper=up, H_fit=H_fit)
+
+
+def least_squares(A: np.ndarray, Y: np.ndarray) -> np.ndarray:
+    """Least-squares solution X of A X = Y for one tall real matrix A (n, K)
+    and Y (n, n_rhs): Householder QR (LAPACK ``dgeqrf``), Q^T Y applied from
+    its reflectors (``dormqr``) and back substitution, without forming Q
+    (half the cost of :func:`householder_qr` for the few right-hand sides of
+    an LSFD). A numerically singular A (the diagonal of R spanning more than
+    1e6) goes to :func:`qr_factor`, whose SVD gives the minimum-norm solution.
+
+    Examples
+    --------
+    >>> A = np.array([[1.0, 0.0], [1.0, 1.0], [0.0, 2.0]])
+    >>> least_squares(A, A @ np.array([[1.0], [2.0]])).ravel().round(12).tolist()
+    [1.0, 2.0]
+    """
+    n, k = A.shape
+    if A.dtype == np.float64 and Y.dtype == np.float64 and n >= k > 0:
+        qr, tau, _, info = lapack.dgeqrf(A)
+        d = np.abs(qr.diagonal())
+        if info == 0 and np.all(np.isfinite(d)) and d.min() >= 1e-6 * d.max():
+            lwork = max(1, Y.shape[1] * 64)
+            QtY, _, info = lapack.dormqr("L", "T", qr, tau, Y, lwork)
+            if info == 0 and np.all(np.isfinite(QtY[:k])):
+                X, info = lapack.dtrtrs(qr[:k], QtY[:k], lower=0)
+                if info == 0:
+                    return np.asarray(X)
+    Q, R, triangular = qr_factor(A)
+    return solve_r(R, Q.T @ Y, triangular)
 
 
 def batched_qr(A: np.ndarray, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndarray]:

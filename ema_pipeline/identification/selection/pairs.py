@@ -68,6 +68,7 @@ def pair_significance(
     quantity: str | None,
     *,
     window_tau_s: float | None = None,
+    residues: np.ndarray | None = None,
     thresholds: SelectionThresholds,
 ) -> float:
     """How strongly the data prefer the two poles ``pole[a]``, ``pole[b]`` to
@@ -90,6 +91,13 @@ def pair_significance(
     tau = T/5 and T/16, where that sum is 5 and 16), and the critical value
     is raised by that factor. NaN where the band is too short.
 
+    The terms of the modes outside the local band are subtracted with
+    ``residues`` (n_modes, n_ch), by default one global LSFD of ``pole``
+    (:func:`~ema_pipeline.identification.refinement.local_band.global_residues`);
+    a caller that judges many variants of one set of poles passes the
+    residues of that set (the far modes' residues hardly depend on how one
+    resonance is modelled) and saves an LSFD of the whole band per variant.
+
     Examples
     --------
     >>> th = SelectionThresholds()
@@ -106,7 +114,7 @@ def pair_significance(
     True
     """
     th = thresholds
-    a_all = global_residues(freq_hz, H, pole, quantity)
+    a_all = global_residues(freq_hz, H, pole, quantity) if residues is None else residues
     for r, other in ((a, b), (b, a)):
         local = local_problem(freq_hz, H, pole, r, th.split_half_width, th.local_min_lines,
                               a_all, thresholds=th)
@@ -273,10 +281,14 @@ def unsupported_partners(
     if H.shape[0] >= th.min_shape_channels or pole.size < 2:
         return drop, merged
     snr = None
+    residues: np.ndarray | None = None  # one global LSFD of the poles for all pairs
     for i, j in close_pairs(pole, thresholds=th):
         if drop[i] or drop[j] or peaks_apart(freq_hz, H, pole[i], pole[j], thresholds=th):
             continue
-        sig = pair_significance(freq_hz, H, pole, i, j, quantity, thresholds=th)
+        if residues is None:
+            residues = global_residues(freq_hz, H, pole, quantity)
+        sig = pair_significance(freq_hz, H, pole, i, j, quantity, residues=residues,
+                                thresholds=th)
         if not sig < 1.0:  # significant, or not judged (NaN)
             continue
         if snr is None:

@@ -196,10 +196,22 @@ class PartnerSearch:
 
     def significance(self, lam: np.ndarray) -> float:
         """:func:`.pair_significance` of the split, the last two poles of
-        ``lam``; 0 where the extra pole left the band (no split)."""
+        ``lam`` (the kept poles with one of them, ``r``, replaced by the
+        pair: ``np.delete(pole, r)`` then the pair); 0 where the extra pole
+        left the band (no split). The other modes' terms are subtracted with
+        the kept poles' residues (:attr:`residues`), the pair's rows hold
+        those of the mode it replaces (members of the local band, never
+        subtracted)."""
+        residues = None
+        if self.residues is not None and lam.size == self.pole.size + 1:
+            head = lam[:-2]  # np.delete(pole, r): equal to pole before r, shifted after
+            moved = np.flatnonzero(self.pole[: head.size] != head)
+            r = int(moved[0]) if moved.size else self.pole.size - 1
+            residues = np.concatenate([np.delete(self.residues, r, axis=0),
+                                       self.residues[[r, r]]])
         sig = pair_significance(self.freq_hz, self.H, lam, lam.size - 2, lam.size - 1,
                                 self.quantity, window_tau_s=self.window_tau_s,
-                                thresholds=self.thresholds)
+                                residues=residues, thresholds=self.thresholds)
         return 0.0 if sig == np.inf else sig
 
     def partners_of(self, modes: list[int]) -> list[Split]:

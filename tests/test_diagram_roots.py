@@ -1,0 +1,149 @@
+"""The roots of a diagram's denominators (identification.diagram.roots) against
+the companion eigenvalues (numpy.roots), on random polynomials, on the
+denominators of a simulated impact test and of the measured beam, and where
+the iteration must fall back; and the speed-ups that keep every number
+(lsfd.least_squares, lsfd.reused_lsfds, the shared residues of the pair
+significance) against the plain computation."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from ema_pipeline import io
+from ema_pipeline.data import FRFSet
+from ema_pipeline.identification import SelectionThresholds
+from ema_pipeline.identification.diagram.order_search import diagram_orders
+from ema_pipeline.identification.diagram.plscf import plscf_denominators, plscf_normal_matrix
+from ema_pipeline.identification.diagram.roots import (
+    ABERTH_MIN_ORDER,
+    aberth_roots,
+    companion_roots,
+    diagram_roots,
+    next_start,
+)
+from ema_pipeline.identification.refinement.local_band import global_residues
+from ema_pipeline.identification.refinement.lsfd import least_squares, lsfd, reused_lsfds
+from ema_pipeline.identification.selection.pairs import pair_significance
+from tests.paths import REAL_UFF
+
+
+@pytest.fixture(scope="module")
+def paper_frf(example_dir: Path) -> FRFSet:
+    """The shipped example's simulated impact test (2 responses, 8193 lines)."""
+    return io.read_frf(example_dir / "genuine.uff")
+
+
+def matched(a: np.ndarray, b: np.ndarray) -> float:
+    """Largest distance from a root of either set to the nearest of the
+    other, relative to its magnitude (at least 1e-3)."""
+    d = np.abs(a[:, None] - b[None, :])
+    return float(max((d.min(axis=1) / np.maximum(np.abs(a), 1e-3)).max(),
+                     (d.min(axis=0) / np.maximum(np.abs(b), 1e-3)).max()))
+
+
+def denominators(freq_hz: np.ndarray, H: np.ndarray, p: int) -> list[np.ndarray]:
+    """The scalar denominators of a one-reference diagram of order p."""
+    Hn = H / np.sqrt(np.mean(np.abs(H) ** 2))
+    dt = 1 / (2 * freq_hz[-1])
+    orders = diagram_orders(p, 1, SelectionThresholds().diagram_orders)
+    M = plscf_normal_matrix(freq_hz, Hn, p, dt)
+    return [a[:, 0, 0] for a in plscf_denominators(M, 1, orders)]
+
+
+def test_random_polynomials_match_the_companion_eigenvalues():
+    rng = np.random.default_rng(5)
+    polys = [np.append(rng.standard_normal(n) * np.exp(rng.standard_normal(n)), 1.0)
+             for n in range(60, 200, 14)]
+    got = diagram_roots(polys)
+    for c, z in zip(polys, got, strict=True):
+        assert z.size == c.size - 1
+        assert matched(z, np.roots(c[::-1])) < 1e-8
+
+
+def test_diagram_of_a_simulated_impact_test(paper_frf):
+    """Order 200 (the iteration runs from order 80 on): every order's roots
+    are numpy's, the number of poles of positive frequency the same."""
+    frf = paper_frf
+    keep = frf.freq_hz >= frf.freq_hz[5]
+    polys = denominators(frf.freq_hz[keep], frf.H[:, :, keep], 200)
+    assert polys[-1].size - 1 >= 2 * ABERTH_MIN_ORDER
+    for c, z in zip(polys, diagram_roots(polys), strict=True):
+        ref = companion_roots(c)
+        assert matched(z, ref) < 1e-8
+        assert np.sum(z.imag > 0) == np.sum(ref.imag > 0)
+
+
+def test_diagram_of_the_measured_beam():
+    if not REAL_UFF.exists():
+        pytest.skip(f"{REAL_UFF} not present (../shared/data)")
+    frf = io.read_frf(REAL_UFF).reciprocal()  # roving hammer: 30 responses, 1 reference
+    assert frf.H.shape[1] == 1
+    keep = frf.freq_hz >= frf.freq_hz[5]
+    polys = denominators(frf.freq_hz[keep], frf.H[:, :, keep], 255)
+    for c, z in zip(polys, diagram_roots(polys), strict=True):
+        ref = companion_roots(c)
+        assert matched(z, ref) < 1e-8
+        assert np.sum(z.imag > 0) == np.sum(ref.imag > 0)
+
+
+def test_multiple_roots_and_a_failed_iteration_fall_back():
+    """A triple root makes the iteration converge slowly; whatever path it
+    takes, the roots are the eigenvalues'. A single sweep does not converge
+    and says so."""
+    rng = np.random.default_rng(8)
+    z = 0.95 * np.exp(2j * np.pi * rng.random(43))
+    c = np.polynomial.polynomial.polyfromroots(
+        np.concatenate([[0.5, 0.5, 0.5, -0.3], z, np.conj(z)])).real
+    assert c.size - 1 == 90
+    c = c / c[-1]
+    assert matched(diagram_roots([c])[0], companion_roots(c)) < 1e-4  # a triple root: eps^(1/3)
+    _, ok = aberth_roots(c, next_start(np.zeros(0, complex), 90), max_sweeps=1)
+    assert not ok
+
+
+def test_least_squares_is_numpys():
+    rng = np.random.default_rng(2)
+    A = rng.standard_normal((400, 12)) * np.logspace(0, 3, 12)
+    Y = rng.standard_normal((400, 3))
+    np.testing.assert_allclose(least_squares(A, Y), np.linalg.lstsq(A, Y, rcond=None)[0],
+                               rtol=1e-10, atol=0)
+    # numerically singular: the minimum-norm answer, no error
+    A[:, 1] = A[:, 0]
+    x = least_squares(A, Y)
+    np.testing.assert_allclose(A @ x, A @ np.linalg.lstsq(A, Y, rcond=None)[0], atol=1e-8)
+
+
+def test_reused_lsfds_give_the_same_fit(paper_frf):
+    f = paper_frf.freq_hz[5:]
+    H = paper_frf.H[:, 0, 5:]
+    pole = np.array([-0.9 + 2j * np.pi * 18.1, -3.0 + 2j * np.pi * 113.0])
+    plain = lsfd(f, H, pole, "accelerance")
+    with reused_lsfds():
+        first = lsfd(f, H, pole, "accelerance")
+        again = lsfd(f, H.copy(), pole.copy(), "accelerance")  # equal copies: reused
+        other = lsfd(f, H, pole[:1], "accelerance")
+        assert again is first and other is not first
+        with pytest.raises(ValueError):
+            first.a[0, 0] = 0.0  # read-only: no stage changes another's fit
+    np.testing.assert_array_equal(first.a, plain.a)
+    np.testing.assert_array_equal(first.H_fit, plain.H_fit)
+
+
+def test_pair_significance_with_given_residues_is_the_same():
+    th = SelectionThresholds()
+    f = np.linspace(80.0, 160.0, 801)
+    lam = np.array([-3.0 + 2j * np.pi * 99.0, -3.0 + 2j * np.pi * 101.0,
+                    -4.0 + 2j * np.pi * 140.0])
+    jw = 2j * np.pi * f
+    rng = np.random.default_rng(1)
+    H = sum(a / (jw - p) + np.conj(a) / (jw - np.conj(p))
+            for a, p in zip((1, 0.7, 2), lam, strict=True))
+    H = H[None] + 1e-3 * (rng.standard_normal((1, f.size))
+                          + 1j * rng.standard_normal((1, f.size)))
+    residues = global_residues(f, H, lam, "receptance")
+    plain = pair_significance(f, H, lam, 0, 1, "receptance", thresholds=th)
+    given = pair_significance(f, H, lam, 0, 1, "receptance", residues=residues, thresholds=th)
+    assert plain == given and plain > 1
