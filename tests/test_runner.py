@@ -377,10 +377,12 @@ def test_windows_go_to_the_workers_longest_first_and_come_back_in_order(monkeypa
 
 
 def test_diagram_orders_in_workers_give_the_serial_poles(request):
-    """A diagram large enough to share out (``plscf.PARALLEL_MIN_SIZE3``):
-    its orders' companion eigenvalues, one order per task, largest first,
-    in two worker processes give the poles of the serial loop bit for bit,
-    in the orders' order."""
+    """A diagram of two references large enough to share out
+    (``plscf.PARALLEL_MIN_SIZE3``): its orders' block-companion eigenvalues,
+    one order per task, largest first, in two worker processes give the
+    poles of the serial loop bit for bit, in the orders' order. With one
+    reference the roots come order after order from the previous ones
+    (``diagram.roots``), in this process."""
     from ema_pipeline.acquisition import modal_frf
     from ema_pipeline.identification.diagram import plscf
 
@@ -389,13 +391,17 @@ def test_diagram_orders_in_workers_give_the_serial_poles(request):
     modes = ModalParameters(fn_hz=[50.0, 120.0, 260.0, 410.0], zeta=[0.01] * 4)
     f = np.linspace(5.0, 500.0, 991)
     phi = np.random.default_rng(3).standard_normal((2, 4))
-    H = modal_frf(f, modes, phi, phi[:1], quantity="receptance")
-    orders = np.arange(2, 201, 6)
-    assert sum(float(n) ** 3 for n in orders) >= plscf.PARALLEL_MIN_SIZE3
-    serial = plscf.plscf(f, H, max_order=200, orders=orders)
+    with runner.process_map(2, workers=2) as map_:  # one reference: no pool
+        plscf.plscf(f, modal_frf(f, modes, phi, phi[:1], quantity="receptance"),
+                    max_order=200, orders=np.arange(2, 201, 6), map_=map_)
+        assert map_.pool is None
+    H = modal_frf(f, modes, phi, phi, quantity="receptance")  # two references
+    orders = np.arange(2, 101, 3)
+    assert sum(float(2 * n) ** 3 for n in orders) >= plscf.PARALLEL_MIN_SIZE3
+    serial = plscf.plscf(f, H, max_order=100, orders=orders)
     with runner.process_map(len(orders), workers=2) as map_:
         assert map_.workers == 2
-        shared = plscf.plscf(f, H, max_order=200, orders=orders, map_=map_)
+        shared = plscf.plscf(f, H, max_order=100, orders=orders, map_=map_)
         assert map_.pool is not None  # it did run in the pool
     np.testing.assert_array_equal(shared.order, serial.order)
     np.testing.assert_array_equal(shared.pole, serial.pole)
