@@ -21,6 +21,7 @@ in :mod:`ema_pipeline.modal`.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 from collections.abc import Iterator
 from contextvars import ContextVar
 from dataclasses import dataclass
@@ -110,18 +111,21 @@ class LSFDFit:
 #: The LSFDs of one identification (:func:`reused_lsfds`), None outside one.
 _REUSED: ContextVar[list | None] = ContextVar("ema_pipeline_reused_lsfds", default=None)
 
-#: How many of an identification's latest LSFDs :func:`reused_lsfds` keeps.
+#: How many of an identification's latest LSFDs :func:`reused_lsfds` keeps,
+#: and the most memory their synthesised FRFs may take.
 REUSED_LSFDS = 8
+REUSED_BYTES = 64 * 2**20
 
 
 @contextlib.contextmanager
 def reused_lsfds() -> Iterator[None]:
-    """Inside the block, :func:`lsfd` of the same lines, FRFs
-    (:func:`same_values`), poles and terms as one of the :data:`REUSED_LSFDS` latest fits
-    of the block gives that fit again (its arrays read-only) instead of
-    solving again: the stages of one identification fit the same kept poles
-    to the whole band several times (the close partners, the residual
-    peaks, the band sensitivity, the final residues). The same numbers; a
+    """Inside the block, :func:`lsfd` of the same lines, FRFs (equal
+    numbers, :func:`digest`), poles and terms as one of the block's
+    :data:`REUSED_LSFDS` latest fits (within :data:`REUSED_BYTES`) gives that
+    fit again (its arrays read-only) instead of solving again: the stages
+    of one identification fit the same kept poles to the whole band
+    several times (the close partners, the residual peaks, the band
+    sensitivity, the final residues). The same numbers; a
     block inside a block shares its fits.
 
     Examples
@@ -144,25 +148,18 @@ def reused_lsfds() -> Iterator[None]:
         _REUSED.reset(token)
 
 
-def same_values(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether ``a`` and ``b`` hold the same numbers: the same array, views
-    of the same elements, or equal copies.
+def digest(a: np.ndarray) -> tuple:
+    """A key for the numbers of ``a``: its shape, type and a BLAKE2 digest of
+    its elements (equal arrays, views or copies, give the same key).
 
     Examples
     --------
     >>> x = np.arange(6.0).reshape(2, 3)
-    >>> same_values(x, x.reshape(2, 3)), same_values(x, x.copy()), same_values(x, x + 1)
-    (True, True, False)
+    >>> digest(x) == digest(x.copy()), digest(x) == digest(x + 1)
+    (True, False)
     """
-    if a is b:
-        return True
-    a, b = np.asarray(a), np.asarray(b)
-    if a.shape != b.shape or a.dtype != b.dtype:
-        return False
-    if (a.__array_interface__["data"][0] == b.__array_interface__["data"][0]
-            and a.strides == b.strides):
-        return True
-    return bool(np.array_equal(a, b))
+    a = np.ascontiguousarray(a)
+    return a.shape, a.dtype.str, hashlib.blake2b(a.data, digest_size=16).digest()
 
 
 def lsfd(
@@ -187,18 +184,18 @@ def lsfd(
     """
     reused = _REUSED.get()
     if reused is not None and weights is None:
-        poles = np.asarray(poles)
-        for entry in reused:
-            f0, H0, p0, terms, fit = entry
-            if (terms == (quantity, lower, upper) and np.array_equal(p0, poles)
-                    and same_values(f0, freq_hz) and same_values(H0, H)):
+        key = (digest(np.asarray(freq_hz, dtype=float)), digest(np.asarray(H)),
+               digest(np.asarray(poles, dtype=complex)), quantity, lower, upper)
+        for entry_key, fit in reused:
+            if entry_key == key:
                 return fit
         fit = _solve(freq_hz, H, poles, quantity, lower, upper, None)
         for array in (fit.a, fit.lower, fit.upper, fit.H_fit):
             array.flags.writeable = False
-        reused.append((np.array(freq_hz), np.array(H), poles.copy(), (quantity, lower, upper),
-                       fit))
+        reused.append((key, fit))
         del reused[:-REUSED_LSFDS]
+        while reused and sum(f.H_fit.nbytes for _, f in reused) > REUSED_BYTES:
+            del reused[0]  # the oldest first: large FRF sets keep fewer
         return fit
     return _solve(freq_hz, H, poles, quantity, lower, upper, weights)
 
