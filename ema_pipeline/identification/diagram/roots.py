@@ -10,14 +10,16 @@ and many noise poles persist from one order to the next), which an
 eigenvalue solver cannot use. Neither numpy nor scipy offers a root finder
 that starts from given estimates, hence this module: the Aberth-Ehrlich
 simultaneous iteration (Bini 1996), O(n^2) per sweep, started from the roots
-of the previous order plus new points on the unit circle. Converged roots
-are those whose correction is at the rounding level or whose residual is
-within the polynomial's rounding error (backward error below ``4 n eps``),
-the accuracy the companion eigenvalues give. An order whose iteration does
-not converge, or gives two coincident roots, falls back to the companion
-eigenvalues; below :data:`ABERTH_MIN_ORDER` the eigenvalues are cheaper and
-are used directly. ``tests/test_diagram_roots.py`` checks the roots against
-``numpy.roots`` on the diagrams of simulated and measured FRFs.
+of the previous order plus new points on the unit circle. A root has
+converged when its residual is within the polynomial's rounding error
+(backward error below ``4 n eps``) or its last correction was below
+:data:`CUBIC_STOP` of it (the iteration converges cubically: the error left
+is at the rounding level), the accuracy the companion eigenvalues give.
+An order whose iteration does not converge, or gives two coincident roots,
+falls back to the companion eigenvalues; below :data:`ABERTH_MIN_ORDER`
+the eigenvalues are cheaper and are used directly.
+``tests/test_diagram_roots.py`` checks the roots against ``numpy.roots`` on
+the diagrams of simulated and measured FRFs.
 """
 
 from __future__ import annotations
