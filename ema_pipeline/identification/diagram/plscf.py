@@ -50,7 +50,7 @@ import numpy as np
 from scipy import linalg
 
 from ema_pipeline.data import DataError
-from ema_pipeline.identification.diagram.roots import diagram_roots
+from ema_pipeline.identification.diagram.roots import companion_eigenvalues, diagram_roots
 from ema_pipeline.runner import Mapper, map_costliest_first
 
 
@@ -223,16 +223,10 @@ def companion_poles(alpha: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarra
     """Discrete poles z and continuous poles ln(z)/dt of a monic matrix polynomial.
 
     alpha : (n+1, n_in, n_in) with alpha[n] = I. The block companion of alpha^T
-    has the poles as eigenvalues.
+    has the poles as eigenvalues
+    (:func:`~ema_pipeline.identification.diagram.roots.companion_eigenvalues`).
     """
-    n = alpha.shape[0] - 1
-    n_in = alpha.shape[1]
-    N = n * n_in
-    C = np.zeros((N, N))
-    if N > n_in:
-        C[: N - n_in, n_in:] = np.eye(N - n_in)
-    C[N - n_in :, :] = -np.concatenate([alpha[j].T for j in range(n)], axis=1)
-    z = np.linalg.eigvals(C)
+    z = companion_eigenvalues(alpha)
     with np.errstate(divide="ignore", invalid="ignore"):
         lam = np.log(z.astype(complex)) / dt
     return z, lam
@@ -246,8 +240,7 @@ PARALLEL_MIN_SIZE3 = 2e7
 
 def _order_poles(alpha: np.ndarray, dt: float, f_top: float) -> tuple[np.ndarray, np.ndarray]:
     """One order's poles below the band top ``f_top`` (Hz) and their participation vectors."""
-    z, _ = companion_poles(alpha, dt)
-    return _band_poles(alpha, z, dt, f_top)
+    return _band_poles(alpha, companion_eigenvalues(alpha), dt, f_top)
 
 
 def _band_poles(alpha: np.ndarray, z: np.ndarray, dt: float,

@@ -1,9 +1,9 @@
 """Roots of the scalar denominators of one stabilization diagram, order after order.
 
 With one reference the pLSCF denominator of order n is a real polynomial
-``A(z) = sum_j c_j z^j`` and its poles are its roots. ``numpy.roots`` and the
-block companion of :func:`~ema_pipeline.identification.diagram.plscf.companion_poles`
-find them as the eigenvalues of the companion matrix: O(n^3) per order, the
+``A(z) = sum_j c_j z^j`` and its poles are its roots. ``numpy.roots`` and
+:func:`companion_eigenvalues` (the block companion of any number of
+references) find them as the eigenvalues of the companion matrix: O(n^3) per order, the
 largest cost of a high-order diagram (40 orders up to 480: about 1.5 s). The
 denominators of one diagram share most of their roots (every physical pole
 and many noise poles persist from one order to the next), which an
@@ -42,21 +42,37 @@ _EPS = float(np.finfo(float).eps)
 CUBIC_STOP = 1e-7
 
 
+def companion_eigenvalues(alpha: np.ndarray) -> np.ndarray:
+    """Roots of the monic matrix polynomial ``sum_j alpha[j] z^j`` (``alpha``
+    (n+1, n_in, n_in), ``alpha[n]`` = I): the eigenvalues of the block
+    companion matrix of alpha^T (LAPACK, balanced).
+
+    Examples
+    --------
+    >>> alpha = np.array([2.0, -3.0, 1.0])[:, None, None]  # z^2 - 3 z + 2
+    >>> np.sort(companion_eigenvalues(alpha).real).tolist()
+    [1.0, 2.0]
+    """
+    n, n_in = alpha.shape[0] - 1, alpha.shape[1]
+    N = n * n_in
+    C = np.zeros((N, N))
+    if N > n_in:
+        C[: N - n_in, n_in:] = np.eye(N - n_in)
+    C[N - n_in :, :] = -np.concatenate([alpha[j].T for j in range(n)], axis=1)
+    return np.linalg.eigvals(C)
+
+
 def companion_roots(coeffs: np.ndarray) -> np.ndarray:
-    """Roots of ``sum_j coeffs[j] z^j`` (``coeffs[-1]`` = 1) as the eigenvalues
-    of its companion matrix (LAPACK, balanced), as complex numbers.
+    """Roots of ``sum_j coeffs[j] z^j`` as the eigenvalues of its companion
+    matrix (:func:`companion_eigenvalues` of the monic polynomial), as
+    complex numbers.
 
     Examples
     --------
     >>> np.sort_complex(companion_roots(np.array([2.0, -3.0, 1.0]))).real.tolist()
     [1.0, 2.0]
     """
-    n = coeffs.size - 1
-    C = np.zeros((n, n))
-    if n > 1:
-        C[:-1, 1:] = np.eye(n - 1)
-    C[-1, :] = -coeffs[:-1] / coeffs[-1]
-    return np.linalg.eigvals(C).astype(complex)
+    return companion_eigenvalues((coeffs / coeffs[-1])[:, None, None]).astype(complex)
 
 
 def newton_corrections(coeffs: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
