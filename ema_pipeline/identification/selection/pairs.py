@@ -281,14 +281,10 @@ def unsupported_partners(
     if H.shape[0] >= th.min_shape_channels or pole.size < 2:
         return drop, merged
     snr = None
-    residues: np.ndarray | None = None  # one global LSFD of the poles for all pairs
     for i, j in close_pairs(pole, thresholds=th):
         if drop[i] or drop[j] or peaks_apart(freq_hz, H, pole[i], pole[j], thresholds=th):
             continue
-        if residues is None:
-            residues = global_residues(freq_hz, H, pole, quantity)
-        sig = pair_significance(freq_hz, H, pole, i, j, quantity, residues=residues,
-                                thresholds=th)
+        sig = pair_significance(freq_hz, H, pole, i, j, quantity, thresholds=th)
         if not sig < 1.0:  # significant, or not judged (NaN)
             continue
         if snr is None:

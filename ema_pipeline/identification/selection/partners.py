@@ -74,9 +74,9 @@ class SplitCalibration:
             todo = [(k, s.split_poles) for k, s in enumerate(self.splits)
                     if np.isnan(s.significance) and s.split_poles is not None]
             if todo and self.search is not None:
+                # split k is mode k's (splits in the kept modes' order)
                 sig[[k for k, _ in todo]] = map_each(
-                    self.map_, self.search.significances_of, [lam for _, lam in todo],
-                    PARALLEL_MIN_MODES)
+                    self.map_, self.search.significances_of, todo, PARALLEL_MIN_MODES)
             self._sig = sig
         return self._sig
 
@@ -189,24 +189,20 @@ class PartnerSearch:
                     decay_determined(fit.pole, fit.cov, thresholds=th)):
             return Split(None, lam if few else None, float("nan"))
         if few:  # no shape: the fit must prefer two poles
-            return Split(complex(b), lam, self.significance(lam))
+            return Split(complex(b), lam, self.significance(r, lam))
         if pair_is_real(self.freq_hz, self.H, lam, self.quantity, thresholds=th):
             return Split(complex(b), None, float("nan"))
         return Split(None, None, float("nan"))
 
-    def significance(self, lam: np.ndarray) -> float:
-        """:func:`.pair_significance` of the split, the last two poles of
-        ``lam`` (the kept poles with one of them, ``r``, replaced by the
-        pair: ``np.delete(pole, r)`` then the pair); 0 where the extra pole
-        left the band (no split). The other modes' terms are subtracted with
-        the kept poles' residues (:attr:`residues`), the pair's rows hold
-        those of the mode it replaces (members of the local band, never
-        subtracted)."""
+    def significance(self, r: int, lam: np.ndarray) -> float:
+        """:func:`.pair_significance` of mode ``r``'s split, the last two
+        poles of ``lam`` (``np.delete(pole, r)`` then the pair); 0 where the
+        extra pole left the band (no split). The other modes' terms are
+        subtracted with the kept poles' residues (:attr:`residues`), the
+        pair's rows hold those of mode ``r`` (members of the local band,
+        never subtracted)."""
         residues = None
-        if self.residues is not None and lam.size == self.pole.size + 1:
-            head = lam[:-2]  # np.delete(pole, r): equal to pole before r, shifted after
-            moved = np.flatnonzero(self.pole[: head.size] != head)
-            r = int(moved[0]) if moved.size else self.pole.size - 1
+        if self.residues is not None:
             residues = np.concatenate([np.delete(self.residues, r, axis=0),
                                        self.residues[[r, r]]])
         sig = pair_significance(self.freq_hz, self.H, lam, lam.size - 2, lam.size - 1,
@@ -218,9 +214,9 @@ class PartnerSearch:
         """:meth:`partner` of each of ``modes`` (one worker's share)."""
         return [self.partner(r) for r in modes]
 
-    def significances_of(self, splits: list[np.ndarray]) -> list[float]:
-        """:meth:`significance` of each split (one worker's share)."""
-        return [self.significance(lam) for lam in splits]
+    def significances_of(self, splits: list[tuple[int, np.ndarray]]) -> list[float]:
+        """:meth:`significance` of each (mode, split poles) (one worker's share)."""
+        return [self.significance(r, lam) for r, lam in splits]
 
 
 @dataclass(frozen=True)
