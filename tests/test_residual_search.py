@@ -212,3 +212,50 @@ def test_a_residual_peak_that_cannot_pass_costs_no_refit_of_every_mode(monkeypat
     np.testing.assert_array_equal(screened.modes.fn_std_hz, full.modes.fn_std_hz)
     np.testing.assert_array_equal(screened.not_kept_hz, full.not_kept_hz)
     assert screened.fn_hz.size == 4
+
+
+def test_candidates_that_cannot_pass_leave_before_the_fit_of_all() -> None:
+    """``add_found`` with a screen: of three new candidates the screen says
+    the middle one cannot pass. The joint fit (``retest``) never sees it: the
+    other two are screened again among the kept mode alone and then fitted
+    with it, once, and that fit is the result. Without a screen the joint fit
+    sees all three."""
+    from ema_pipeline.identification.refinement.refine import RefinedPoles
+    from ema_pipeline.identification.selection.acceptance import (
+        Candidates,
+        add_found,
+        unseen_candidates,
+    )
+
+    kept_pole = np.array([-1.0 + 2j * np.pi * 50.0])
+    new = -1.0 + 2j * np.pi * np.array([80.0, 90.0, 100.0])
+    bad = new[1]
+
+    def refined(pole: np.ndarray) -> RefinedPoles:
+        m = pole.size
+        return RefinedPoles(pole, np.zeros((m, 2, 2)), np.ones((m, 1)), np.zeros((m, 2)),
+                            np.ones(m, int))
+
+    found = Candidates(unseen_candidates(kept_pole), refined(kept_pole), np.ones(1, bool),
+                       np.zeros(1, bool), np.zeros(1, bool))
+    screened: list[list[float]] = []
+    fitted: list[np.ndarray] = []
+
+    def screen(candidates, indices):
+        screened.append(sorted(np.round(candidates.pole[indices].imag / (2 * np.pi)).tolist()))
+        return candidates.pole[indices] != bad
+
+    def retest(candidates, partner, strict):
+        fitted.append(candidates.pole.copy())
+        return refined(candidates.pole), candidates.pole != bad
+
+    out = add_found(found, new, partner=False, strict=np.zeros(3, bool), retest=retest,
+                    screen=screen)
+    assert screened == [[80.0, 90.0, 100.0], [80.0, 100.0]]
+    assert len(fitted) == 1 and bad not in fitted[0] and fitted[0].size == 3
+    np.testing.assert_array_equal(out.sel.pole, fitted[0])
+    assert out.keep.all()
+    fitted.clear()
+    unscreened = add_found(found, new, partner=False, strict=np.zeros(3, bool), retest=retest)
+    assert [f.size for f in fitted] == [4, 3]  # all three, then again without the bad one
+    np.testing.assert_array_equal(unscreened.sel.pole, out.sel.pole)

@@ -64,9 +64,10 @@ class Retest:
         all ``candidates`` are refined together: its own local fit among them
         (the fit that refinement would give it: each mode's local fit is its
         own, :func:`refine_poles` with ``modes``) has a determined decay rate
-        and lies inside the band, which every pole that passes has. Where
-        none can, the caller skips that refinement: those with a determined
-        decay rate go to ``rejected`` as its verdict would send them. (A kept
+        and lies inside the band, which every pole that passes has. Those
+        that cannot, the caller leaves out of that refinement: the ones with
+        a determined decay rate go to ``rejected`` as its verdict would send
+        them. (A kept
         pole that the joint fit bent until it failed would have gone there
         too; unrefitted, none does. On the snapshot cases, the measured beam
         in five bands and the pyFRF recording the not-kept lists are the
@@ -78,8 +79,7 @@ class Retest:
         pole, cov = ref.pole[indices], ref.cov[indices]
         determined = decay_determined(pole, cov, thresholds=th)
         ok = determined & inside_band(d.freq_hz, pole, thresholds=th)
-        if not ok.any():
-            self.rejected.append(pole[determined])
+        self.rejected.append(pole[determined & ~ok])
         return ok
 
     def __call__(self, candidates: SelectedPoles, partner: np.ndarray,
