@@ -45,9 +45,11 @@ are its arguments and its return value:
    kept in their neighbours' refinement and the shapes' fits, not reported
    (:mod:`~ema_pipeline.identification.selection.edge_poles`).
 7. :func:`finished`, :func:`with_band_support`, :func:`with_pair_flags`,
-   :func:`with_not_kept`: LSFD and the result, which narrower searches hold
-   each mode, which close pairs fewer than three channels cannot support, the
-   resonances the FRFs show that no mode was kept for.
+   :func:`with_twin_flags`, :func:`with_not_kept`: LSFD and the result,
+   which narrower searches hold each mode, which close pairs fewer than
+   three channels cannot support, which modes the final tests found twice
+   with the twins apart, the resonances the FRFs show that no mode was kept
+   for.
 
 ``options.accept`` switches the final tests and searches of stage 5 (off: every
 selected candidate is kept, untested); ``options.refine`` decides whether the
@@ -98,6 +100,7 @@ from ema_pipeline.identification.refinement.refine import (
 from ema_pipeline.identification.result import (
     PAIR_UNDER_ONE_PEAK,
     SECOND_POLE_DROPPED,
+    TWIN_APART,
     IdentificationResult,
     ResolvedSettings,
     found_by_code,
@@ -175,6 +178,7 @@ def identify_with(frf: FRFSet, options: IdentificationOptions,
                                data.thresholds)
     if judged:
         result = with_pair_flags(result, data, kept.judged, merged, calibration)
+        result = with_twin_flags(result, kept.judged, retest.twins, data.thresholds)
     # a resonance at the band's edge is in the model: not also listed as not kept
     return with_not_kept(result, data, retest.rejected,
                          kept.judged if edge is None else np.concatenate([kept.judged, edge.pole]))
@@ -517,9 +521,34 @@ def with_pair_flags(result: IdentificationResult, data: BandData, judged: np.nda
     return replace(result, pair_flags=flags)
 
 
+def with_twin_flags(result: IdentificationResult, judged: np.ndarray, twins: list[np.ndarray],
+                    thresholds: SelectionThresholds) -> IdentificationResult:
+    """Stage 7d: the kept modes (refined poles ``judged``, result order) that
+    the final tests found twice with the twins apart: a pole of ``twins``
+    (the candidates :func:`~ema_pipeline.identification.selection.acceptance.distinct_shapes`
+    dropped as one mode found twice, in any verdict) within the mode's
+    half-power band whose frequency lies more than
+    ``thresholds.twin_max_sigma`` of the mode's ``fn_std_hz`` from its own
+    (the bit :data:`TWIN_APART` of ``pair_flags``, doubtful
+    ``found_twice_apart``). Unchanged when no mode has such a twin."""
+    twin = np.concatenate([np.zeros(0, dtype=complex), *twins])
+    if twin.size == 0 or judged.size == 0:
+        return result
+    near = poles_overlap(judged, twin)  # (n_modes, n_twins)
+    apart = np.abs(pole_fn_hz(twin)[None, :] - pole_fn_hz(judged)[:, None]) > (
+        thresholds.twin_max_sigma * np.asarray(result.modes.fn_std_hz, float)[:, None])
+    marked = np.any(near & apart, axis=1)
+    if not marked.any():
+        return result
+    flags = np.asarray(result.pair_flags, dtype=int).reshape(-1)
+    flags = flags.copy() if flags.size == judged.size else np.zeros(judged.size, dtype=int)
+    flags[marked] |= TWIN_APART
+    return replace(result, pair_flags=flags)
+
+
 def with_not_kept(result: IdentificationResult, data: BandData, rejected: list[np.ndarray],
                   kept: np.ndarray) -> IdentificationResult:
-    """Stage 7d: the resonances the FRFs show at the ``rejected`` poles away
+    """Stage 7e: the resonances the FRFs show at the ``rejected`` poles away
     from the ``kept`` ones (:func:`resonances_not_kept`); unchanged when the
     final tests did not run."""
     if not rejected:

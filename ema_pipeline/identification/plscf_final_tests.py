@@ -22,7 +22,8 @@ from ema_pipeline.identification.selection.acceptance import (
     Candidates,
     add_found,
     decay_determined,
-    final_tests,
+    distinct_shapes,
+    each_pole_tests,
     inside_band,
     refit_kept,
 )
@@ -43,20 +44,28 @@ class Retest:
     :func:`~ema_pipeline.identification.selection.acceptance.add_found` and
     :func:`~ema_pipeline.identification.selection.acceptance.refit_kept`. Every
     verdict's failed poles whose decay rate is determined are collected in
-    ``rejected`` (for :func:`~ema_pipeline.identification.plscf_backend.with_not_kept`)."""
+    ``rejected`` (for :func:`~ema_pipeline.identification.plscf_backend.with_not_kept`),
+    the refined poles it dropped as one mode found twice in ``twins`` (for
+    :func:`~ema_pipeline.identification.plscf_backend.with_twin_flags`)."""
 
     data: BandData
     map_: Mapper
     rejected: list[np.ndarray] = field(default_factory=list)
+    twins: list[np.ndarray] = field(default_factory=list)
 
     def verdict(self, ref: RefinedPoles, n_members: np.ndarray, partner: np.ndarray | None = None,
                 strict: np.ndarray | None = None) -> np.ndarray:
         """Which refined poles ``ref`` pass the final tests; the failed ones
-        with a determined decay rate go to ``rejected``."""
+        with a determined decay rate go to ``rejected``, those dropped as one
+        mode found twice to ``twins``."""
         d, th = self.data, self.data.thresholds
-        ok = final_tests(d.freq_hz, d.Hc, d.Hn_c, ref, d.quantity, n_members,
-                         partner=partner, strict=strict, thresholds=th)
+        # final_tests in its two parts: the poles distinct_shapes drops are twins
+        each = each_pole_tests(d.freq_hz, d.Hn_c, ref, d.quantity, partner, strict,
+                               thresholds=th)
+        ok = each & distinct_shapes(d.freq_hz, d.Hc, ref.pole, d.quantity, each, n_members,
+                                    thresholds=th)
         self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, thresholds=th)])
+        self.twins.append(ref.pole[each & ~ok])
         return ok
 
     def could_pass(self, candidates: SelectedPoles, indices: np.ndarray) -> np.ndarray:

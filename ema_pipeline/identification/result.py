@@ -218,11 +218,13 @@ class IdentificationResult:
         how many of those found a candidate there
         (:func:`~ema_pipeline.identification.diagram.narrower_searches.band_support`); no rows
         when there were no such searches' records (picks, the sdypy backend).
-    pair_flags : (n_modes,) int  with fewer than three channels, per mode, the
+    pair_flags : (n_modes,) int  per mode, with fewer than three channels the
         bits :data:`PAIR_UNDER_ONE_PEAK` (one of a close pair whose peaks do
         not show apart) and :data:`SECOND_POLE_DROPPED` (a second pole beside
-        it was dropped: the data did not prefer two); empty when not judged
-        (three or more channels, picks, ``expect_hz``, the sdypy backend).
+        it was dropped: the data did not prefer two), with any number the bit
+        :data:`TWIN_APART` (found twice, the twins apart); empty when not
+        judged (picks, ``expect_hz``, the sdypy backend) or, with three or more
+        channels, when no mode has a twin apart.
     edge_hz : (n,) float  natural frequencies (Hz, ascending) of resonances in
         the band's edge zones or just past them, fitted beside their
         neighbours on a widened band and not reported
@@ -377,11 +379,15 @@ def selection_names(result: IdentificationResult) -> list[str]:
 PAIR_UNDER_ONE_PEAK = 1
 #: ... or a second pole beside it was dropped (the data did not prefer two).
 SECOND_POLE_DROPPED = 2
+#: Any number of channels: the final tests found the mode twice and the other
+#: candidate refined more than ``twin_max_sigma`` of its f sigma away
+#: (``plscf_backend.with_twin_flags``).
+TWIN_APART = 4
 
 #: The names of the rules of :func:`doubtful_reasons`, in the order they are listed.
 DOUBTFUL_RULES = ("few_stable_orders", "loose_damping", "complex_shape", "unresolved_damping",
                   "found_only_in_some_bands", "pair_under_one_peak",
-                  "second_pole_not_significant", "refinement_failed")
+                  "second_pole_not_significant", "refinement_failed", "found_twice_apart")
 
 
 def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
@@ -414,7 +420,15 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
       close partner whose local fit wanders is not kept).
       On the measured beam in 5-790 Hz a change of the FRFs in their last
       bits turns the 603.0 Hz mode into such a start pole at 601.2 Hz
-      (``docs/validation.md``).
+      (``docs/validation.md``);
+    * ``found_twice_apart``: the final tests found the mode twice (two
+      candidates, one mode: ``acceptance.distinct_shapes`` kept one) and the
+      other candidate's refined frequency lies more than ``twin_max_sigma``
+      of its ``fn_std_hz`` from the mode's (``result.pair_flags``,
+      :data:`TWIN_APART`): which start the tests kept moves the value by more
+      than its sigma. On the measured beam in 100-400 Hz a change of the FRFs
+      in their last bits keeps the other twin of the 155.5 Hz mode (155.50
+      -> 155.48 Hz, 0.6 sigma).
     """
     th = result.settings.thresholds
     m = result.modes
@@ -439,7 +453,8 @@ def doubtful_flags(result: IdentificationResult) -> dict[str, np.ndarray]:
             start.size == result.selected.pole.size == m.n_modes):
         not_refined = result.selected.pole == start
     flags = (few, loose, complex_shape, unresolved, only_some,
-             (pair & PAIR_UNDER_ONE_PEAK) > 0, (pair & SECOND_POLE_DROPPED) > 0, not_refined)
+             (pair & PAIR_UNDER_ONE_PEAK) > 0, (pair & SECOND_POLE_DROPPED) > 0, not_refined,
+             (pair & TWIN_APART) > 0)
     return {name: np.asarray(f, dtype=bool) for name, f in zip(DOUBTFUL_RULES, flags, strict=True)}
 
 

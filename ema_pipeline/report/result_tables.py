@@ -110,7 +110,8 @@ COLUMN_TITLES = {
     "mpd_deg": "mean phase deviation, degrees (0 = real mode)",
     "doubtful": "marked for a second look: few stable orders, loose damping, complex shape, "
     "damping not resolved by the lines, found only in some bands, or (one or two channels) "
-    "one of two poles under one peak or beside a second pole the data did not support",
+    "one of two poles under one peak or beside a second pole the data did not support, a "
+    "refinement that wandered off, or found twice with the two answers apart",
     "doubtful_reason": "the rule that marked the mode doubtful",
     "found_by": "how the mode was found: in the band's stabilization diagram, in it at "
     "another order, in a narrower search's window, as the alternate of a failed candidate, "

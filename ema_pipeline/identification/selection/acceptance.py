@@ -267,6 +267,42 @@ def final_tests(
     >>> final_tests(f, H, H, ref, "receptance", thresholds=th).tolist()
     [True]
     """
+    keep = each_pole_tests(freq_hz, Hn, refined, quantity, partner, strict,
+                           thresholds=thresholds)
+    return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders,
+                                  thresholds=thresholds)
+
+
+def each_pole_tests(
+    freq_hz: np.ndarray,
+    Hn: np.ndarray,
+    refined: RefinedPoles,
+    quantity: str,
+    partner: np.ndarray | None = None,
+    strict: np.ndarray | None = None,
+    *,
+    thresholds: SelectionThresholds,
+) -> np.ndarray:
+    """The tests of :func:`final_tests` before :func:`distinct_shapes`: which
+    ``refined`` poles have a determined decay rate inside the band and are
+    resonances of ``Hn`` (the FRFs normalised per FRF), ``partner`` and
+    ``strict`` as there. ``final_tests`` is these and then
+    ``distinct_shapes`` of the poles that passed; a caller that wants to know
+    which poles the latter dropped as one mode found twice calls the two.
+
+    Examples
+    --------
+    >>> th = SelectionThresholds()
+    >>> f = np.linspace(50.0, 150.0, 401)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
+    >>> jw = 2j * np.pi * f
+    >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.ones((3, 1))
+    >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
+    >>> from ema_pipeline.identification.refinement.refine import refine_poles
+    >>> ref = refine_poles(f, H, lam, quantity="receptance", thresholds=th)
+    >>> each_pole_tests(f, H, ref, "receptance", thresholds=th).tolist()
+    [True]
+    """
     keep = decay_determined(refined.pole, refined.cov, thresholds=thresholds) & inside_band(
         freq_hz, refined.pole, thresholds=thresholds)
     by_shape = None if strict is None else ~strict[keep]
@@ -275,8 +311,7 @@ def final_tests(
     if partner is not None:
         keep |= (decay_determined(refined.pole, refined.cov, thresholds=thresholds) & partner
                  & inside_band(freq_hz, refined.pole, thresholds=thresholds))
-    return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders,
-                                  thresholds=thresholds)
+    return keep
 
 
 def resonant(
