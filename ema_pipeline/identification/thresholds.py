@@ -34,7 +34,8 @@ from ema_pipeline.validation import integer, number, sequence
 _ABOVE_ZERO = frozenset({
     "diagram_tol_freq", "diagram_tol_zeta", "diagram_tol_mac", "link_tol_freq",
     "link_tol_zeta", "link_tol_mac", "max_zeta", "fragment_tol_zeta", "expect_tol",
-    "mature_fraction", "zoom_ratio", "local_half_width", "split_half_width", "peak_lines",
+    "mature_fraction", "zoom_ratio", "local_half_width", "split_half_width", "split_max_iter",
+    "peak_lines",
     "min_members", "expect_min_members", "young_min_members", "diagram_orders",
     "window_modes", "window_step", "window_min_lines", "local_min_lines", "min_frfs",
     "alternate_min_frfs", "alternate_peak_lines", "pair_significance_level", "pair_max_gap",
@@ -234,8 +235,17 @@ class SelectionThresholds:
     #: mode has no local problem:
     #: :func:`~ema_pipeline.identification.refinement.local_band.local_problem`).
     local_band_min_lines: int = 12
-    #: The split fit of a close partner uses +-this many half-power bandwidths.
+    #: The split fit of a close partner uses +-this many half-power bandwidths ...
     split_half_width: float = 6.0
+    #: ... and at most this many Levenberg-Marquardt iterations per weighting
+    #: round of each of its two starts. A split is a test, not a reported
+    #: number: on noise its extra pole wanders and used every one of the 20 it
+    #: had before (a third of a simulated paper file's time), where a close
+    #: mode's split converges well inside 10. With 10: the same modes and
+    #: flags on the 117 cases of ``benchmarks/speed_rules.py`` and on the
+    #: close families at seeds 400-409 (shifts <= 0.02 sigma); with 6 a close
+    #: pair of ``impact_close`` at seed 100 is lost (docs/validation.md).
+    split_max_iter: int = 10
     #: A refined pole that moves by more than this many decay rates (plus one
     #: line) keeps its start value (the refinement wandered off).
     refine_max_shift: float = 0.5

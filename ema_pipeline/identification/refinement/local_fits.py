@@ -37,16 +37,6 @@ from ema_pipeline.identification.refinement.local_band import (
 from ema_pipeline.identification.refinement.refine import VPFit, vp_covariance, vp_fit
 from ema_pipeline.identification.thresholds import SelectionThresholds
 
-#: Levenberg-Marquardt iterations per weighting round of each start of
-#: :func:`split_fit` (two rounds). A split is a test, not a reported number:
-#: its extra pole on noise alone wanders and used every iteration of the 20
-#: it had before (a third of a simulated paper file's time); a close mode's
-#: split converges well inside 10. With 10: the same modes and flags on the
-#: 117 cases of ``benchmarks/speed_rules.py`` and on the close families at
-#: seeds 400-409 (shifts <= 0.02 sigma); with 6 a close pair of
-#: ``impact_close`` at seed 100 is lost (docs/validation.md).
-SPLIT_MAX_ITER = 10
-
 
 def quick_significance(
     freq_hz: np.ndarray,
@@ -218,7 +208,7 @@ def split_fit(
     """Refit pole r's local problem (as
     :func:`~ema_pipeline.identification.refinement.refine.refine_poles`, on
     +-``thresholds.split_half_width`` half-power bandwidths) with one extra
-    pole started one decay rate above and below it (:data:`SPLIT_MAX_ITER`
+    pole started one decay rate above and below it (``thresholds.split_max_iter``
     iterations per round); the better of the two, or None when the band is
     too short.
 
@@ -258,7 +248,7 @@ def split_fit(
         s_a = vp_fit(f, Y, poles[members], background, 10).noise_std
         for side in (1.0, -1.0):
             start = np.append(poles[members], poles[r] + side * 1j * abs(poles[r].real))
-            fit = vp_fit(f, Y, start, background, SPLIT_MAX_ITER)
+            fit = vp_fit(f, Y, start, background, th.split_max_iter)
             fits.append((float(np.mean(fit.noise_std**2) / np.mean(s_a**2)), fit))
         ratio, best = min(fits, key=lambda fit: fit[0])
     except (np.linalg.LinAlgError, ValueError):
