@@ -292,16 +292,16 @@ def each_pole_tests(
 
     Examples
     --------
-    >>> th = SelectionThresholds()
+    A determined pole above the band fails (``inside_band``):
+
+    >>> from ema_pipeline.identification.refinement.refine import RefinedPoles
     >>> f = np.linspace(50.0, 150.0, 401)
-    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
-    >>> jw = 2j * np.pi * f
-    >>> H = (1 / (jw - lam[0]) + 1 / (jw - lam[0].conj()))[None] * np.ones((3, 1))
-    >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
-    >>> from ema_pipeline.identification.refinement.refine import refine_poles
-    >>> ref = refine_poles(f, H, lam, quantity="receptance", thresholds=th)
-    >>> each_pole_tests(f, H, ref, "receptance", thresholds=th).tolist()
-    [True]
+    >>> lam = np.array([-2.0 + 2j * np.pi * 300.0])
+    >>> ref = RefinedPoles(lam, np.zeros((1, 2, 2)), np.ones((1, 1)), np.zeros((1, 2)),
+    ...                    np.ones(1, int))
+    >>> each_pole_tests(f, np.ones((1, 401), complex), ref, "receptance",
+    ...                 thresholds=SelectionThresholds()).tolist()
+    [False]
     """
     keep = decay_determined(refined.pole, refined.cov, thresholds=thresholds) & inside_band(
         freq_hz, refined.pole, thresholds=thresholds)
