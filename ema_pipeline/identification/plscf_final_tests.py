@@ -22,8 +22,7 @@ from ema_pipeline.identification.selection.acceptance import (
     Candidates,
     add_found,
     decay_determined,
-    distinct_shapes,
-    each_pole_tests,
+    final_tests,
     inside_band,
     refit_kept,
 )
@@ -59,13 +58,10 @@ class Retest:
         with a determined decay rate go to ``rejected``, those dropped as one
         mode found twice to ``twins``."""
         d, th = self.data, self.data.thresholds
-        # final_tests in its two parts: the poles distinct_shapes drops are twins
-        each = each_pole_tests(d.freq_hz, d.Hn_c, ref, d.quantity, partner, strict,
-                               thresholds=th)
-        ok = each & distinct_shapes(d.freq_hz, d.Hc, ref.pole, d.quantity, each, n_members,
-                                    thresholds=th)
+        ok, twin = final_tests(d.freq_hz, d.Hc, d.Hn_c, ref, d.quantity, n_members,
+                               partner=partner, strict=strict, thresholds=th)
         self.rejected.append(ref.pole[~ok & decay_determined(ref.pole, ref.cov, thresholds=th)])
-        self.twins.append(ref.pole[each & ~ok])
+        self.twins.append(ref.pole[twin])
         return ok
 
     def could_pass(self, candidates: SelectedPoles, indices: np.ndarray) -> np.ndarray:

@@ -239,7 +239,7 @@ def final_tests(
     strict: np.ndarray | None = None,
     *,
     thresholds: SelectionThresholds,
-) -> np.ndarray:
+) -> tuple[np.ndarray, np.ndarray]:
     """Which ``refined`` poles are modes (thresholds of ``thresholds``): their decay rate is
     determined (:func:`decay_determined`), they are resonances
     (:func:`resonant`, judged among the determined poles only: an undetermined
@@ -254,6 +254,10 @@ def final_tests(
     :func:`~ema_pipeline.identification.selection.residual_search.residual_peaks`) must
     pass the resonance test by their peak, not by their shape alone.
 
+    Returns ``keep`` and ``twin``: the poles that passed every other test and
+    that :func:`distinct_shapes` dropped as one mode found twice (the
+    doubtful rule ``found_twice_apart`` reads them).
+
     Examples
     --------
     >>> th = SelectionThresholds()
@@ -264,44 +268,9 @@ def final_tests(
     >>> H = H + 1e-5 * np.random.default_rng(1).standard_normal(H.shape)
     >>> from ema_pipeline.identification.refinement.refine import refine_poles
     >>> ref = refine_poles(f, H, lam, quantity="receptance", thresholds=th)
-    >>> final_tests(f, H, H, ref, "receptance", thresholds=th).tolist()
-    [True]
-    """
-    keep = each_pole_tests(freq_hz, Hn, refined, quantity, partner, strict,
-                           thresholds=thresholds)
-    return keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders,
-                                  thresholds=thresholds)
-
-
-def each_pole_tests(
-    freq_hz: np.ndarray,
-    Hn: np.ndarray,
-    refined: RefinedPoles,
-    quantity: str,
-    partner: np.ndarray | None = None,
-    strict: np.ndarray | None = None,
-    *,
-    thresholds: SelectionThresholds,
-) -> np.ndarray:
-    """The tests of :func:`final_tests` before :func:`distinct_shapes`: which
-    ``refined`` poles have a determined decay rate inside the band and are
-    resonances of ``Hn`` (the FRFs normalised per FRF), ``partner`` and
-    ``strict`` as there. ``final_tests`` is these and then
-    ``distinct_shapes`` of the poles that passed; a caller that wants to know
-    which poles the latter dropped as one mode found twice calls the two.
-
-    Examples
-    --------
-    A determined pole above the band fails (``inside_band``):
-
-    >>> from ema_pipeline.identification.refinement.refine import RefinedPoles
-    >>> f = np.linspace(50.0, 150.0, 401)
-    >>> lam = np.array([-2.0 + 2j * np.pi * 300.0])
-    >>> ref = RefinedPoles(lam, np.zeros((1, 2, 2)), np.ones((1, 1)), np.zeros((1, 2)),
-    ...                    np.ones(1, int))
-    >>> each_pole_tests(f, np.ones((1, 401), complex), ref, "receptance",
-    ...                 thresholds=SelectionThresholds()).tolist()
-    [False]
+    >>> keep, twin = final_tests(f, H, H, ref, "receptance", thresholds=th)
+    >>> keep.tolist(), twin.tolist()
+    ([True], [False])
     """
     keep = decay_determined(refined.pole, refined.cov, thresholds=thresholds) & inside_band(
         freq_hz, refined.pole, thresholds=thresholds)
@@ -311,7 +280,9 @@ def each_pole_tests(
     if partner is not None:
         keep |= (decay_determined(refined.pole, refined.cov, thresholds=thresholds) & partner
                  & inside_band(freq_hz, refined.pole, thresholds=thresholds))
-    return keep
+    distinct = keep & distinct_shapes(freq_hz, H, refined.pole, quantity, keep, n_orders,
+                                      thresholds=thresholds)
+    return distinct, keep & ~distinct
 
 
 def resonant(
