@@ -238,9 +238,9 @@ class SelectionThresholds:
     #: The split fit of a close partner uses +-this many half-power bandwidths ...
     split_half_width: float = 6.0
     #: ... and at most this many Levenberg-Marquardt iterations per weighting
-    #: round of each of its two starts. On noise the extra pole wanders and
-    #: uses them all (a third of a simulated paper file's time), but fewer
-    #: lose modes: with 10 the split of a wide candidate in the low cluster of
+    #: round. On noise the extra pole wanders and uses them all (with two
+    #: starts per split, a third of a simulated paper file's time), but
+    #: fewer lose modes: with 10 the split of a wide candidate in the low cluster of
     #: ``dense_log`` seed 803 no longer gives five of its modes
     #: (``test_low_cluster_of_a_wide_band_is_found``), with 6 a close pair of
     #: ``impact_close`` seed 100 is lost (docs/validation.md).
