@@ -212,7 +212,7 @@ def split_fit(
     without it leaves more of the residual (``thresholds.split_max_iter``
     iterations per round), or None when the band is too short. Fitting both
     sides and keeping the better, as before, cost twice the time and gave the
-    same modes on the 117 cases of ``benchmarks/speed_rules.py``, 145
+    same modes on the 117 cases of ``benchmarks/speed_rules.py``, 166
     held-out cases and the suite's hard cases.
 
     A close mode that the diagram merged with pole r (one reference, a weak
