@@ -36,6 +36,7 @@ sys.path.insert(0, str(ROOT))  # this checkout's package and its tests package
 sys.path.insert(0, str(ROOT / "benchmarks"))
 
 from eval_identification import match_modes  # noqa: E402
+from seed_ranges import seed_list  # noqa: E402
 
 from ema_pipeline.identification.thresholds import SelectionThresholds  # noqa: E402
 from tests import hardcases  # noqa: E402
@@ -116,14 +117,6 @@ def monte_carlo(seed: int, draws: int, family: str = FAMILY) -> None:
               f"{ratio[0]:>17.2f}{ratio[1]:>7.2f}{bias[0]:>16.2f}{bias[1]:>7.2f}")
 
 
-def _seeds(text: str) -> list[int]:
-    out: list[int] = []
-    for part in text.split(","):
-        a, _, b = part.partition("-")
-        out += list(range(int(a), int(b or a) + 1))
-    return out
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", help="e.g. 300-331 or 500-507,600-607")
@@ -132,7 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--family", default=FAMILY, choices=("complex_chain", "complex_dashpots"))
     args = ap.parse_args(argv)
     if args.seeds:
-        print_bins(per_mode(_seeds(args.seeds), args.family))
+        print_bins(per_mode(seed_list(args.seeds), args.family))
     if args.monte_carlo is not None:
         monte_carlo(args.monte_carlo, args.draws, args.family)
     return 0

@@ -34,6 +34,7 @@ from pathlib import Path
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+from seed_ranges import seed_list
 
 ROOT = Path(__file__).resolve().parents[1]
 # this checkout's package, not whichever ema_pipeline is installed
@@ -246,13 +247,6 @@ def run_paper(impl: str, repeats: int = 3) -> dict:
     return res
 
 
-def _seeds(text: str) -> list[int]:
-    if "-" in text:
-        a, b = text.split("-")
-        return list(range(int(a), int(b) + 1))
-    return [int(x) for x in text.split(",")]
-
-
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--families", default=",".join(hardcases.FAMILIES))
@@ -274,7 +268,7 @@ def main(argv: list[str] | None = None) -> int:
         for fam in args.families.split(","):
             if args.verbose:
                 print(f"[{fam}]", flush=True)
-            results.append(run_family(fam, _seeds(args.seeds), args.impl, args.verbose,
+            results.append(run_family(fam, seed_list(args.seeds), args.impl, args.verbose,
                                       args.complex_phase))
         print_table(results)
         report["families"] = results

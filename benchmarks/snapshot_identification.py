@@ -28,18 +28,12 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from seed_ranges import seed_list
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 REAL_UFF = ROOT.parent / "shared" / "data" / "ufsc-beam-hammer.uff"
 TOLERANCES = {"fn_hz": 1e-6, "zeta": 1e-4, "fn_std_hz": 1e-2, "zeta_std": 1e-2}
-
-
-def _seeds(text: str) -> list[int]:
-    if "-" in text:
-        lo, hi = (int(x) for x in text.split("-"))
-        return list(range(lo, hi + 1))
-    return [int(x) for x in text.split(",")]
 
 
 def take(out: Path, seeds: list[int], families: list[str] | None, real: bool,
@@ -127,7 +121,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.cmd == "take":
         fams = args.families.split(",") if args.families else None
-        take(args.out, _seeds(args.seeds), fams, args.real, args.package_root.resolve())
+        take(args.out, seed_list(args.seeds), fams, args.real, args.package_root.resolve())
         return 0
     return compare(args.before, args.after)
 

@@ -37,20 +37,13 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from seed_ranges import seed_list
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
 SHARED = ROOT.parent / "shared" / "data"
 BEAM_BANDS = (None, (5.0, 400.0), (5.0, 790.0), (100.0, 400.0), (250.0, 700.0))
 SEED_RANGES = "100-101,200-201,300-301"
-
-
-def _seeds(text: str) -> list[int]:
-    out: list[int] = []
-    for part in text.split(","):
-        lo, _, hi = part.partition("-")
-        out.extend(range(int(lo), int(hi or lo) + 1))
-    return out
 
 
 def take(out_path: Path, seeds: list[int], perturb: int | None, package_root: Path,
@@ -239,7 +232,7 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.cmd == "take":
         fams = args.families.split(",") if args.families else None
-        take(args.out, _seeds(args.seeds), args.perturb, args.package_root.resolve(), fams)
+        take(args.out, seed_list(args.seeds), args.perturb, args.package_root.resolve(), fams)
         return 0
     return compare(args.before, args.after, args.last_bits)
 
