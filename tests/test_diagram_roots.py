@@ -1,7 +1,9 @@
 """The roots of a diagram's denominators (identification.diagram.roots) against
 the companion eigenvalues (numpy.roots), on random polynomials, on the
-denominators of a simulated impact test and of the measured beam, and where
-the iteration must fall back; and the speed-ups that keep every number
+denominators of a simulated impact test and of the measured beam, where
+the number of real roots changes and where the iteration must fall back;
+its parts (the blocked evaluation, the remaining roots, the coincidence
+test) against the plain computation; and the speed-ups that keep every number
 (lsfd.least_squares, lsfd.reused_lsfds, the shared residues of the pair
 significance) against the plain computation."""
 
@@ -19,10 +21,14 @@ from ema_pipeline.identification.diagram.order_search import diagram_orders
 from ema_pipeline.identification.diagram.plscf import plscf_denominators, plscf_normal_matrix
 from ema_pipeline.identification.diagram.roots import (
     ABERTH_MIN_ORDER,
-    aberth_roots,
+    BlockedPolynomial,
     companion_roots,
+    conjugate_start,
     diagram_roots,
-    next_start,
+    distinct,
+    newton_corrections,
+    real_aberth_roots,
+    remaining_roots,
 )
 from ema_pipeline.identification.refinement.local_band import global_residues
 from ema_pipeline.identification.refinement.lsfd import least_squares, lsfd, reused_lsfds
@@ -100,8 +106,64 @@ def test_multiple_roots_and_a_failed_iteration_fall_back():
     assert c.size - 1 == 90
     c = c / c[-1]
     assert matched(diagram_roots([c])[0], companion_roots(c)) < 1e-4  # a triple root: eps^(1/3)
-    _, ok = aberth_roots(c, next_start(np.zeros(0, complex), 90), max_sweeps=1)
+    _, ok = real_aberth_roots(c, *conjugate_start(np.zeros(0, complex), 90), max_sweeps=1)
     assert not ok
+
+
+def test_newton_corrections_by_blocks_are_the_direct_ones():
+    """p/p' and the backward error from the blocked powers against
+    numpy's polynomial evaluation, inside and outside the unit circle."""
+    rng = np.random.default_rng(3)
+    for n in (2, 7, 90, 481):
+        c = rng.standard_normal(n + 1)
+        z = (0.3 + 1.4 * rng.random(50)) * np.exp(2j * np.pi * rng.random(50))
+        got, backward = newton_corrections(BlockedPolynomial.of(c), z)
+        P = np.polynomial.Polynomial(c)
+        want = P(z) / P.deriv()(z)
+        np.testing.assert_allclose(got, want, rtol=1e-9)
+        bound = np.polynomial.Polynomial(np.abs(c))(np.abs(z))
+        np.testing.assert_allclose(backward, np.abs(P(z)) / bound, rtol=1e-9)
+
+
+def test_remaining_roots_are_those_the_known_ones_leave():
+    rng = np.random.default_rng(4)
+    roots = np.concatenate([0.9 * np.exp(1j * np.linspace(0.1, 3.0, 40)), [0.95, -0.5]])
+    roots = np.concatenate([roots, np.conj(roots[:40])])
+    c = np.polynomial.polynomial.polyfromroots(roots).real
+    for k in (1, 2, 4, 6):
+        left = rng.choice(roots.size, k, replace=False)
+        known = np.delete(roots, left)
+        assert matched(remaining_roots(c, known), roots[left]) < 1e-8
+
+
+def test_a_changed_number_of_real_roots_converges():
+    """From a start with two real points where the roots are a complex
+    pair, and with a pair where they are two real roots: the roots are the
+    true ones (within 1e-8; numpy's eigenvalues are within 2e-8 here), as
+    many of them real."""
+    rng = np.random.default_rng(6)
+    pairs = 0.97 * np.exp(1j * np.sort(rng.uniform(0.05, 3.1, 60)))
+    # roots: the pairs and two real roots, or the pairs and one more pair;
+    # start: the pairs and one more pair, or the pairs and two real points
+    for real_roots, start_real in (([0.4, -0.7], []), ([], [0.1, 0.5])):
+        extra = np.array([] if real_roots else [0.2 + 0.5j])
+        roots = np.concatenate([pairs, np.conj(pairs), real_roots, extra, np.conj(extra)])
+        c = np.polynomial.polynomial.polyfromroots(roots).real
+        start_upper = np.concatenate([pairs * (1 + 1e-3), [0.5 + 0.3j] * (len(start_real) == 0)])
+        start_real = np.array(start_real)
+        z, ok = real_aberth_roots(c, start_upper, start_real)
+        assert ok
+        assert matched(z, roots) < 1e-8
+        real = np.abs(z.imag) <= 1e-10 * np.abs(z)
+        assert real.sum() == len(real_roots) != start_real.size
+
+
+def test_distinct_finds_two_points_on_one_root():
+    z = np.exp(1j * np.linspace(0.1, 3.0, 200))
+    z = np.concatenate([z, np.conj(z), [0.5, -0.5]])  # conjugates share their real part
+    assert distinct(z)
+    assert not distinct(np.append(z, z[17] * (1 + 1e-10)))
+    assert not distinct(np.append(z, 0.5 + 1e-12j))
 
 
 def test_least_squares_is_numpys():
