@@ -65,6 +65,7 @@ __all__ = [
     "process_imap",
     "process_map",
     "split",
+    "started_ahead",
     "worker_count",
 ]
 
@@ -416,6 +417,52 @@ def process_map(n_tasks: int, workers: int = 1) -> Iterator[Mapper]:
         aborted = False
     finally:
         lazy.close(abort=aborted)
+
+
+@contextlib.contextmanager
+def started_ahead(func: Callable[[T], R], item: T, workers: int = 1) -> Iterator[Callable[[], R]]:
+    """``func(item)`` begun now in a worker process of its own, for a result
+    the caller may or may not need (work begun ahead, beside its own): the
+    block gets a function that returns the result, waiting for the worker.
+    With ``workers`` < 2, inside a worker (one level of processes) or where
+    :func:`fork_is_safe` says no, no worker is started and the function
+    computes the result in this process when first called. On leaving the
+    block a worker still running is terminated: work begun ahead and not
+    needed costs no waiting (a fork and a kill, about 10 ms). The result is
+    the serial computation's (the worker has this process's BLAS threads).
+
+    Examples
+    --------
+    >>> with started_ahead(abs, -3, workers=2) as result:
+    ...     result()
+    3
+    """
+    threads = set(threading.enumerate())
+    pool = ProcessPool(1) if worker_count(2, workers) >= 2 and fork_is_safe() else None
+    future = pool.submit(func, item) if pool is not None else None
+    here: list[R] = []
+
+    def result() -> R:
+        if future is None:
+            if not here:
+                here.append(func(item))
+            return here[0]
+        try:
+            return future.result()
+        except BrokenProcessPool:
+            raise WorkerCrashed("a worker process died (killed, out of memory or a crash) "
+                                "while it computed work begun ahead") from None
+
+    try:
+        yield result
+    finally:
+        if pool is not None:
+            pool.close(abort=not (future is not None and future.done()))
+            # the pool's threads end shortly after it (its manager, its queue's
+            # feeder): waited for, so that a fork right after is safe
+            # (fork_is_safe; measured: windows otherwise searched in this process)
+            for thread in set(threading.enumerate()) - threads:
+                thread.join(timeout=5.0)
 
 
 class SerialMap:

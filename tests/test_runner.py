@@ -83,6 +83,43 @@ def test_worker_count_comes_from_the_argument_only(monkeypatch):
         command_workers(0)
 
 
+# ------------------------------------------------------------------ work begun ahead
+def _pid_and(x: int) -> tuple[int, int]:
+    return os.getpid(), x
+
+
+def _sleep_long(seconds: float) -> float:
+    time.sleep(seconds)
+    return seconds
+
+
+def test_work_begun_ahead_runs_beside_and_is_dropped_when_not_needed(request):
+    """``started_ahead``: with two workers the work runs in another process
+    and its result comes back; work not asked for is stopped when the block
+    ends (no waiting for it, no process or thread left: a fork right after is
+    safe); with one worker nothing runs until the result is asked for, and
+    then once."""
+    if not _here_or_fresh(request):
+        return
+    with runner.started_ahead(_pid_and, 7, workers=2) as result:
+        pid, x = result()
+        assert (pid != os.getpid(), x) == (True, 7)
+    t0 = time.perf_counter()
+    with runner.started_ahead(_sleep_long, 60.0, workers=2):
+        pass  # not needed
+    assert time.perf_counter() - t0 < 10.0
+    assert runner.fork_is_safe() and not runner.ProcessPool(1).processes()
+    calls: list[int] = []
+    with runner.started_ahead(calls.append, 1, workers=1) as result:
+        assert calls == []
+        result()
+        result()
+    assert calls == [1]
+    with runner.started_ahead(calls.append, 2, workers=1):
+        pass
+    assert calls == [1]
+
+
 # ------------------------------------------------------------------ identify()
 def test_identify_in_a_thread_starts_no_process_and_workers_2_gives_the_same_numbers(
         request, monkeypatch):
@@ -109,7 +146,9 @@ def test_identify_in_a_thread_starts_no_process_and_workers_2_gives_the_same_num
     results["1"] = identify(frf, workers=1)
     assert forks == []
     results["2"] = identify(frf, workers=2)
-    assert len(forks) == 2  # the pool's two workers, forked at its first map
+    # the search grows: the cap's diagram begun ahead in a worker of its own
+    # (runner.started_ahead), then the pool's two workers, forked at its first map
+    assert len(forks) == 3
     a = results["1"]
     assert a.fn_hz.size == 12
     np.testing.assert_allclose(np.sort(a.fn_hz), twelve.fn_hz, rtol=2e-3)
