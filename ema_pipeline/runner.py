@@ -428,8 +428,10 @@ def started_ahead(func: Callable[[T], R], item: T, workers: int = 1) -> Iterator
     :func:`fork_is_safe` says no, no worker is started and the function
     computes the result in this process when first called. On leaving the
     block a worker still running is terminated: work begun ahead and not
-    needed costs no waiting (a fork and a kill, about 10 ms). The result is
-    the serial computation's (the worker has this process's BLAS threads).
+    needed costs no waiting (a fork and a kill, about 10 ms). The worker is
+    gone once its result is taken (a map may fork the workers of
+    :func:`process_map` right after). The result is the serial computation's
+    (the worker has this process's BLAS threads).
 
     Examples
     --------
@@ -442,27 +444,34 @@ def started_ahead(func: Callable[[T], R], item: T, workers: int = 1) -> Iterator
     future = pool.submit(func, item) if pool is not None else None
     here: list[R] = []
 
-    def result() -> R:
-        if future is None:
-            if not here:
-                here.append(func(item))
-            return here[0]
-        try:
-            return future.result()
-        except BrokenProcessPool:
-            raise WorkerCrashed("a worker process died (killed, out of memory or a crash) "
-                                "while it computed work begun ahead") from None
-
-    try:
-        yield result
-    finally:
+    def closed(*, abort: bool) -> None:
+        nonlocal pool
         if pool is not None:
-            pool.close(abort=not (future is not None and future.done()))
+            pool.close(abort=abort)
+            pool = None
             # the pool's threads end shortly after it (its manager, its queue's
             # feeder): waited for, so that a fork right after is safe
             # (fork_is_safe; measured: windows otherwise searched in this process)
             for thread in set(threading.enumerate()) - threads:
                 thread.join(timeout=5.0)
+
+    def result() -> R:
+        if not here:
+            if future is None:
+                here.append(func(item))
+            else:
+                try:
+                    here.append(future.result())
+                except BrokenProcessPool:
+                    raise WorkerCrashed("a worker process died (killed, out of memory or a "
+                                        "crash) while it computed work begun ahead") from None
+                closed(abort=False)  # done with: the cores are free for other workers
+        return here[0]
+
+    try:
+        yield result
+    finally:
+        closed(abort=True)
 
 
 class SerialMap:

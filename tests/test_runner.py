@@ -95,8 +95,8 @@ def _sleep_long(seconds: float) -> float:
 
 def test_work_begun_ahead_runs_beside_and_is_dropped_when_not_needed(request):
     """``started_ahead``: with two workers the work runs in another process
-    and its result comes back; work not asked for is stopped when the block
-    ends (no waiting for it, no process or thread left: a fork right after is
+    and its result comes back (the worker then gone); work not asked for is
+    stopped when the block ends (no waiting for it, no process or thread left: a fork right after is
     safe); with one worker nothing runs until the result is asked for, and
     then once."""
     if not _here_or_fresh(request):
@@ -104,6 +104,7 @@ def test_work_begun_ahead_runs_beside_and_is_dropped_when_not_needed(request):
     with runner.started_ahead(_pid_and, 7, workers=2) as result:
         pid, x = result()
         assert (pid != os.getpid(), x) == (True, 7)
+        assert runner.fork_is_safe()  # the worker gone with its result taken
     t0 = time.perf_counter()
     with runner.started_ahead(_sleep_long, 60.0, workers=2):
         pass  # not needed
