@@ -259,3 +259,32 @@ def test_candidates_that_cannot_pass_leave_before_the_fit_of_all() -> None:
     unscreened = add_found(found, new, partner=False, strict=np.zeros(3, bool), retest=retest)
     assert [f.size for f in fitted] == [4, 3]  # all three, then again without the bad one
     np.testing.assert_array_equal(unscreened.sel.pole, out.sel.pole)
+
+
+def test_the_grown_lsfd_residual_is_a_new_lsfds() -> None:
+    """GrowingResidual: poles added one at a time (the QR extended) leave the
+    residual of a new LSFD of all of them, to rounding (1e-12 of the data);
+    two equal poles (a singular design) give lsfd()'s minimum-norm fit."""
+    from ema_pipeline.acquisition import modal_frf
+    from ema_pipeline.data import ModalParameters
+    from ema_pipeline.identification.refinement.lsfd import GrowingResidual, lsfd
+
+    fn = np.array([30.0, 55.0, 61.0, 90.0, 140.0, 170.0])
+    modes = ModalParameters(fn_hz=fn, zeta=np.full(fn.size, 0.01))
+    f = np.linspace(10.0, 200.0, 1501)
+    rng = np.random.default_rng(3)
+    phi = rng.standard_normal((3, fn.size))
+    H = modal_frf(f, modes, phi, phi[:1], quantity="accelerance").reshape(3, -1)
+    H = H + 1e-3 * np.std(H) * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+    lam = -0.01 * 2 * np.pi * fn + 2j * np.pi * fn * np.sqrt(1 - 1e-4)
+    grown = GrowingResidual(f, H, lam[:2], "accelerance")
+    scale = np.abs(H).max()
+    for k in range(2, fn.size):
+        grown.add(lam[k])
+        fresh = H - lsfd(f, H, lam[: k + 1], "accelerance").H_fit
+        assert np.abs(grown.residual() - fresh).max() < 1e-12 * scale
+    assert np.abs(grown.residual()).max() < 0.05 * scale  # every mode in the fit
+    grown.add(lam[-1])  # a coincident pole: lsfd() takes over
+    assert grown.factor is None
+    np.testing.assert_array_equal(grown.residual(), H - lsfd(f, H, np.append(lam, lam[-1]),
+                                                            "accelerance").H_fit)

@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.refinement.lsfd import lsfd
+from ema_pipeline.identification.refinement.lsfd import GrowingResidual, lsfd
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
@@ -123,7 +123,9 @@ def residual_peaks(
     peak's frequency with that width as half-power band; the half-power band
     at least 2 lines, narrower is not resolved), which joins the LSFD before
     the next peak is sought (a strong missed mode's tails stand above the
-    floor far from it). ``H`` (n_ch, n_freq) on the lines ``freq_hz``.
+    floor far from it; the LSFD's QR is extended by it,
+    :class:`~ema_pipeline.identification.refinement.lsfd.GrowingResidual`).
+    ``H`` (n_ch, n_freq) on the lines ``freq_hz``.
     Returns the start poles and ``from_edge`` (bool, each).
 
     Examples
@@ -154,11 +156,13 @@ def residual_peaks(
     edge[-max(2, int(th.band_edge[1] * n)):] = True
     skip = np.zeros(n, bool)  # slopes into an excluded zone: not peaks
     R = None
+    # the LSFD grows by each start pole: its QR extended, not solved again
+    grown = GrowingResidual(freq_hz, H, pole, quantity)
     while start.size < max_peaks:
         lam_all = np.concatenate([pole, start])
         if R is None:
             try:
-                R = residual(freq_hz, H, lam_all, quantity)
+                R = grown.residual()
             except (np.linalg.LinAlgError, ValueError):
                 break
             raw = residual_ratio(R)
@@ -212,6 +216,7 @@ def residual_peaks(
         # a half-power band of at least 2 lines (narrower is not resolved)
         start = np.append(start, complex(min(lam.real, -2 * np.pi * df), lam.imag))
         from_edge = np.append(from_edge, bool(at_edge))
+        grown.add(start[-1])
         R = None
     order = np.argsort(start.imag)
     return start[order], from_edge[order]
