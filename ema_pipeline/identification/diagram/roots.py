@@ -197,8 +197,9 @@ def newton_corrections(poly: BlockedPolynomial, z: np.ndarray) -> tuple[np.ndarr
     sums = np.concatenate([low.real, low.imag]) @ poly.coeffs  # (2k, 4m)
     blocks = (sums[:k] + 1j * sums[k:]).reshape(k, 4, m)
     value = np.einsum("ijm,im->ij", blocks, high)
-    low_abs, high_abs = blocked_powers(np.where(outside, 1.0 / np.maximum(az, 1.0), az), b, m)
-    bound = np.einsum("ijm,im->ij", (low_abs @ poly.magnitudes).reshape(k, 2, m), high_abs)
+    # the bound's powers |x|^j: the magnitudes of the powers of x
+    bound = np.einsum("ijm,im->ij", (np.abs(low) @ poly.magnitudes).reshape(k, 2, m),
+                      np.abs(high))
     rows, col = np.arange(k), outside.astype(int)
     p, dp, e = value[rows, col], value[rows, col + 2], bound[rows, col]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -238,9 +239,10 @@ def aberth_sweeps(poly: BlockedPolynomial, z: np.ndarray, active: np.ndarray, *,
         counts.append(idx.size)
         if idx.size <= few or (stall and sweep >= stall and counts[-1] == counts[-1 - stall]):
             return z, active, sweep, True
-        newton, backward = newton_corrections(poly, z[idx])
+        zi = z[idx]
+        newton, backward = newton_corrections(poly, zi)
         others = np.concatenate([z, np.conj(z[:n_upper])]) if n_upper else z
-        inverse = np.subtract.outer(z[idx], others)  # 1 / (z_i - z_j), in place
+        inverse = np.subtract.outer(zi, others)  # 1 / (z_i - z_j), in place
         inverse[np.arange(idx.size), idx] = np.inf  # z is the head of others
         with np.errstate(divide="ignore", invalid="ignore"):
             np.reciprocal(inverse, out=inverse)
@@ -250,11 +252,12 @@ def aberth_sweeps(poly: BlockedPolynomial, z: np.ndarray, active: np.ndarray, *,
         if n_upper:  # a real point's step is real (its imaginary part: rounding)
             real = idx >= n_upper
             step[real] = step[real].real
-        z[idx] -= step
+        zi -= step
+        z[idx] = zi
         # converged: the residual within the rounding error of p, or a step
         # below CUBIC_STOP: the iteration converges cubically, the root is
         # then at the rounding level (a cluster's roots take smaller steps)
-        done = (backward <= 4 * n * _EPS) | (np.abs(step) <= CUBIC_STOP * np.abs(z[idx]))
+        done = (backward <= 4 * n * _EPS) | (np.abs(step) <= CUBIC_STOP * np.abs(zi))
         active[idx[done]] = False
     return z, active, max_sweeps, True
 
