@@ -238,8 +238,8 @@ class SelectionThresholds:
     #: The split fit of a close partner uses +-this many half-power bandwidths ...
     split_half_width: float = 6.0
     #: ... and at most this many Levenberg-Marquardt iterations per weighting
-    #: round. On noise the extra pole wanders and uses them all (with two
-    #: starts per split, a third of a simulated paper file's time), but
+    #: round. On noise the extra pole wanders and uses them all (a third of a
+    #: simulated paper file's time when each split had two starts), but
     #: fewer lose modes: with 10 the split of a wide candidate in the low cluster of
     #: ``dense_log`` seed 803 no longer gives five of its modes
     #: (``test_low_cluster_of_a_wide_band_is_found``), with 6 a close pair of

@@ -65,6 +65,10 @@ STALL_SWEEPS = 3
 #: three or four move these few points; 2, 4 and 8 measured: 4 the fastest).
 FEW_POINTS = 4
 
+#: A root within this of its magnitude from the real axis is real, as the
+#: eigenvalue solver returns real eigenvalues (:func:`on_real_axis`).
+REAL_AXIS_REL = 1e-10
+
 _EPS = float(np.finfo(float).eps)
 
 #: A root whose last step was below this (relative) is converged: the
@@ -350,12 +354,24 @@ def real_aberth_roots(coeffs: np.ndarray, upper: np.ndarray, real: np.ndarray,
     return roots, bool(finite and not active.any() and distinct(roots))
 
 
+def on_real_axis(z: np.ndarray) -> np.ndarray:
+    """Which of the points ``z`` lie within :data:`REAL_AXIS_REL` of their
+    magnitude from the real axis.
+
+    Examples
+    --------
+    >>> on_real_axis(np.array([1.0 + 1e-12j, 1.0 + 1e-3j])).tolist()
+    [True, False]
+    """
+    return np.abs(z.imag) <= REAL_AXIS_REL * np.abs(z)
+
+
 def conjugate_start(previous: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray] | None:
     """Conjugate-symmetric start points for a real polynomial of degree ``n``
     (:func:`real_aberth_roots`): the roots ``previous`` of a lower order in
-    the upper half plane and on the real axis (within 1e-10 of their
-    magnitude), new points spread over the upper unit circle and, for an odd
-    number of new points, one real point; None where ``previous`` holds
+    the upper half plane and on the real axis (:func:`on_real_axis`), new
+    points spread over the upper unit circle and, for an odd number of new
+    points, one real point; None where ``previous`` holds
     more than n roots so counted.
 
     Examples
@@ -364,9 +380,9 @@ def conjugate_start(previous: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarra
     >>> upper.size, real.tolist()
     (2, [0.2, 0.31])
     """
-    tol = 1e-10 * np.abs(previous)
-    upper = previous[previous.imag > tol]
-    real = previous[np.abs(previous.imag) <= tol].real
+    real_axis = on_real_axis(previous)
+    upper = previous[~real_axis & (previous.imag > 0)]
+    real = previous[real_axis].real
     k = n - 2 * upper.size - real.size
     if k < 0:
         return None
@@ -381,9 +397,9 @@ def diagram_roots(coeffs: list[np.ndarray]) -> list[np.ndarray]:
 
     Degrees below :data:`ABERTH_MIN_ORDER` by the companion eigenvalues, the
     others by :func:`real_aberth_roots` started from the previous order's
-    roots (:func:`conjugate_start`), with the eigenvalues as the fallback. Roots within
-    1e-10 (relative) of the real axis are made real, as the eigenvalue
-    solver returns real eigenvalues.
+    roots (:func:`conjugate_start`), with the eigenvalues as the fallback.
+    Roots on the real axis (:func:`on_real_axis`) are made real, as the
+    eigenvalue solver returns real eigenvalues.
 
     Examples
     --------
@@ -404,7 +420,7 @@ def diagram_roots(coeffs: list[np.ndarray]) -> list[np.ndarray]:
         if start is not None:
             z, ok = real_aberth_roots(c, *start)
             if ok:
-                z = np.where(np.abs(z.imag) <= 1e-10 * np.abs(z), z.real + 0j, z)
+                z = np.where(on_real_axis(z), z.real + 0j, z)
         if not ok:
             z = companion_roots(c)
         out.append(z)

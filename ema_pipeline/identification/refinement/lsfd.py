@@ -200,9 +200,41 @@ def lsfd(
     return _solve(freq_hz, H, poles, quantity, lower, upper, weights)
 
 
-def _solve(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, quantity: str, lower: bool,
-           upper: bool, weights: np.ndarray | None) -> LSFDFit:
-    """:func:`lsfd` solved."""
+#: A QR factor whose diagonal's smallest magnitude is below this fraction of
+#: its largest is numerically singular: the least-squares solutions then
+#: take the SVD's minimum-norm path (:func:`least_squares`, :func:`qr_factor`,
+#: :class:`GrowingResidual`).
+MIN_R_RATIO = 1e-6
+
+
+def r_determined(qr: np.ndarray) -> bool:
+    """Whether the R of a Householder factor ``qr`` (LAPACK ``dgeqrf``'s
+    array: R on and above the diagonal) is finite and not numerically
+    singular (:data:`MIN_R_RATIO`).
+
+    Examples
+    --------
+    >>> r_determined(np.array([[2.0, 1.0], [0.5, 1.0]])), r_determined(np.diag([1.0, 1e-9]))
+    (True, False)
+    """
+    d = np.abs(qr.diagonal())
+    return bool(np.all(np.isfinite(d)) and d.min() >= MIN_R_RATIO * d.max())
+
+
+def reflected(qr: np.ndarray, tau: np.ndarray, Y: np.ndarray,
+              trans: str) -> tuple[np.ndarray, int]:
+    """``Q^T Y`` (``trans`` "T") or ``Q Y`` ("N") from the reflectors of a
+    Householder factor (``qr``, ``tau``: LAPACK ``dgeqrf``'s), without
+    forming Q (``dormqr``); and LAPACK's ``info``."""
+    out, _, info = lapack.dormqr("L", trans, qr, tau, Y, max(1, Y.shape[1] * 64))
+    return out, info
+
+
+def scaled_design(freq_hz: np.ndarray, poles: np.ndarray, quantity: str, lower: bool = True,
+                  upper: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The design matrix B (:func:`design_matrix`), its real stack A in
+    column-major order with each column divided by its scale
+    (:func:`column_scale`) and the scales."""
     B = design_matrix(freq_hz, poles, quantity, lower, upper)
     # real_stack(B) in column-major order: LAPACK's QR takes it without a
     # copy, and the column maxima run down contiguous columns
@@ -210,8 +242,15 @@ def _solve(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, quantity: str,
     A = np.empty((2 * n, B.shape[1]), order="F")
     A[:n], A[n:] = B.real, B.imag
     scale = column_scale(A)
-    Y = real_stack(np.asarray(H).T)
     A /= scale
+    return B, A, scale
+
+
+def _solve(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray, quantity: str, lower: bool,
+           upper: bool, weights: np.ndarray | None) -> LSFDFit:
+    """:func:`lsfd` solved."""
+    B, A, scale = scaled_design(freq_hz, poles, quantity, lower, upper)
+    Y = real_stack(np.asarray(H).T)
     if weights is not None:  # (unit weights would multiply by 1.0: nothing)
         w = np.asarray(weights, dtype=float)
         w2 = np.concatenate([w, w])[:, None]
@@ -234,8 +273,8 @@ def least_squares(A: np.ndarray, Y: np.ndarray) -> np.ndarray:
     and Y (n, n_rhs): Householder QR (LAPACK ``dgeqrf``), Q^T Y applied from
     its reflectors (``dormqr``) and back substitution, without forming Q
     (half the cost of :func:`householder_qr` for the few right-hand sides of
-    an LSFD). A numerically singular A (the diagonal of R spanning more than
-    1e6) goes to :func:`qr_factor`, whose SVD gives the minimum-norm solution.
+    an LSFD). A numerically singular A (:func:`r_determined` false) goes to
+    :func:`qr_factor`, whose SVD gives the minimum-norm solution.
 
     Examples
     --------
@@ -246,10 +285,8 @@ def least_squares(A: np.ndarray, Y: np.ndarray) -> np.ndarray:
     n, k = A.shape
     if A.dtype == np.float64 and Y.dtype == np.float64 and n >= k > 0:
         qr, tau, _, info = lapack.dgeqrf(A)
-        d = np.abs(qr.diagonal())
-        if info == 0 and np.all(np.isfinite(d)) and d.min() >= 1e-6 * d.max():
-            lwork = max(1, Y.shape[1] * 64)
-            QtY, _, info = lapack.dormqr("L", "T", qr, tau, Y, lwork)
+        if info == 0 and r_determined(qr):
+            QtY, info = reflected(qr, tau, Y, "T")
             if info == 0 and np.all(np.isfinite(QtY[:k])):
                 X, info = lapack.dtrtrs(qr[:k], QtY[:k], lower=0)
                 if info == 0:
@@ -272,9 +309,9 @@ class GrowingResidual:
     a new LSFD is O(n k^2): on the pyFRF recording (4487 lines, 36-42 poles)
     about 3 ms against 25 ms. The residual is the LSFD's to rounding (the
     columns' order and scaling differ; the least-squares residual does not
-    depend on them). Where the design becomes numerically singular (the
-    diagonal of R spanning more than 1e6, as in :func:`least_squares`), a new
-    :func:`lsfd` gives it (its minimum-norm fit).
+    depend on them). Where the design becomes numerically singular
+    (:func:`r_determined`, as in :func:`least_squares`), a new :func:`lsfd`
+    gives it (its minimum-norm fit).
 
     Examples
     --------
@@ -307,7 +344,7 @@ class GrowingResidual:
         k = qr.shape[1]
         rest = qty.copy()
         rest[:k] = 0.0  # (I - Q1 Q1^T) Y = Q [0; Q2^T Y]
-        r, _, info = lapack.dormqr("L", "N", qr, tau, rest, max(1, rest.shape[1] * 64))
+        r, info = reflected(qr, tau, rest, "N")
         if info != 0:  # pragma: no cover - LAPACK argument errors only
             raise np.linalg.LinAlgError(f"dormqr failed (info {info})")
         n = self.freq_hz.size
@@ -323,19 +360,16 @@ class GrowingResidual:
             return
         qr, tau, qty = self.factor
         k = qr.shape[1]
-        C = real_stack(design_matrix(self.freq_hz, np.array([pole]), self.quantity,
-                                     lower=False, upper=False))
-        C = np.asfortranarray(C / column_scale(C))
-        W, _, info = lapack.dormqr("L", "T", qr, tau, C, max(1, 2 * 64))
+        C = scaled_design(self.freq_hz, np.array([pole]), self.quantity,
+                          lower=False, upper=False)[1]
+        W, info = reflected(qr, tau, C, "T")
         low, tau2, _, info2 = lapack.dgeqrf(np.asfortranarray(W[k:]))
-        qty_low, _, info3 = lapack.dormqr("L", "T", low, tau2, np.asfortranarray(qty[k:]),
-                                          max(1, qty.shape[1] * 64))
+        qty_low, info3 = reflected(low, tau2, np.asfortranarray(qty[k:]), "T")
         grown = np.empty((qr.shape[0], k + 2), order="F")
         grown[:, :k] = qr
         grown[:k, k:] = W[:k]
         grown[k:, k:] = low
-        d = np.abs(grown.diagonal())
-        if info or info2 or info3 or not np.all(np.isfinite(d)) or d.min() < 1e-6 * d.max():
+        if info or info2 or info3 or not r_determined(grown):
             self.factor = None  # numerically singular: lsfd()'s minimum-norm fit from now on
             return
         qty = qty.copy()
@@ -345,17 +379,11 @@ class GrowingResidual:
     def factorised(self) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         """The Householder QR of the scaled design of the poles so far and
         Q^T Y; None where it is numerically singular."""
-        B = design_matrix(self.freq_hz, self.poles, self.quantity)
-        n = B.shape[0]
-        A = np.empty((2 * n, B.shape[1]), order="F")
-        A[:n], A[n:] = B.real, B.imag
-        A /= column_scale(A)
-        Y = np.asfortranarray(real_stack(self.H.T))
+        A = scaled_design(self.freq_hz, self.poles, self.quantity)[1]
         qr, tau, _, info = lapack.dgeqrf(A)
-        d = np.abs(qr.diagonal())
-        if info != 0 or not np.all(np.isfinite(d)) or d.min() < 1e-6 * d.max():
+        if info != 0 or not r_determined(qr):
             return None
-        qty, _, info = lapack.dormqr("L", "T", qr, tau, Y, max(1, Y.shape[1] * 64))
+        qty, info = reflected(qr, tau, np.asfortranarray(real_stack(self.H.T)), "T")
         return (qr, tau, qty) if info == 0 else None
 
 
@@ -418,7 +446,7 @@ def qr_factor(A: np.ndarray, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndarr
             # Householder's Q has entries of at most 1: its sum is finite
             # exactly when all of them are (one reduction, no boolean copy of
             # Q); min(d) >= c max(d) is all(d >= c max(d)), NaN included
-            if np.isfinite(Q.sum()) and d.min() >= 1e-6 * d.max():
+            if np.isfinite(Q.sum()) and d.min() >= MIN_R_RATIO * d.max():
                 return Q, R, True
     else:
         try:
@@ -426,7 +454,8 @@ def qr_factor(A: np.ndarray, rcond: float = 1e-12) -> tuple[np.ndarray, np.ndarr
                 # a stack: CholeskyQR2, all matrix products
                 Q, R = householder_qr(A) if A.ndim == 2 else _cholesky_qr2(A)
             d = np.abs(np.diagonal(R, axis1=-2, axis2=-1))
-            if np.all(np.isfinite(Q)) and np.all(d >= 1e-6 * np.max(d, axis=-1, keepdims=True)):
+            if np.all(np.isfinite(Q)) and np.all(
+                    d >= MIN_R_RATIO * np.max(d, axis=-1, keepdims=True)):
                 return Q, R, False
         except np.linalg.LinAlgError:
             pass
