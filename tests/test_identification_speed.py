@@ -103,3 +103,29 @@ def test_correlated_leverage_products_are_the_einsum_sums():
     M = np.matmul(np.matmul(W, Finv), W.transpose(0, 2, 1))
     np.testing.assert_allclose(np.sum(np.matmul(B, M) * B, axis=2).T,
                                np.einsum("kjc,ji,kic->kc", J, Finv, J), rtol=1e-12)
+
+
+def test_whitened_numerators_are_the_triangular_solve_of_all_outputs():
+    """plscf's X = L^-1 S_o of every output (one LAPACK solve, gathered in
+    its layout) to the last bit of ``scipy.linalg.solve_triangular`` on the
+    outputs' Toeplitz numerator blocks side by side, with two references;
+    and each block's solution against numpy's dense solve."""
+    from scipy import linalg
+
+    from ema_pipeline.identification.diagram.plscf import whitened_numerators
+
+    rng = np.random.default_rng(11)
+    n_out, n_in, p = 3, 2, 6
+    q = p + 1
+    idx = (np.arange(q)[None, :] - np.arange(q)[:, None]) + p
+    s_neg = rng.standard_normal((n_out, n_in, 2 * p + 1))
+    G = rng.standard_normal((q, q))
+    L = np.linalg.cholesky(G @ G.T + q * np.eye(q))
+    S = s_neg[:, :, idx].transpose(0, 2, 3, 1).reshape(n_out, q, q * n_in)  # [o, j, (l, b)]
+    X = linalg.solve_triangular(L, S.transpose(1, 0, 2).reshape(q, -1), lower=True)
+    ref = X.reshape(q, n_out, q * n_in).transpose(1, 0, 2).reshape(n_out * q, q * n_in)
+    got = whitened_numerators(L, s_neg, idx)
+    np.testing.assert_array_equal(got, ref)
+    for o in range(n_out):
+        np.testing.assert_allclose(got[o * q:(o + 1) * q], np.linalg.solve(L, S[o]),
+                                   rtol=1e-12, atol=1e-12)

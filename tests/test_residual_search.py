@@ -182,6 +182,36 @@ def test_refining_some_modes_gives_them_the_numbers_of_refining_all() -> None:
     assert abs(every.pole[1] - lam[1]) < abs(start[1] - lam[1])  # it did refine
 
 
+def test_a_fit_memo_gives_the_fits_of_the_same_poles_only() -> None:
+    """``refine_poles(..., memo=FitMemo())``: the modes refined first (the
+    final tests' screen) are taken by the next refinement of the same poles,
+    to the last bit of refining all without a memo; other poles or another
+    iteration budget fit again."""
+    from ema_pipeline.identification.refinement.refine import FitMemo, refine_poles
+
+    rng = np.random.default_rng(5)
+    f = np.linspace(50.0, 150.0, 801)
+    fn, zeta = np.array([70.0, 100.0, 125.0]), np.array([0.01, 0.008, 0.012])
+    H, lam = _modes(rng, f, fn, zeta, n_ch=3, snr_db=40.0)
+    start = lam * (1 + 0.002)
+    every = refine_poles(f, H, start, thresholds=TH)
+    memo = FitMemo()
+    refine_poles(f, H, start, modes=[0, 2], thresholds=TH, memo=memo)
+    taken = refine_poles(f, H, start, thresholds=TH, memo=memo)
+    assert memo.taken == 2
+    for a, b in zip((taken.pole, taken.cov, taken.noise_std, taken.band_hz, taken.n_iter),
+                    (every.pole, every.cov, every.noise_std, every.band_hz, every.n_iter),
+                    strict=True):
+        np.testing.assert_array_equal(a, b)
+    other = start * (1 + 1e-4)
+    moved = refine_poles(f, H, other, thresholds=TH, memo=memo)
+    shorter = refine_poles(f, H, other, max_iter=3, thresholds=TH, memo=memo)
+    assert memo.taken == 2
+    np.testing.assert_array_equal(moved.pole, refine_poles(f, H, other, thresholds=TH).pole)
+    np.testing.assert_array_equal(shorter.pole,
+                                  refine_poles(f, H, other, max_iter=3, thresholds=TH).pole)
+
+
 def test_a_residual_peak_that_cannot_pass_costs_no_refit_of_every_mode(monkeypatch) -> None:
     """A simulated paper file (genuine, seed 0): its noise leaves a residual
     peak whose decay rate the data do not determine. ``Retest.could_pass``

@@ -17,7 +17,7 @@ from ema_pipeline.identification.diagram.narrower_searches import (
 )
 from ema_pipeline.identification.diagram.order_search import SearchedBand
 from ema_pipeline.identification.plscf_band import BandData
-from ema_pipeline.identification.refinement.refine import RefinedPoles, refine_poles
+from ema_pipeline.identification.refinement.refine import FitMemo, RefinedPoles, refine_poles
 from ema_pipeline.identification.selection.acceptance import (
     Candidates,
     add_found,
@@ -51,6 +51,8 @@ class Retest:
     map_: Mapper
     rejected: list[np.ndarray] = field(default_factory=list)
     twins: list[np.ndarray] = field(default_factory=list)
+    #: the last refinement's fits: :meth:`__call__` takes those :meth:`could_pass` made
+    memo: FitMemo = field(default_factory=FitMemo)
 
     def verdict(self, ref: RefinedPoles, n_members: np.ndarray, partner: np.ndarray | None = None,
                 strict: np.ndarray | None = None) -> np.ndarray:
@@ -80,7 +82,7 @@ class Retest:
         d, th = self.data, self.data.thresholds
         ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
                            window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
-                           thresholds=th, map_=self.map_, modes=indices)
+                           thresholds=th, map_=self.map_, modes=indices, memo=self.memo)
         pole, cov = ref.pole[indices], ref.cov[indices]
         determined = decay_determined(pole, cov, thresholds=th)
         ok = determined & inside_band(d.freq_hz, pole, thresholds=th)
@@ -92,7 +94,7 @@ class Retest:
         d = self.data
         ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
                            window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
-                           thresholds=d.thresholds, map_=self.map_)
+                           thresholds=d.thresholds, map_=self.map_, memo=self.memo)
         # a close partner whose local fit wandered off (refinement returns its
         # start pole) has no fit of its own to stand on: it fails
         wandered = np.asarray(partner, bool) & (ref.pole == candidates.pole)

@@ -25,7 +25,7 @@ damping schedule are the package's one Levenberg-Marquardt
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -329,6 +329,7 @@ def refine_poles(
     thresholds: SelectionThresholds,
     map_: Mapper | None = None,
     modes: Sequence[int] | np.ndarray | None = None,
+    memo: FitMemo | None = None,
 ) -> RefinedPoles:
     """Local nonlinear least-squares refinement of each pole, with its covariance.
 
@@ -366,11 +367,66 @@ def refine_poles(
         their start pole with a NaN covariance. Each mode's local fit is its
         own (the other poles are its start values), so a refined mode has the
         numbers it has when all are refined.
+    memo : the local fits of an earlier refinement of the same ``freq_hz`` and
+        ``H`` (:class:`FitMemo`, one per data): where it holds the same
+        poles and settings, its global LSFD and the modes it fitted are
+        taken, not computed again (the same numbers); it then holds this
+        refinement's.
+
+    Examples
+    --------
+    >>> th = SelectionThresholds()
+    >>> f = np.linspace(80.0, 120.0, 401)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 95.0, -2.0 + 2j * np.pi * 105.0])
+    >>> jw = 2j * np.pi * f
+    >>> H = sum(1 / (jw - p) + 1 / (jw - p.conj()) for p in lam)[None]
+    >>> H = H + 1e-6 * np.random.default_rng(0).standard_normal(H.shape)
+    >>> start = lam * (1 + 1e-4)
+    >>> memo = FitMemo()
+    >>> one = refine_poles(f, H, start, quantity="receptance", thresholds=th, modes=[1], memo=memo)
+    >>> both = refine_poles(f, H, start, quantity="receptance", thresholds=th, memo=memo)
+    >>> memo.taken, bool(both.pole[1] == one.pole[1])
+    (1, True)
+    >>> (np.abs(both.pole - lam) / np.abs(lam.real) < 0.01).tolist()
+    [True, True]
     """
     th = thresholds
     half_width = th.local_half_width if half_width is None else half_width
     return _refine(freq_hz, H, poles, half_width, max_iter, quantity, window_tau_s,
-                   force_window_s, th, covariance=True, map_=map_, modes=modes)
+                   force_window_s, th, covariance=True, map_=map_, modes=modes, memo=memo)
+
+
+class FitMemo:
+    """The global LSFD and the local fits of the last refinement
+    (:func:`refine_poles` with ``memo``) of one data set, for the next
+    refinement of the same poles with the same settings: the final tests
+    ask first which new candidates can pass on their own local fits (the
+    fits of ``modes``), then refine all the candidates together, and each
+    mode's local fit is its own, so those fits are taken, not made again
+    (the pyFRF recording: two fits of 35 ms and the global LSFD of 40 poles
+    over 4487 lines). A refinement of other poles or settings starts it
+    afresh. ``taken`` counts the fits taken (for tests and diagnostics).
+
+    Examples
+    --------
+    >>> FitMemo().taken
+    0
+    """
+
+    def __init__(self) -> None:
+        self.key: tuple | None = None
+        self.residues: np.ndarray | None = None
+        self.fits: dict[int, tuple | None] = {}
+        self.taken = 0
+
+    def residues_for(self, key: tuple, compute: Callable[[], np.ndarray | None]
+                     ) -> np.ndarray | None:
+        """The global LSFD's residues of the refinement ``key`` (poles and
+        settings): the memo's when it holds that key, else ``compute()``,
+        and the memo then holds ``key`` with no fits."""
+        if key != self.key:
+            self.key, self.residues, self.fits = key, compute(), {}
+        return self.residues
 
 
 #: Refinements of this many modes or more share their local fits out among
@@ -435,6 +491,7 @@ def _refine(
     covariance: bool,
     map_: Mapper | None = None,
     modes: Sequence[int] | np.ndarray | None = None,
+    memo: FitMemo | None = None,
 ) -> RefinedPoles:
     """:func:`refine_poles`; without ``covariance`` the poles only (cov NaN):
     :func:`band_sensitivity` needs no covariance of its narrower fits, which
@@ -450,11 +507,26 @@ def _refine(
     noise = np.full((m, n_ch), np.nan)
     bands = np.zeros((m, 2))
     iters = np.zeros(m, dtype=int)
-    fits = LocalFits(freq_hz, H, poles, global_residues(freq_hz, H, poles, quantity),
-                     half_width, max_iter, window_tau_s, force_window_s, th, covariance)
+    def residues() -> np.ndarray | None:
+        return global_residues(freq_hz, H, poles, quantity)
+
+    known: dict[int, tuple | None] = {}
+    if memo is None:
+        a_all = residues()
+    else:
+        key = (poles.tobytes(), half_width, max_iter, quantity, window_tau_s, force_window_s,
+               th, covariance)
+        a_all = memo.residues_for(key, residues)
+        known = memo.fits
+    fits = LocalFits(freq_hz, H, poles, a_all, half_width, max_iter, window_tau_s,
+                     force_window_s, th, covariance)
     todo = list(range(m)) if modes is None else [int(r) for r in modes]
-    results = map_each(map_, fits.fit_all, todo, PARALLEL_MIN_MODES)
-    for r, res in zip(todo, results, strict=True):
+    new = [r for r in todo if r not in known]
+    known.update(zip(new, map_each(map_, fits.fit_all, new, PARALLEL_MIN_MODES), strict=True))
+    if memo is not None:
+        memo.taken += len(todo) - len(new)
+    for r in todo:
+        res = known[r]
         if res is not None:
             out[r], cov[r], noise[r], bands[r], iters[r] = res
     return RefinedPoles(pole=out, cov=cov, noise_std=noise, band_hz=bands, n_iter=iters)
