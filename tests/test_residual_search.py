@@ -163,17 +163,22 @@ def test_mean_of_three_lines_is_scipy_uniform_filter() -> None:
                                    uniform_filter1d(x, 3, mode="nearest"), rtol=1e-12)
 
 
+def _three_modes_to_refine(seed: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Three modes in 50-150 Hz (3 channels, 40 dB): the lines, the FRFs,
+    the true poles and start poles 0.2 % off them."""
+    f = np.linspace(50.0, 150.0, 801)
+    fn, zeta = np.array([70.0, 100.0, 125.0]), np.array([0.01, 0.008, 0.012])
+    H, lam = _modes(np.random.default_rng(seed), f, fn, zeta, n_ch=3, snr_db=40.0)
+    return f, H, lam, lam * (1 + 0.002)
+
+
 def test_refining_some_modes_gives_them_the_numbers_of_refining_all() -> None:
     """``refine_poles(..., modes=...)``: each mode's local fit is its own, so
     the modes refined alone have the numbers of the full refinement to the
     last bit; the others keep their start poles with a NaN covariance."""
     from ema_pipeline.identification.refinement.refine import refine_poles
 
-    rng = np.random.default_rng(3)
-    f = np.linspace(50.0, 150.0, 801)
-    fn, zeta = np.array([70.0, 100.0, 125.0]), np.array([0.01, 0.008, 0.012])
-    H, lam = _modes(rng, f, fn, zeta, n_ch=3, snr_db=40.0)
-    start = lam * (1 + 0.002)
+    f, H, lam, start = _three_modes_to_refine(seed=3)
     every = refine_poles(f, H, start, thresholds=TH)
     some = refine_poles(f, H, start, modes=[1], thresholds=TH)
     assert some.pole[1] == every.pole[1] and np.array_equal(some.cov[1], every.cov[1])
@@ -189,11 +194,7 @@ def test_a_fit_memo_gives_the_fits_of_the_same_poles_only() -> None:
     iteration budget fit again."""
     from ema_pipeline.identification.refinement.refine import FitMemo, refine_poles
 
-    rng = np.random.default_rng(5)
-    f = np.linspace(50.0, 150.0, 801)
-    fn, zeta = np.array([70.0, 100.0, 125.0]), np.array([0.01, 0.008, 0.012])
-    H, lam = _modes(rng, f, fn, zeta, n_ch=3, snr_db=40.0)
-    start = lam * (1 + 0.002)
+    f, H, _, start = _three_modes_to_refine(seed=5)
     every = refine_poles(f, H, start, thresholds=TH)
     memo = FitMemo()
     refine_poles(f, H, start, modes=[0, 2], thresholds=TH, memo=memo)
