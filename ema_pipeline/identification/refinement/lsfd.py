@@ -200,6 +200,22 @@ def lsfd(
     return _solve(freq_hz, H, poles, quantity, lower, upper, weights)
 
 
+def lsfd_residual(freq_hz: np.ndarray, H: np.ndarray, poles: np.ndarray,
+                  quantity: str) -> np.ndarray:
+    """``H`` less the global LSFD of ``poles`` (with the residual terms of
+    ``quantity``), (n_ch, n_freq).
+
+    Examples
+    --------
+    >>> f = np.linspace(50.0, 150.0, 201)
+    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
+    >>> H = (1 / (2j * np.pi * f - lam[0]) + 1 / (2j * np.pi * f - lam[0].conj()))[None]
+    >>> bool(np.max(np.abs(lsfd_residual(f, H, lam, "receptance"))) < 1e-10)
+    True
+    """
+    return np.asarray(H - lsfd(freq_hz, H, poles, quantity).H_fit)
+
+
 #: A QR factor whose diagonal's smallest magnitude is below this fraction of
 #: its largest is numerically singular: the least-squares solutions then
 #: take the SVD's minimum-norm path (:func:`least_squares`, :func:`qr_factor`,
@@ -339,7 +355,7 @@ class GrowingResidual:
     def residual(self) -> np.ndarray:
         """(n_ch, n_freq) complex  ``H`` less the LSFD of the poles so far."""
         if self.factor is None:
-            return np.asarray(self.H - lsfd(self.freq_hz, self.H, self.poles, self.quantity).H_fit)
+            return lsfd_residual(self.freq_hz, self.H, self.poles, self.quantity)
         qr, tau, qty = self.factor
         k = qr.shape[1]
         rest = qty.copy()

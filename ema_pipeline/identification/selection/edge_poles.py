@@ -37,13 +37,13 @@ from dataclasses import replace
 import numpy as np
 
 from ema_pipeline.identification.refinement.local_band import local_problem
+from ema_pipeline.identification.refinement.lsfd import lsfd_residual
 from ema_pipeline.identification.refinement.refine import refine_poles
 from ema_pipeline.identification.selection.not_kept import half_width_hz, visible_peaks
 from ema_pipeline.identification.selection.residual_search import (
     is_physical,
     near,
     peak_pole,
-    residual,
     residual_ratio,
 )
 from ema_pipeline.identification.thresholds import SelectionThresholds
@@ -100,7 +100,7 @@ def widened_band(
     if n < 16 or pole.size == 0:
         return None
     try:
-        raw = residual_ratio(residual(freq_hz, H, pole, quantity))
+        raw = residual_ratio(lsfd_residual(freq_hz, H, pole, quantity))
     except (np.linalg.LinAlgError, ValueError):
         return None
     lo, hi = float(freq_hz[0]), float(freq_hz[-1])
@@ -228,7 +228,7 @@ def edge_poles(
     complete = True
     while start.size < th.max_residual_peaks:
         try:
-            R = residual(freq_hz, H, np.concatenate([kept, start]), quantity)
+            R = lsfd_residual(freq_hz, H, np.concatenate([kept, start]), quantity)
         except (np.linalg.LinAlgError, ValueError):
             complete = False
             break

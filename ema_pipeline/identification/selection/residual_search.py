@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ema_pipeline.identification.refinement.lsfd import GrowingResidual, lsfd
+from ema_pipeline.identification.refinement.lsfd import GrowingResidual
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.modal import pole_fd_hz, pole_half_width_hz
 
@@ -76,20 +76,6 @@ def mean_of_three_lines(x: np.ndarray) -> np.ndarray:
     padded = np.concatenate((x[:1], x, x[-1:]))
     first = padded[0] + padded[1] + padded[2]
     return np.add.accumulate(np.concatenate(([first], padded[3:] - padded[:-3]))) / 3.0
-
-
-def residual(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str) -> np.ndarray:
-    """``H`` less the global LSFD of ``pole`` (with the residual terms), (n_ch, n_freq).
-
-    Examples
-    --------
-    >>> f = np.linspace(50.0, 150.0, 201)
-    >>> lam = np.array([-2.0 + 2j * np.pi * 100.0])
-    >>> H = (1 / (2j * np.pi * f - lam[0]) + 1 / (2j * np.pi * f - lam[0].conj()))[None]
-    >>> bool(np.max(np.abs(residual(f, H, lam, "receptance"))) < 1e-10)
-    True
-    """
-    return np.asarray(H - lsfd(freq_hz, H, pole, quantity).H_fit)
 
 
 def residual_peaks(
