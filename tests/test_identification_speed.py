@@ -129,3 +129,33 @@ def test_whitened_numerators_are_the_triangular_solve_of_all_outputs():
     for o in range(n_out):
         np.testing.assert_allclose(got[o * q:(o + 1) * q], np.linalg.solve(L, S[o]),
                                    rtol=1e-12, atol=1e-12)
+
+
+def test_distinct_shapes_solves_an_lsfd_only_for_neighbours_within_their_widths(monkeypatch):
+    """Both duplicate tests of ``distinct_shapes`` judge neighbours closer
+    than the sum of their decay rates; poles further apart keep their
+    verdict without the LSFD of their shapes (none is solved), while a
+    pair within that distance is still judged by it (one mode found twice:
+    one of the two is dropped)."""
+    from ema_pipeline.identification.selection import acceptance
+    from ema_pipeline.identification.thresholds import SelectionThresholds
+
+    th = SelectionThresholds()
+    f = np.linspace(60.0, 160.0, 2001)
+    jw = 2j * np.pi * f
+    shape = np.array([1.0, 0.8, -0.6])
+    solved = []
+    real_lsfd = acceptance.lsfd
+
+    def counted(*args, **kwargs):
+        solved.append(args[2].size)
+        return real_lsfd(*args, **kwargs)
+
+    monkeypatch.setattr(acceptance, "lsfd", counted)
+    for fd_hz, expect_solved, expect_kept in (((90.0, 130.0), [], 2), ((100.0, 100.02), [2], 1)):
+        lam = -1.5 + 2j * np.pi * np.array(fd_hz)  # decay rates 1.5 1/s: 0.24 Hz half-widths
+        H = sum(shape[:, None] / (jw - p) + shape[:, None] / (jw - np.conj(p)) for p in lam)
+        solved.clear()
+        kept = acceptance.distinct_shapes(f, H, lam, "receptance", np.ones(2, bool),
+                                          thresholds=th)
+        assert solved == expect_solved and int(kept.sum()) == expect_kept, (fd_hz, solved, kept)

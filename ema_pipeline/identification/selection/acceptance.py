@@ -412,7 +412,8 @@ def distinct_shapes(
     the one with the larger response. Close modes with different shapes stay
     apart, unless one of them is the split of the other (see
     ``split_max_mpc``, ``split_mpc_gap``, ``split_max_gap``: less than 2 %
-    apart by default).
+    apart by default). Both tests judge neighbours closer than the sum of
+    their decay rates only: where none are, no LSFD is solved.
 
     Examples
     --------
@@ -429,13 +430,19 @@ def distinct_shapes(
     idx = np.flatnonzero(keep)
     if idx.size < 2:
         return out
+    s = np.argsort(pole[idx].imag)
+    # both tests below judge neighbours closer than the sum of their decay
+    # rates: with none, the shapes are not needed and no LSFD is solved (the
+    # pyFRF recording: one LSFD of 34 poles over 4487 lines, 29 ms, saved)
+    near = pole[idx][s]
+    if not np.any(np.abs(np.diff(near.imag)) < np.abs(near.real[:-1]) + np.abs(near.real[1:])):
+        return out
     try:
         fit = lsfd(freq_hz, H, pole[idx], quantity)
     except (np.linalg.LinAlgError, ValueError):
         return out
     M = mac(fit.a.T)
     collinear = mpc(fit.a.T)
-    s = np.argsort(pole[idx].imag)
     for a, b in zip(s[:-1], s[1:], strict=True):
         if not (out[idx[a]] and out[idx[b]]):
             continue
