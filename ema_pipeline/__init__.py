@@ -1,15 +1,27 @@
 """ema-pipeline: experimental modal analysis from impact-test FRFs to modal and
-local added mass (see README.md)."""
+local added mass (see README.md).
 
-from ema_pipeline.data import (
-    DOF,
-    AcquisitionInfo,
-    DataError,
-    EMAError,
-    FRFSet,
-    ModalParameters,
-    Provenance,
-)
+The package's own names (:class:`FRFSet`, :class:`ModalParameters`, ...) come
+from :mod:`ema_pipeline.data` when first used, so that importing a part of the
+package (the command line's entry point, :mod:`ema_pipeline.threads`) does not
+load numpy: the entry point sets the process's BLAS thread variables before
+numpy and scipy load their BLAS libraries (:func:`ema_pipeline.cli.run`).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ema_pipeline.data import (
+        DOF,
+        AcquisitionInfo,
+        DataError,
+        EMAError,
+        FRFSet,
+        ModalParameters,
+        Provenance,
+    )
 
 __version__ = "0.1.0"
 
@@ -23,3 +35,16 @@ __all__ = [
     "Provenance",
     "__version__",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    """The names of :mod:`ema_pipeline.data` in ``__all__``, imported on first use."""
+    if name in __all__:
+        from ema_pipeline import data
+
+        return getattr(data, name)
+    raise AttributeError(f"module 'ema_pipeline' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -16,7 +16,9 @@ from ema_pipeline.identification.core import identify
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.threads import (
     BLAS_THREADS_ENV,
+    THREAD_VARIABLES,
     blas_threads,
+    entry_thread_environment,
     owned_blas_threads,
     thread_environment,
 )
@@ -90,8 +92,13 @@ def test_bad_thread_variables_are_refused_by_name(monkeypatch, text, capsys):
 def test_thread_environment(monkeypatch):
     monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
     assert thread_environment()["OPENBLAS_NUM_THREADS"] == "1"
+    assert entry_thread_environment() == thread_environment()
+    monkeypatch.setenv(BLAS_THREADS_ENV, "3")
+    assert entry_thread_environment()["OPENBLAS_NUM_THREADS"] == "3"
     monkeypatch.setenv(BLAS_THREADS_ENV, "auto")
-    assert thread_environment() == {}
+    assert thread_environment() == {} == entry_thread_environment()
+    monkeypatch.setenv(BLAS_THREADS_ENV, "0")  # invalid: left to the command's refusal
+    assert entry_thread_environment() == {}
 
 
 def _same_modes(a, b) -> None:
@@ -128,3 +135,59 @@ def test_same_modes_whatever_the_last_bits():
     rng = np.random.default_rng(1)
     H = case.frf.H * (1 + 1e-12 * rng.standard_normal(case.frf.H.shape))
     _same_modes(base, identify(replace(case.frf, H=H), band_hz=case.band_hz))
+
+
+def _entry_threads(tmp_path, blas_setting: str | None) -> tuple[int, str]:
+    """The OS threads of a command's process at its exit (started as the
+    ``ema-pipeline`` script starts it: :func:`ema_pipeline.cli.run`) and its
+    stderr; no thread variable in its environment."""
+    import os
+    import subprocess
+    import sys
+
+    code = ("import atexit, os, sys; from ema_pipeline.cli import run; "
+            "sys.argv = ['ema-pipeline', 'identify', 'missing.uff', '--out', 'out']; "
+            "atexit.register(lambda: print(len(os.listdir('/proc/self/task')))); "
+            "sys.exit(run())")
+    env = {k: v for k, v in os.environ.items()
+           if k not in (*THREAD_VARIABLES, BLAS_THREADS_ENV)}
+    if blas_setting is not None:
+        env[BLAS_THREADS_ENV] = blas_setting
+    done = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2  # missing.uff: refused after start-up
+    return int(done.stdout.split()[-1]), done.stderr
+
+
+def test_the_command_starts_no_blas_threads_of_its_own(tmp_path):
+    """The entry point sets the thread variables before numpy loads its BLAS:
+    the process has its one thread, where a BLAS loaded with its default
+    (``auto``: left to BLAS) starts one per core, idle beside the work."""
+    import os
+
+    if not os.path.isdir("/proc/self/task"):
+        pytest.skip("counting a process's threads needs Linux's /proc")
+    assert _entry_threads(tmp_path, None)[0] == 1
+    assert _entry_threads(tmp_path, "1")[0] == 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else 1
+    if cores >= 2 and _blas_counts():
+        assert _entry_threads(tmp_path, "auto")[0] > 1
+    threads, err = _entry_threads(tmp_path, "two")  # refused by name, as before
+    assert BLAS_THREADS_ENV in err and "positive integer" in err
+
+
+def test_the_entry_point_imports_no_numpy_before_it_sets_the_threads():
+    """What :func:`ema_pipeline.cli.run` relies on: importing the package,
+    its command-line package and :mod:`ema_pipeline.threads` loads no numpy
+    (the names of the package and of the command line load on first use)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, ema_pipeline, ema_pipeline.cli, ema_pipeline.threads; "
+            "print('numpy' in sys.modules); from ema_pipeline import FRFSet; "
+            "from ema_pipeline.cli import build_parser, main; "
+            "print('numpy' in sys.modules, FRFSet.__name__, callable(main), "
+            "callable(build_parser))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert done.stdout.split() == ["False", "True", "FRFSet", "True", "True"]

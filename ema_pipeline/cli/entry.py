@@ -1,11 +1,11 @@
-"""The entry point :func:`main`: parse, run the subcommand's handler, and turn
-exceptions into one-line errors on stderr and the exit statuses of
-:mod:`ema_pipeline.cli.support`."""
+"""The command line's :func:`main`: parse, run the subcommand's handler, and
+turn exceptions into one-line errors on stderr and the exit statuses of
+:mod:`ema_pipeline.cli.support` (the process's entry point is
+:func:`ema_pipeline.cli.run`)."""
 
 from __future__ import annotations
 
 import argparse
-import gc
 import sys
 from collections.abc import Callable
 
@@ -20,7 +20,7 @@ from ema_pipeline.cli.support import (
 from ema_pipeline.data import EMAError
 from ema_pipeline.threads import owned_blas_threads, thread_variables
 
-__all__ = ["main", "run"]
+__all__ = ["main"]
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -55,33 +55,6 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"ema-pipeline {args.command}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-
-
-def run() -> int:
-    """The process's own entry point (the ``ema-pipeline`` script, ``python -m
-    ema_pipeline``): :func:`main`, then the objects that exist at that moment
-    frozen (``gc.freeze``), so that the interpreter's exit does not walk
-    them all again in its final garbage collections (the walk over the
-    objects of numpy, scipy and h5py was a measurable share of every
-    command: docs/validation.md). Every output is written, closed and renamed into place before
-    :func:`main` returns, and the exit handlers (``atexit``) still run. Code
-    that calls :func:`main` in its own process (the tests) is not affected.
-
-    Examples
-    --------
-    >>> import subprocess, sys, tempfile
-    >>> code = ("import atexit, gc, sys; from ema_pipeline.cli import run; "
-    ...         "sys.argv = ['ema-pipeline', 'identify', 'missing.uff', '--out', 'out']; "
-    ...         "atexit.register(lambda: print(gc.get_freeze_count() > 0)); sys.exit(run())")
-    >>> with tempfile.TemporaryDirectory() as folder:
-    ...     done = subprocess.run([sys.executable, "-c", code], cwd=folder,
-    ...                           capture_output=True, text=True)
-    >>> done.returncode, done.stdout.strip()
-    (2, 'True')
-    """
-    status = main()
-    gc.freeze()
-    return status
 
 
 def _one_line(message: object) -> str:
