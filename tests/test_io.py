@@ -42,6 +42,23 @@ def test_hdf5_round_trip_is_exact_and_carries_schema(frf, tmp_path):
     assert not list(tmp_path.glob(".*.tmp"))  # no temporary left behind
 
 
+def test_frf_files_are_compressed_and_results_files_are_not(frf, tmp_path):
+    """FRF files (kept measurements) are gzip compressed; a results file,
+    written after every identification, stores its FRFs and arrays as they
+    are (faster to write); both read back exactly."""
+    frf_path = io.write_frf_h5(frf, tmp_path / "frf.h5")
+    stab = np.linspace(0.0, 1.0, 5000)  # an array as large as a diagram's
+    res_path = io.write_results_h5({"frf": frf, "extra": {"stab": stab}}, tmp_path / "res.h5")
+    with h5py.File(frf_path) as a, h5py.File(res_path) as b:
+        assert a["frf/H"].compression == "gzip" and a["frf/coherence"].compression == "gzip"
+        assert b["frf/H"].compression is None and b["frf/coherence"].compression is None
+        assert b["extra/stab"].compression is None
+        np.testing.assert_array_equal(b["extra/stab"][()], stab)
+    _assert_same(frf, io.read_frf(frf_path), 0.0)
+    _assert_same(frf, io.read_frf_from_results(res_path, "frf"), 0.0)
+    assert frf_path.stat().st_size < 0.95 * res_path.stat().st_size  # what gzip saves
+
+
 @pytest.mark.parametrize("binary, rtol", [(False, 1e-11), (True, 0.0)])
 def test_uff_round_trip(frf, tmp_path, binary, rtol):
     path = io.write_frf_uff(frf, tmp_path / "x.uff", binary=binary, coherence=True)
