@@ -57,6 +57,7 @@ __all__ = [
     "WorkerCrashed",
     "available_cores",
     "checked_fork",
+    "deal_by_cost",
     "fork_is_safe",
     "in_worker",
     "map_costliest_first",
@@ -532,26 +533,55 @@ def map_costliest_first(map_: Mapper, func: Callable[[T], R], items: Sequence[T]
 
 
 def map_each(map_: Mapper | None, func_all: Callable[[list[T]], list[R]], items: list[T],
-             min_items: int) -> list[R]:
+             min_items: int, cost: Sequence[float] | None = None) -> list[R]:
     """``func_all(items)`` (one result per item, in order), shared out among
-    the worker processes of ``map_`` in round-robin shares (:func:`split`)
-    when it has two or more and there are at least ``min_items`` items; the
-    results are put back in the order of ``items``, so they are the serial
-    run's. ``func_all`` must be picklable (a bound method of a frozen
-    dataclass holding the data, a module-level function).
+    the worker processes of ``map_`` when it has two or more and there are
+    at least ``min_items`` items; the results are put back in the order of
+    ``items``, so they are the serial run's. ``func_all`` must be picklable
+    (a bound method of a frozen dataclass holding the data, a module-level
+    function). The shares are dealt round-robin (:func:`split`) or, with
+    ``cost`` (an estimate per item, any unit), costliest first, each item to
+    the share with the least cost so far (:func:`deal_by_cost`): one share
+    then seldom holds the few long items while the other workers idle.
 
     Examples
     --------
     >>> map_each(None, lambda xs: [x * x for x in xs], [1, 2, 3], 2)
     [1, 4, 9]
-    >>> map_each(SerialMap(), lambda xs: [-x for x in xs], [1, 2, 3], 2)
+    >>> map_each(SerialMap(), lambda xs: [-x for x in xs], [1, 2, 3], 2, cost=[1, 5, 2])
     [-1, -2, -3]
     """
     if map_ is None or map_.workers < 2 or len(items) < min_items:
         return func_all(items)
-    shares = split(items, map_.workers)
-    done = map_(func_all, shares)
+    if cost is None:
+        dealt = split(list(range(len(items))), map_.workers)
+    else:
+        dealt = deal_by_cost(cost, map_.workers)
+    done = map_(func_all, [[items[k] for k in share] for share in dealt])
     out: list[R] = [None] * len(items)  # type: ignore[list-item]
-    for k, results in enumerate(done):  # share k holds items k, k + n, k + 2n, ...
-        out[k :: len(shares)] = results
+    for share, results in zip(dealt, done, strict=True):
+        for k, result in zip(share, results, strict=True):
+            out[k] = result
     return out
+
+
+def deal_by_cost(cost: Sequence[float], n: int) -> list[list[int]]:
+    """The indices of ``cost`` dealt into at most ``n`` non-empty shares,
+    costliest first, each to the share with the least total so far (the
+    longest-processing-time rule; ties: the item first in the list, the
+    lowest share). Each share keeps its items in ascending order.
+
+    Examples
+    --------
+    >>> deal_by_cost([1.0, 9.0, 4.0, 3.0, 2.0], 2)
+    [[0, 1], [2, 3, 4]]
+    >>> deal_by_cost([5.0], 3)
+    [[0]]
+    """
+    shares: list[list[int]] = [[] for _ in range(min(n, len(cost)))]
+    totals = [0.0] * len(shares)
+    for k in sorted(range(len(cost)), key=lambda k: -cost[k]):  # stable on ties
+        least = totals.index(min(totals))
+        shares[least].append(k)
+        totals[least] += float(cost[k])
+    return [sorted(share) for share in shares]

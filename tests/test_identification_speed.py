@@ -159,3 +159,26 @@ def test_distinct_shapes_solves_an_lsfd_only_for_neighbours_within_their_widths(
         kept = acceptance.distinct_shapes(f, H, lam, "receptance", np.ones(2, bool),
                                           thresholds=th)
         assert solved == expect_solved and int(kept.sum()) == expect_kept, (fd_hz, solved, kept)
+
+
+def test_local_sizes_are_the_local_problems_lines_times_columns():
+    """The cost estimate that deals the local fits to the workers
+    (``local_sizes``) counts what :func:`local_problem` cuts: each mode's
+    band lines times two columns per member pole and three of the
+    background, at the refinement's and at the split fits' widths, close
+    modes (several members) and isolated ones."""
+    from ema_pipeline.identification.refinement.local_band import local_problem, local_sizes
+    from ema_pipeline.identification.thresholds import SelectionThresholds
+
+    th = SelectionThresholds()
+    f = np.linspace(5.0, 400.0, 3951)
+    fn = np.array([20.0, 100.0, 101.0, 102.5, 250.0, 390.0])
+    lam = -np.array([0.02, 0.005, 0.005, 0.01, 0.001, 0.01]) * 2 * np.pi * fn + 2j * np.pi * fn
+    H = np.ones((1, f.size), complex)
+    for half_width in (th.local_half_width, th.split_half_width):
+        sizes = local_sizes(f, lam, half_width, th.local_min_lines, thresholds=th)
+        for r in range(lam.size):
+            fl, Y, members, background, _, _ = local_problem(f, H, lam, r, half_width,
+                                                             th.local_min_lines, thresholds=th)
+            assert sizes[r] == fl.size * (2 * members.size + background.shape[1])
+        assert sizes[1] > sizes[4]  # the close trio shares its bands

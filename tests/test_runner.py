@@ -499,3 +499,52 @@ def test_run_gives_each_identification_its_workers(monkeypatch, tmp_path, exampl
     monkeypatch.setenv(WORKERS_ENV, "2")
     assert main([*argv, "--results", str(tmp_path / "b")]) == 0
     assert seen == [2, 2, 2]
+
+
+def test_map_each_deals_by_cost_and_gives_the_serial_results(monkeypatch):
+    """With ``cost``, ``map_each`` deals the items costliest first to the
+    share with the least cost so far (the two long fits go to different
+    workers, where round-robin put both in one share) and puts the results
+    back in the items' order; the refinement passes its local fits' sizes
+    (:func:`local_sizes`), and refining with two workers gives the serial
+    numbers."""
+    from ema_pipeline.identification.refinement import refine
+    from ema_pipeline.identification.refinement.local_band import local_sizes
+    from ema_pipeline.runner import SerialMap, deal_by_cost, map_each, split
+
+    cost = [9.0, 1.0, 8.0, 1.0, 1.0, 1.0]
+    assert split(list(range(6)), 2) == [[0, 2, 4], [1, 3, 5]]  # both long ones together
+    shares = deal_by_cost(cost, 2)
+    assert [0 in s and 2 in s for s in shares] == [False, False]
+    assert sorted(k for s in shares for k in s) == list(range(6))
+
+    class Recorded(SerialMap):
+        workers = 2
+        seen: list = []
+
+        def __call__(self, func, items):
+            items = list(items)
+            self.seen.append(items)
+            return [func(item) for item in items]
+
+    out = map_each(Recorded(), lambda xs: [10 * x for x in xs], [5, 6, 7, 8, 9, 10], 2, cost)
+    assert out == [50, 60, 70, 80, 90, 100]
+    assert Recorded.seen[-1] == [[[5, 6, 7, 8, 9, 10][k] for k in s] for s in shares]
+
+    # the refinement deals its fits by their sizes and keeps the serial numbers
+    th = SelectionThresholds()
+    f = np.linspace(50.0, 250.0, 2001)
+    fn = np.array([80.0, 120.0, 121.5, 123.0, 180.0, 220.0])
+    lam = -0.01 * 2 * np.pi * fn + 2j * np.pi * fn
+    jw = 2j * np.pi * f
+    H = sum(1 / (jw - p) + 1 / (jw - p.conj()) for p in lam)[None]
+    H = H + 1e-4 * np.random.default_rng(0).standard_normal(H.shape)
+    serial = refine.refine_poles(f, H, lam * (1 + 1e-4), quantity="receptance", thresholds=th)
+    Recorded.seen = []
+    dealt = refine.refine_poles(f, H, lam * (1 + 1e-4), quantity="receptance", thresholds=th,
+                                map_=Recorded())
+    np.testing.assert_array_equal(dealt.pole, serial.pole)
+    np.testing.assert_array_equal(dealt.cov, serial.cov)
+    sizes = local_sizes(f, lam * (1 + 1e-4), th.local_half_width, th.local_min_lines,
+                        thresholds=th)
+    assert Recorded.seen == [[list(s) for s in deal_by_cost(sizes, 2)]]

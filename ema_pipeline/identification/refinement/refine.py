@@ -35,6 +35,7 @@ from ema_pipeline.identification.refinement.local_band import (
     background_columns,
     global_residues,
     local_problem,
+    local_sizes,
     pole_jacobian_factors,
 )
 from ema_pipeline.identification.refinement.uncertainty import (
@@ -522,7 +523,9 @@ def _refine(
                      force_window_s, th, covariance)
     todo = list(range(m)) if modes is None else [int(r) for r in modes]
     new = [r for r in todo if r not in known]
-    known.update(zip(new, map_each(map_, fits.fit_all, new, PARALLEL_MIN_MODES), strict=True))
+    cost = local_sizes(freq_hz, poles, half_width, th.local_min_lines, thresholds=th)[new]
+    known.update(zip(new, map_each(map_, fits.fit_all, new, PARALLEL_MIN_MODES, cost),
+                     strict=True))
     if memo is not None:
         memo.taken += len(todo) - len(new)
     for r in todo:

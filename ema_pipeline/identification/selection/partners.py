@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ema_pipeline.identification.refinement.local_band import local_sizes
 from ema_pipeline.identification.refinement.local_fits import (
     local_shapes,
     split_fit,
@@ -139,7 +140,9 @@ def close_partners(
         return none
     search = PartnerSearch(freq_hz, H, pole, quantity, window_tau_s, force_window_s,
                            residues, th)
-    splits = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES)
+    cost = local_sizes(freq_hz, pole, th.split_half_width, th.local_min_lines, thresholds=th)
+    splits = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES,
+                      cost)
     calibration = SplitCalibration(search, tuple(splits), map_) if (
         H.shape[0] < th.min_shape_channels) else none.calibration
     found = [(s.pole, s.significance) for s in splits]
