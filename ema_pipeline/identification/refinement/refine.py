@@ -523,7 +523,7 @@ def _refine(
                      force_window_s, th, covariance)
     todo = list(range(m)) if modes is None else [int(r) for r in modes]
     new = [r for r in todo if r not in known]
-    cost = local_sizes(freq_hz, poles, half_width, th.local_min_lines, thresholds=th)[new]
+    cost = local_sizes(freq_hz, poles, half_width, th.local_min_lines, thresholds=th)[new].tolist()
     known.update(zip(new, map_each(map_, fits.fit_all, new, PARALLEL_MIN_MODES, cost),
                      strict=True))
     if memo is not None:

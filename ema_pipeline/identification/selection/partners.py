@@ -140,7 +140,8 @@ def close_partners(
         return none
     search = PartnerSearch(freq_hz, H, pole, quantity, window_tau_s, force_window_s,
                            residues, th)
-    cost = local_sizes(freq_hz, pole, th.split_half_width, th.local_min_lines, thresholds=th)
+    cost = local_sizes(freq_hz, pole, th.split_half_width, th.local_min_lines,
+                       thresholds=th).tolist()
     splits = map_each(map_, search.partners_of, list(range(pole.size)), PARALLEL_MIN_MODES,
                       cost)
     calibration = SplitCalibration(search, tuple(splits), map_) if (
