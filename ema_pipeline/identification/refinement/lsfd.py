@@ -300,15 +300,34 @@ def least_squares(A: np.ndarray, Y: np.ndarray) -> np.ndarray:
     """
     n, k = A.shape
     if A.dtype == np.float64 and Y.dtype == np.float64 and n >= k > 0:
-        qr, tau, _, info = lapack.dgeqrf(A)
-        if info == 0 and r_determined(qr):
-            QtY, info = reflected(qr, tau, Y, "T")
-            if info == 0 and np.all(np.isfinite(QtY[:k])):
-                X, info = lapack.dtrtrs(qr[:k], QtY[:k], lower=0)
-                if info == 0:
-                    return np.asarray(X)
+        QtY = None
+        if k >= BLOCKED_QR_MIN_COLUMNS:
+            # the blocked Householder QR (compact WY, dgeqrt) and its Q^T Y
+            # (dgemqrt): matrix products where dgeqrf's unblocked code for
+            # fewer than 128 columns updates one column at a time
+            qr, T, info = lapack.dgeqrt(QR_BLOCK, A)
+            if info == 0 and r_determined(qr):
+                QtY, info = lapack.dgemqrt(qr, T, Y, side="L", trans="T")
+        else:
+            qr, tau, _, info = lapack.dgeqrf(A)
+            if info == 0 and r_determined(qr):
+                QtY, info = reflected(qr, tau, Y, "T")
+        if QtY is not None and info == 0 and np.all(np.isfinite(QtY[:k])):
+            X, info = lapack.dtrtrs(qr[:k], QtY[:k], lower=0)
+            if info == 0:
+                return np.asarray(X)
     Q, R, triangular = qr_factor(A)
     return solve_r(R, Q.T @ Y, triangular)
+
+
+#: Columns from which :func:`least_squares` factorises with LAPACK's blocked
+#: Householder QR (``dgeqrt``, blocks of :data:`QR_BLOCK` columns) instead of
+#: ``dgeqrf``, whose blocked code starts only at 128 columns: a whole band's
+#: LSFD of 35 poles over 4487 lines (8972 x 74) 14.4 -> 4.9 ms, 8972 x 40
+#: 3.0 -> 1.7 ms, 16386 x 20 1.6 -> 1.1 ms; below 16 columns no faster. The
+#: same factorisation to rounding (both are Householder's).
+BLOCKED_QR_MIN_COLUMNS = 16
+QR_BLOCK = 16
 
 
 class GrowingResidual:
