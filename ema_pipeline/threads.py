@@ -88,6 +88,18 @@ def _positive_int(text: str) -> int | None:
     return value if value >= 1 else None
 
 
+def _blas_setting() -> tuple[str, bool, int | None]:
+    """``$EMA_PIPELINE_BLAS_THREADS`` read: its text, whether it is valid, and
+    the threads it asks for (1 when unset or empty, None for ``auto``)."""
+    text = os.environ.get(BLAS_THREADS_ENV, "").strip()
+    if not text:
+        return text, True, 1
+    if text.lower() == "auto":
+        return text, True, None
+    n = _positive_int(text)
+    return text, n is not None, n
+
+
 def blas_threads() -> int | None:
     """BLAS threads per process: 1, or ``$EMA_PIPELINE_BLAS_THREADS``
     (``None`` for ``auto``: leave them to BLAS).
@@ -98,12 +110,8 @@ def blas_threads() -> int | None:
     >>> blas_threads() if BLAS_THREADS_ENV not in os.environ else 1
     1
     """
-    text = os.environ.get(BLAS_THREADS_ENV, "").strip()
-    if not text:
-        return 1
-    if text.lower() == "auto":
-        return None
-    return positive_int_setting(BLAS_THREADS_ENV, text)
+    text, valid, n = _blas_setting()
+    return n if valid else positive_int_setting(BLAS_THREADS_ENV, text)  # refused by name
 
 
 @contextlib.contextmanager
@@ -171,15 +179,17 @@ def entry_thread_environment() -> dict[str, str]:
     >>> env == thread_environment() if BLAS_THREADS_ENV not in os.environ else True
     True
     """
-    text = os.environ.get(BLAS_THREADS_ENV, "").strip()
-    if text and text.lower() != "auto" and _positive_int(text) is None:
-        return {}
-    return thread_environment()
+    _, valid, n = _blas_setting()
+    return _variables(n) if valid else {}
 
 
 def thread_environment() -> dict[str, str]:
     """The thread variables for a process that loads BLAS after this call
     (a child process, or this one before it imports numpy): each of
     :data:`THREAD_VARIABLES` at :func:`blas_threads` (none for ``auto``)."""
-    n = blas_threads()
+    return _variables(blas_threads())
+
+
+def _variables(n: int | None) -> dict[str, str]:
+    """Each of :data:`THREAD_VARIABLES` at ``n`` threads (none for None: ``auto``)."""
     return {} if n is None else {name: str(n) for name in THREAD_VARIABLES}
