@@ -397,6 +397,21 @@ def test_ctrl_c_of_identify_with_workers_stops_within_2_s(tmp_path):
 
 
 # ------------------------------------------------------------------ maps
+class RecordingMap(runner.SerialMap):
+    """A two-worker :class:`~ema_pipeline.runner.Mapper` that runs in this
+    process and records the items of each call (``calls``)."""
+
+    workers = 2
+
+    def __init__(self) -> None:
+        self.calls: list[list] = []
+
+    def __call__(self, func, items):
+        items = list(items)
+        self.calls.append(items)
+        return [func(item) for item in items]
+
+
 def test_windows_go_to_the_workers_longest_first_and_come_back_in_order(monkeypatch):
     """``add_window_modes`` hands the windows' searches to the workers'
     map longest first (more lines: a higher order cap, more work; a long
@@ -405,8 +420,6 @@ def test_windows_go_to_the_workers_longest_first_and_come_back_in_order(monkeypa
     loop's."""
     from ema_pipeline.identification.diagram import order_search
     from ema_pipeline.identification.result import SelectedPoles
-    from ema_pipeline.runner import SerialMap
-
     fn = np.geomspace(20.0, 900.0, 18)  # ever wider windows up the band
     lam = -0.01 * 2 * np.pi * fn + 2j * np.pi * fn
     sel = SelectedPoles(lam, np.arange(18), np.full(18, 10), np.zeros(18), np.zeros(18),
@@ -418,25 +431,18 @@ def test_windows_go_to_the_workers_longest_first_and_come_back_in_order(monkeypa
         return SelectedPoles(np.array([mid]), np.array([0]), np.array([10]), np.zeros(1),
                              np.zeros(1), np.ones(1, int), np.zeros(1, int))
 
-    class Recorded(SerialMap):
-        workers = 2
-        seen: list = []
-
-        def __call__(self, func, items):
-            items = list(items)
-            self.seen.extend(items)
-            return [func(item) for item in items]
-
+    recorded = RecordingMap()
     monkeypatch.setattr(order_search, "search_window", one_pole_at_the_middle)
-    search = order_search.OrderSearch(None, 0.0, 0.05, 0.3, expect=False, map_=Recorded(),
+    search = order_search.OrderSearch(None, 0.0, 0.05, 0.3, expect=False, map_=recorded,
                                       thresholds=SelectionThresholds())
     _, searched = order_search.add_window_modes(sel, search, freq, np.ones((1, 1, freq.size)),
                                                 (5.0, 1000.0))
     windows = order_search.mode_windows(np.imag(lam) / (2 * np.pi), (5.0, 1000.0),
                                         thresholds=SelectionThresholds())
     assert len(windows) >= 3
-    widths = [hi - lo for lo, hi in Recorded.seen]
-    assert sorted(Recorded.seen) == sorted(windows)
+    seen = [window for call in recorded.calls for window in call]
+    widths = [hi - lo for lo, hi in seen]
+    assert sorted(seen) == sorted(windows)
     assert widths == sorted(widths, reverse=True) and widths != [hi - lo for lo, hi in windows]
     assert [w for w, _, _ in searched] == windows  # back in the windows' order
     for window, found, _ in searched:
@@ -510,7 +516,7 @@ def test_map_each_deals_by_cost_and_gives_the_serial_results(monkeypatch):
     numbers."""
     from ema_pipeline.identification.refinement import refine
     from ema_pipeline.identification.refinement.local_band import local_sizes
-    from ema_pipeline.runner import SerialMap, deal_by_cost, map_each, split
+    from ema_pipeline.runner import deal_by_cost, map_each, split
 
     cost = [9.0, 1.0, 8.0, 1.0, 1.0, 1.0]
     assert split(list(range(6)), 2) == [[0, 2, 4], [1, 3, 5]]  # both long ones together
@@ -518,18 +524,10 @@ def test_map_each_deals_by_cost_and_gives_the_serial_results(monkeypatch):
     assert [0 in s and 2 in s for s in shares] == [False, False]
     assert sorted(k for s in shares for k in s) == list(range(6))
 
-    class Recorded(SerialMap):
-        workers = 2
-        seen: list = []
-
-        def __call__(self, func, items):
-            items = list(items)
-            self.seen.append(items)
-            return [func(item) for item in items]
-
-    out = map_each(Recorded(), lambda xs: [10 * x for x in xs], [5, 6, 7, 8, 9, 10], 2, cost)
+    recorded = RecordingMap()
+    out = map_each(recorded, lambda xs: [10 * x for x in xs], [5, 6, 7, 8, 9, 10], 2, cost)
     assert out == [50, 60, 70, 80, 90, 100]
-    assert Recorded.seen[-1] == [[[5, 6, 7, 8, 9, 10][k] for k in s] for s in shares]
+    assert recorded.calls == [[[[5, 6, 7, 8, 9, 10][k] for k in s] for s in shares]]
 
     # the refinement deals its fits by their sizes and keeps the serial numbers
     th = SelectionThresholds()
@@ -540,11 +538,11 @@ def test_map_each_deals_by_cost_and_gives_the_serial_results(monkeypatch):
     H = sum(1 / (jw - p) + 1 / (jw - p.conj()) for p in lam)[None]
     H = H + 1e-4 * np.random.default_rng(0).standard_normal(H.shape)
     serial = refine.refine_poles(f, H, lam * (1 + 1e-4), quantity="receptance", thresholds=th)
-    Recorded.seen = []
+    recorded = RecordingMap()
     dealt = refine.refine_poles(f, H, lam * (1 + 1e-4), quantity="receptance", thresholds=th,
-                                map_=Recorded())
+                                map_=recorded)
     np.testing.assert_array_equal(dealt.pole, serial.pole)
     np.testing.assert_array_equal(dealt.cov, serial.cov)
     sizes = local_sizes(f, lam * (1 + 1e-4), th.local_half_width, th.local_min_lines,
                         thresholds=th)
-    assert Recorded.seen == [[list(s) for s in deal_by_cost(sizes, 2)]]
+    assert recorded.calls == [[list(s) for s in deal_by_cost(sizes, 2)]]
