@@ -45,6 +45,8 @@ from ema_pipeline.io.uff_units import SI, UNIT_SYSTEMS, UnitSystem
 log = logging.getLogger("ema_pipeline.io.uff")
 
 _DELIM = re.compile(rb"(?m)^[ \t]{0,6}-1[ \t]*\r?$")
+#: the end of a delimiter line: the literal "-1" leads, which re finds fast
+_DELIM_END = re.compile(rb"(?m)-1[ \t]*\r?$")
 _BIN_CLOSE = re.compile(rb"[ \t\r\n\x00]*-1[ \t]*(?:\r?\n|\Z)")
 _NUMBER_LINE = re.compile(rb"^[ \t]*(\d+)([bB]?)\b")
 
@@ -177,7 +179,7 @@ def read_uff_file(path: Path) -> UffContents:
     pos = 0
     n_record = 0
     while True:
-        m = _DELIM.search(raw, pos)
+        m = find_delimiter(raw, pos)
         if m is None:
             rest = raw[pos:].strip(b" \t\r\n\x00\x1a")
             if rest and n_record == 0:
@@ -215,7 +217,7 @@ def read_uff_file(path: Path) -> UffContents:
                 raise DataError(f"{where}: binary datasets other than 58b are not supported")
             record, pos = _read_58b(raw, head_start, head, where)
         else:
-            close = _DELIM.search(raw, _next_line(raw, head_start))
+            close = find_delimiter(raw, _next_line(raw, head_start))
             if close is None:
                 raise DataError(
                     f"{where}: truncated Universal File: the dataset has no closing -1 delimiter"
@@ -239,6 +241,32 @@ def read_uff_file(path: Path) -> UffContents:
         text = ", ".join(f"{n} (x{c})" if c > 1 else str(n) for n, c in contents.skipped.items())
         log.info("%s: skipped datasets not needed for FRFs: %s", path, text)
     return contents
+
+
+def find_delimiter(raw: bytes, pos: int) -> re.Match[bytes] | None:
+    """The first ``-1`` delimiter line of a Universal File at or after ``pos``:
+    ``_DELIM.search(raw, pos)``, found faster. That pattern begins at a line
+    start, so ``re`` tries it at every byte of the file (3 ms for a paper
+    file's 665 kB); here the lines that end in ``-1`` are found first (a
+    pattern led by a literal) and each is matched by ``_DELIM`` at its start.
+
+    Examples
+    --------
+    >>> raw = b"    -1\\n    58\\n  1.0E-1\\n    -1\\n"
+    >>> [(m.start(), m.end()) for m in (find_delimiter(raw, 0), find_delimiter(raw, 7))]
+    [(0, 6), (23, 29)]
+    >>> [(m.start(), m.end()) for m in (_DELIM.search(raw, 0), _DELIM.search(raw, 7))]
+    [(0, 6), (23, 29)]
+    """
+    at = pos
+    while (end := _DELIM_END.search(raw, at)) is not None:
+        start = raw.rfind(b"\n", 0, end.start()) + 1
+        if start >= pos:
+            m = _DELIM.match(raw, start)
+            if m is not None:
+                return m
+        at = end.end()
+    return None
 
 
 def _next_line(raw: bytes, pos: int) -> int:
@@ -395,15 +423,17 @@ def _fixed_width(lines: list[bytes], ord_type: int, uniform: bool) -> np.ndarray
 
 
 def _read_58_ascii(body: bytes, where: str) -> Record58:
-    lines = body.split(b"\n")
+    # the 11 header lines apart, the data as one block: its values are the
+    # same whitespace-separated tokens as those of its non-blank lines
+    lines = body.split(b"\n", 11)
     head = _header([_decode(x.rstrip(b"\r")) for x in lines[:11]], where)
-    data_lines = [x for x in lines[11:] if x.strip()]
     ord_type, uniform, n = head["ord_data_type"], head["uniform"], head["n_values"]
     per_point, per_line = _layout(ord_type, uniform)  # type: ignore[arg-type]
-    blob = b" ".join(data_lines).replace(b"D", b"E").replace(b"d", b"e")
+    blob = lines[11].replace(b"D", b"E").replace(b"d", b"e") if len(lines) > 11 else b""
     try:
         values = np.array(blob.split(), dtype=float)
     except ValueError:
+        data_lines = [x for x in lines[11].split(b"\n") if x.strip()]
         try:
             values = _fixed_width(data_lines, ord_type, uniform)  # type: ignore[arg-type]
         except ValueError:
