@@ -319,3 +319,42 @@ def test_the_grown_lsfd_residual_is_a_new_lsfds() -> None:
     assert grown.factor is None
     np.testing.assert_array_equal(grown.residual(), H - lsfd(f, H, np.append(lam, lam[-1]),
                                                             "accelerance").H_fit)
+
+
+def test_a_decay_screen_skips_only_sandwiches_that_cannot_change_a_verdict(monkeypatch) -> None:
+    """``refine_poles(..., decay_screen=True)`` (the final tests' screen): a
+    pole where the data hold only noise (85 Hz, between the modes) has a
+    decay rate that the inverse Fisher matrix already leaves undetermined,
+    so its sandwich covariance is not computed; its pole and verdict are
+    those of the full refinement, its covariance that matrix's block (never
+    above the sandwich's), and its fit does not stay in the memo. A true
+    mode gets the sandwich, to the last bit."""
+    from ema_pipeline.identification.refinement import refine
+    from ema_pipeline.identification.refinement.refine import (
+        FitMemo,
+        decay_determined,
+        refine_poles,
+    )
+
+    f, H, _, start = _three_modes_to_refine(seed=7)
+    noise_pole = -2 * np.pi * 85.0 * 0.002 + 2j * np.pi * 85.0
+    start = np.insert(start, 1, noise_pole)  # modes at 70, (85: noise), 100, 125 Hz
+    full = refine_poles(f, H, start, modes=[1, 2], thresholds=TH)
+    sandwiches = []
+    real = refine.vp_covariance
+    monkeypatch.setattr(refine, "vp_covariance",
+                        lambda *a, **k: sandwiches.append(1) or real(*a, **k))
+    memo = FitMemo()
+    screened = refine_poles(f, H, start, modes=[1, 2], thresholds=TH, memo=memo,
+                            decay_screen=True)
+    assert len(sandwiches) == 1  # the true mode's only
+    np.testing.assert_array_equal(screened.pole, full.pole)
+    np.testing.assert_array_equal(screened.cov[2], full.cov[2])
+    np.testing.assert_array_equal(decay_determined(screened.pole, screened.cov, thresholds=TH),
+                                  decay_determined(full.pole, full.cov, thresholds=TH))
+    assert not decay_determined(full.pole[1:2], full.cov[1:2], thresholds=TH)[0]
+    assert 0 < screened.cov[1, 0, 0] <= full.cov[1, 0, 0]
+    assert sorted(memo.fits) == [2]  # the noise pole's fit is not left for a refinement
+    again = refine_poles(f, H, start, modes=[1, 2], thresholds=TH, memo=memo)
+    assert memo.taken == 1
+    np.testing.assert_array_equal(again.cov, full.cov)

@@ -17,11 +17,15 @@ from ema_pipeline.identification.diagram.narrower_searches import (
 )
 from ema_pipeline.identification.diagram.order_search import SearchedBand
 from ema_pipeline.identification.plscf_band import BandData
-from ema_pipeline.identification.refinement.refine import FitMemo, RefinedPoles, refine_poles
+from ema_pipeline.identification.refinement.refine import (
+    FitMemo,
+    RefinedPoles,
+    decay_determined,
+    refine_poles,
+)
 from ema_pipeline.identification.selection.acceptance import (
     Candidates,
     add_found,
-    decay_determined,
     final_tests,
     inside_band,
     refit_kept,
@@ -82,7 +86,8 @@ class Retest:
         d, th = self.data, self.data.thresholds
         ref = refine_poles(d.freq_hz, d.Hc, candidates.pole, quantity=d.quantity,
                            window_tau_s=d.window_tau_s, force_window_s=d.force_window_s,
-                           thresholds=th, map_=self.map_, modes=indices, memo=self.memo)
+                           thresholds=th, map_=self.map_, modes=indices, memo=self.memo,
+                           decay_screen=True)
         pole, cov = ref.pole[indices], ref.cov[indices]
         determined = decay_determined(pole, cov, thresholds=th)
         ok = determined & inside_band(d.freq_hz, pole, thresholds=th)

@@ -6,7 +6,8 @@ Every candidate of :func:`~ema_pipeline.identification.plscf_backend.identify_pl
 :func:`~ema_pipeline.identification.refinement.refine.refine_poles` and then judged here
 (:func:`final_tests`):
 
-1. its decay rate is determined (:func:`decay_determined`,
+1. its decay rate is determined
+   (:func:`~ema_pipeline.identification.refinement.refine.decay_determined`,
    ``max_rel_decay_std``);
 2. it is a resonance of the data (:func:`resonant`): its own peak, its peak
    over the local residual, or with 3 or more channels a nearly real shape
@@ -55,6 +56,7 @@ from ema_pipeline.identification.refinement.local_fits import (
 from ema_pipeline.identification.refinement.lsfd import lsfd, mpc
 from ema_pipeline.identification.refinement.refine import (
     RefinedPoles,
+    decay_determined,
 )
 from ema_pipeline.identification.result import SelectedPoles, found_by_code
 from ema_pipeline.identification.thresholds import SelectionThresholds
@@ -185,26 +187,6 @@ def unseen_candidates(pole: np.ndarray, found_by: str = "residual") -> SelectedP
                          np.zeros(n, int), found_by_code(found_by, n))
 
 
-def decay_determined(pole: np.ndarray, cov: np.ndarray,
-                     *, thresholds: SelectionThresholds) -> np.ndarray:
-    """True where the decay rate sigma = -Re(pole) is determined:
-    std(sigma) / sigma < ``thresholds.max_rel_decay_std``; ``cov`` (n, 2, 2)
-    is the covariance of (Re, Im) of each pole, in (rad/s)^2.
-
-    Examples
-    --------
-    >>> th = SelectionThresholds()
-    >>> pole = np.array([-2.0 + 600j, -2.0 + 900j])
-    >>> cov = np.array([np.diag([0.1, 0.1]), np.diag([2.5, 2.5])])  # std 0.32 and 1.6 rad/s
-    >>> decay_determined(pole, cov, thresholds=th).tolist()
-    [True, False]
-    """
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rel = np.sqrt(np.asarray(cov)[:, 0, 0]) / np.abs(np.real(pole))
-    limit = thresholds.max_rel_decay_std
-    return np.asarray(np.nan_to_num(rel, nan=np.inf) < limit)
-
-
 def inside_band(freq_hz: np.ndarray, pole: np.ndarray,
                 *, thresholds: SelectionThresholds) -> np.ndarray:
     """True where the damped natural frequency of ``pole`` lies inside the band
@@ -240,9 +222,10 @@ def final_tests(
     *,
     thresholds: SelectionThresholds,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Which ``refined`` poles are modes (thresholds of ``thresholds``): their decay rate is
-    determined (:func:`decay_determined`), they are resonances
-    (:func:`resonant`, judged among the determined poles only: an undetermined
+    """Which ``refined`` poles are modes (thresholds of ``thresholds``): their
+    decay rate is determined
+    (:func:`~ema_pipeline.identification.refinement.refine.decay_determined`),
+    they are resonances (:func:`resonant`, judged among the determined poles only: an undetermined
     one takes part of a neighbour's response and bends its shape) and not one
     mode twice (:func:`distinct_shapes`). ``H`` (n_ch, n_freq) the FRFs,
     ``Hn`` the same normalised per FRF. Poles marked ``partner`` (found by

@@ -163,7 +163,7 @@ def resonances_not_kept(
     ``thresholds``), away from
     the ``kept`` poles' half-power bands. Pass only candidates whose decay
     rate is determined
-    (:func:`~ema_pipeline.identification.selection.acceptance.decay_determined`).
+    (:func:`~ema_pipeline.identification.refinement.refine.decay_determined`).
     Returns their natural frequencies (Hz, ascending, one per peak) and the
     number of FRFs in which each stands out.
 

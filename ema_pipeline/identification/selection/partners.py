@@ -30,8 +30,8 @@ from ema_pipeline.identification.refinement.local_fits import (
 from ema_pipeline.identification.refinement.lsfd import lsfd, mpc
 from ema_pipeline.identification.refinement.refine import (
     PARALLEL_MIN_MODES,
+    decay_determined,
 )
-from ema_pipeline.identification.selection.acceptance import decay_determined
 from ema_pipeline.identification.selection.pairs import f_test_calibrated, pair_significance
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.runner import Mapper, map_each
