@@ -427,13 +427,14 @@ def _read_58_ascii(body: bytes, where: str) -> Record58:
     # same whitespace-separated tokens as those of its non-blank lines
     lines = body.split(b"\n", 11)
     head = _header([_decode(x.rstrip(b"\r")) for x in lines[:11]], where)
+    data = lines[11] if len(lines) > 11 else b""
     ord_type, uniform, n = head["ord_data_type"], head["uniform"], head["n_values"]
     per_point, per_line = _layout(ord_type, uniform)  # type: ignore[arg-type]
-    blob = lines[11].replace(b"D", b"E").replace(b"d", b"e") if len(lines) > 11 else b""
+    blob = data.replace(b"D", b"E").replace(b"d", b"e")
     try:
         values = np.array(blob.split(), dtype=float)
     except ValueError:
-        data_lines = [x for x in lines[11].split(b"\n") if x.strip()]
+        data_lines = [x for x in data.split(b"\n") if x.strip()]
         try:
             values = _fixed_width(data_lines, ord_type, uniform)  # type: ignore[arg-type]
         except ValueError:

@@ -542,13 +542,15 @@ class LocalFits:
             lam_r = poles[r]
         cov = np.full((2, 2), np.nan)
         sandwich = False
-        if self.covariance and self.decay_screen:
-            cov = fisher_inverse(fit.F)[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
-            sandwich = not fisher_undetermined(complex(lam_r), cov[0, 0], thresholds=th)
-        if self.covariance and (sandwich or not self.decay_screen):
-            Finv = vp_covariance(fit, self.window_tau_s, self.force_window_s)
-            cov = Finv[2 * k : 2 * k + 2, 2 * k : 2 * k + 2]
-            sandwich = True
+        if self.covariance:
+            block = slice(2 * k, 2 * k + 2)
+            fisher = fisher_inverse(fit.F)[block, block] if self.decay_screen else None
+            if fisher is not None and fisher_undetermined(complex(lam_r), fisher[0, 0],
+                                                          thresholds=th):
+                cov = fisher  # the sandwich cannot make this decay rate determined
+            else:
+                cov = vp_covariance(fit, self.window_tau_s, self.force_window_s)[block, block]
+                sandwich = True
         noise = np.sqrt(np.mean(fit.noise_std**2, axis=0))
         return complex(lam_r), cov, noise, np.asarray(band, float), int(fit.n_iter), sandwich
 
