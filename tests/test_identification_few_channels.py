@@ -221,7 +221,15 @@ def test_pair_under_one_peak_is_not_marked_where_the_f_test_shows_two_modes() ->
     assert not peaks_apart(f, H, lam[1], lam[2], thresholds=TH)
     sig = pair_significance(f, H, lam, 1, 2, "receptance", thresholds=TH)
     assert 2000 < sig < 2e4, sig
-    assert close_partners(f, H, lam, "receptance", thresholds=TH).calibrated
+    found = close_partners(f, H, lam, "receptance", thresholds=TH)
+    assert found.calibrated
+    # the splits stopped on their residual ratio (none is a partner) and are
+    # fitted to the end for the calibration: the significances of finished fits
+    search = found.calibration.search
+    assert all(s.refit and s.split_poles is None for s in found.calibration.splits)
+    finished = [search.significance(r, search.split_poles(r, search.split(r)))
+                for r in range(lam.size)]
+    assert found.calibration.significances().tolist() == finished
     th = SelectionThresholds()
     for change in ({"pair_clear_significance": 1e5}, {"partner_max_split_median": 0.0}):
         _, _, marked = _marked(frf, thresholds=replace(th, **change))

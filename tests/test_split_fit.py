@@ -37,9 +37,9 @@ def test_a_partner_on_either_side_is_found(partner_hz: float, monkeypatch) -> No
     starts: list[np.ndarray] = []
     real_fit = local_fits.vp_fit
 
-    def recorded(f, Y, poles, background, max_iter):
+    def recorded(f, Y, poles, background, max_iter, **kw):
         starts.append(poles.copy())
-        return real_fit(f, Y, poles, background, max_iter)
+        return real_fit(f, Y, poles, background, max_iter, **kw)
 
     monkeypatch.setattr(local_fits, "vp_fit", recorded)
     f, H, pole = _pair(partner_hz, seed=1)
@@ -62,3 +62,33 @@ def test_noise_alone_leaves_the_residual() -> None:
     H = H + 1e-5 * np.random.default_rng(2).standard_normal(H.shape)
     fit = split_fit(f, H, lam, 0, quantity=None, thresholds=TH)
     assert fit is not None and fit.residual_ratio > 0.8
+
+
+def test_a_split_that_fails_its_ratio_stops_with_the_same_ratio() -> None:
+    """The residual ratio is known once the second weighting round has its
+    weights: with ``max_ratio`` below it, the noise-only split stops there
+    (not finished, no covariance, fewer iterations) with the ratio of the
+    finished fit to the last bit; a true partner passes and its fit is the
+    finished one's, pole for pole."""
+    f = np.linspace(80.0, 120.0, 801)
+    lam = np.array([-np.pi + 2j * np.pi * 100.0])
+    jw = 2j * np.pi * f
+    H = np.stack([1 / (jw - lam[0]), 0.7 / (jw - lam[0])])
+    H = H + 1e-5 * np.random.default_rng(2).standard_normal(H.shape)
+    full = split_fit(f, H, lam, 0, quantity=None, thresholds=TH)
+    stopped = split_fit(f, H, lam, 0, quantity=None, max_ratio=0.75, thresholds=TH)
+    assert full.finished and not stopped.finished
+    assert full.residual_ratio > 0.8
+    assert stopped.residual_ratio == full.residual_ratio
+    assert stopped.fit.n_iter < full.fit.n_iter
+    assert np.isnan(stopped.cov).all() and np.isfinite(full.cov).all()
+    # a ratio at or below max_ratio: the finished fit, the same numbers
+    kept = split_fit(f, H, lam, 0, quantity=None, max_ratio=1.0, thresholds=TH)
+    assert kept.finished and np.array_equal(kept.pole, full.pole)
+
+    f, H, pole = _pair(100.6, seed=1)
+    full = split_fit(f, H, pole, 0, quantity=None, thresholds=TH)
+    passed = split_fit(f, H, pole, 0, quantity=None, max_ratio=0.75, thresholds=TH)
+    assert passed.finished and passed.residual_ratio < 0.01
+    assert np.array_equal(passed.pole, full.pole)
+    np.testing.assert_array_equal(passed.cov, full.cov)

@@ -169,7 +169,8 @@ class SplitFit:
 
     Attributes
     ----------
-    pole : (2,) complex   the refined pole and the extra one (rad/s)
+    pole : (2,) complex   the refined pole and the extra one (rad/s); the
+        first weighting round's where the fit is not :attr:`finished`
     residual_ratio : float  residual variance with the extra pole over without it
     cov : (2, 2, 2)       their covariance in (sigma, omega_d), (rad/s)^2,
         computed when first asked (the sandwich covariance of
@@ -182,6 +183,11 @@ class SplitFit:
     fit: VPFit = field(repr=False)
     at: tuple[int, int] = field(repr=False)
     windows_s: tuple[float | None, float | None] = field(repr=False)
+
+    @property
+    def finished(self) -> bool:
+        """False where ``max_ratio`` stopped the fit (:func:`split_fit`)."""
+        return self.fit.finished
 
     @cached_property
     def cov(self) -> np.ndarray:
@@ -203,6 +209,7 @@ def split_fit(
     window_tau_s: float | None = None,
     force_window_s: float | None = None,
     residues: np.ndarray | None = None,
+    max_ratio: float | None = None,
     thresholds: SelectionThresholds,
 ) -> SplitFit | None:
     """Refit pole r's local problem (as
@@ -221,6 +228,13 @@ def split_fit(
     near 1 (one pole more of 2 + 2 n_ch parameters among 2 n_lines n_ch
     equations). ``residues`` (n_modes, n_ch): a global LSFD of ``poles``
     (its other modes' terms are subtracted; computed when not given).
+
+    The ratio is known once the split's second weighting round has its
+    weights (:func:`~ema_pipeline.identification.refinement.refine.vp_fit`'s
+    ``go_on``): a split whose ratio is above ``max_ratio`` stops there
+    (``SplitFit.finished`` False, ``pole`` the first round's, ``cov`` NaN),
+    the same ratio without the iterations that only move its poles. On noise
+    they are most of a split's time.
 
     Examples
     --------
@@ -256,10 +270,14 @@ def split_fit(
             e = (Rw[:n] ** 2 + Rw[n:] ** 2).sum(axis=1)
             above = f > abs(poles[r].imag) / (2 * np.pi)
             sides = (1.0,) if e[above].sum() >= e[~above].sum() else (-1.0,)
+        def ratio_of(fit: VPFit) -> float:
+            return float(np.mean(fit.noise_std**2) / np.mean(s_a**2))
+
+        go_on = None if max_ratio is None else (lambda fit: ratio_of(fit) <= max_ratio)
         for side in sides:
             start = np.append(poles[members], poles[r] + side * 1j * abs(poles[r].real))
-            fit = vp_fit(f, Y, start, background, th.split_max_iter)
-            fits.append((float(np.mean(fit.noise_std**2) / np.mean(s_a**2)), fit))
+            fit = vp_fit(f, Y, start, background, th.split_max_iter, go_on=go_on)
+            fits.append((ratio_of(fit), fit))
         ratio, best = min(fits, key=lambda fit: fit[0])
     except (np.linalg.LinAlgError, ValueError):
         return None

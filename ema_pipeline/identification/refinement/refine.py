@@ -85,6 +85,10 @@ class VPFit:
     ``scaled_solve`` at ``lam`` with the weights ``u``, as the last accepted
     step computed it (``vp_covariance`` takes it instead of solving again:
     the same numbers); None: solved again.
+    finished : False where :func:`vp_fit`'s ``go_on`` stopped it before its
+    second round's iterations: ``lam`` is then the first round's, ``F`` NaN,
+    ``u`` and ``inv_s2`` the second round's weights (so :attr:`noise_std` is
+    what the finished fit reports), and :func:`vp_covariance` refuses it.
     """
 
     freq_hz: np.ndarray
@@ -96,6 +100,7 @@ class VPFit:
     inv_s2: np.ndarray
     n_iter: int
     solved: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+    finished: bool = True
 
     @property
     def noise_std(self) -> np.ndarray:
@@ -109,6 +114,8 @@ def vp_fit(
     poles: np.ndarray,
     background: np.ndarray,
     max_iter: int,
+    *,
+    go_on: Callable[[VPFit], bool] | None = None,
 ) -> VPFit:
     """The iterations of :func:`vp_solve` without its covariance.
 
@@ -118,6 +125,13 @@ def vp_fit(
     that wandered off) skip the sandwich covariance of :func:`vp_covariance`,
     about half of :func:`vp_solve`'s time with a window's line correlation;
     the poles are the same numbers.
+
+    ``go_on``, when given, is asked once the second round's weights are
+    known, with the fit so far (``VPFit.finished`` False: its
+    :attr:`~VPFit.noise_std` already the finished fit's); False returns that
+    fit without the second round's iterations. A split fit whose residual
+    ratio fails its test needs no more
+    (:func:`~ema_pipeline.identification.refinement.local_fits.split_fit`).
     """
     n = freq_hz.size
     m = poles.size
@@ -171,6 +185,12 @@ def vp_fit(
         s2 = np.mean(std2, axis=0)
         inv_s2 = 1.0 / np.maximum(s2, tiny)
         u = 1.0 / np.sqrt(np.mean(std2 * inv_s2[None, :], axis=1))
+        if _round == 1 and go_on is not None:
+            so_far = VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam,
+                           F=np.full((2 * m, 2 * m), np.nan), u=u, inv_s2=inv_s2,
+                           n_iter=it_total, finished=False)
+            if not go_on(so_far):
+                return so_far
         Yw = Y * u[:, None]
         design = WeightedPoleDesign(freq_hz, bg_r, u)
         fit = design.solve
@@ -279,7 +299,10 @@ def vp_covariance(
     force_window_s: float | None = None,
 ) -> np.ndarray:
     """The sandwich covariance (2m, 2m) of (sigma_r, omega_dr) of a :func:`vp_fit`
-    (see :func:`vp_solve`)."""
+    (see :func:`vp_solve`); a fit that is not finished
+    (``VPFit.finished``) raises ValueError."""
+    if not fit.finished:
+        raise ValueError("vp_covariance: the fit was stopped before its last round")
     freq_hz, Y, lam, u, inv_s2 = fit.freq_hz, fit.Y, fit.lam, fit.u, fit.inv_s2
     n = freq_hz.size
     jw = 2j * np.pi * freq_hz[:, None]

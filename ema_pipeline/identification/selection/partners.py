@@ -24,6 +24,7 @@ import numpy as np
 
 from ema_pipeline.identification.refinement.local_band import local_sizes
 from ema_pipeline.identification.refinement.local_fits import (
+    SplitFit,
     local_shapes,
     split_fit,
 )
@@ -73,7 +74,7 @@ class SplitCalibration:
         if self._sig is None:
             sig = np.array([s.significance for s in self.splits], dtype=float)
             todo = [(k, s.split_poles) for k, s in enumerate(self.splits)
-                    if np.isnan(s.significance) and s.split_poles is not None]
+                    if np.isnan(s.significance) and (s.split_poles is not None or s.refit)]
             if todo and self.search is not None:
                 # split k is mode k's (splits in the kept modes' order)
                 sig[[k for k, _ in todo]] = map_each(
@@ -179,14 +180,14 @@ class PartnerSearch:
         mode ``r`` and, for a split that passed those tests, its
         significance (:meth:`significance`), which :func:`close_partners`
         then asks of it (NaN otherwise: not computed, or no split fit)."""
-        th, pole = self.thresholds, self.pole
-        fit = split_fit(self.freq_hz, self.H, pole, r, quantity=self.quantity,
-                        window_tau_s=self.window_tau_s, force_window_s=self.force_window_s,
-                        residues=self.residues, thresholds=th)
+        th = self.thresholds
+        fit = self.split(r, finish=False)
         if fit is None:
             return Split(None, None, float("nan"))
-        lam = np.concatenate([np.delete(pole, r), fit.pole])
         few = self.H.shape[0] < th.min_shape_channels
+        if not fit.finished:  # its residual ratio failed: the split poles when asked
+            return Split(None, None, float("nan"), refit=few)
+        lam = self.split_poles(r, fit)
         a, b = fit.pole
         if fit.residual_ratio > th.partner_max_residual_ratio or abs(a.imag - b.imag) < 0.5 * (
                 abs(a.real) + abs(b.real)) or not np.all(
@@ -197,6 +198,22 @@ class PartnerSearch:
         if pair_is_real(self.freq_hz, self.H, lam, self.quantity, thresholds=th):
             return Split(complex(b), None, float("nan"))
         return Split(None, None, float("nan"))
+
+    def split(self, r: int, *, finish: bool = True) -> SplitFit | None:
+        """Mode ``r``'s :func:`~ema_pipeline.identification.refinement.local_fits.split_fit`;
+        ``finish`` False: stopped where its residual ratio fails
+        ``partner_max_residual_ratio`` (the same ratio; ``SplitFit.finished``)."""
+        th = self.thresholds
+        return split_fit(self.freq_hz, self.H, self.pole, r, quantity=self.quantity,
+                         window_tau_s=self.window_tau_s, force_window_s=self.force_window_s,
+                         residues=self.residues,
+                         max_ratio=None if finish else th.partner_max_residual_ratio,
+                         thresholds=th)
+
+    def split_poles(self, r: int, fit: SplitFit) -> np.ndarray:
+        """The kept poles with mode ``r``'s split ``fit`` in its place (the
+        pair last)."""
+        return np.concatenate([np.delete(self.pole, r), fit.pole])
 
     def significance(self, r: int, lam: np.ndarray) -> float:
         """:func:`.pair_significance` of mode ``r``'s split, the last two
@@ -218,9 +235,17 @@ class PartnerSearch:
         """:meth:`partner` of each of ``modes`` (one worker's share)."""
         return [self.partner(r) for r in modes]
 
-    def significances_of(self, splits: list[tuple[int, np.ndarray]]) -> list[float]:
-        """:meth:`significance` of each (mode, split poles) (one worker's share)."""
-        return [self.significance(r, lam) for r, lam in splits]
+    def significances_of(self, splits: list[tuple[int, np.ndarray | None]]) -> list[float]:
+        """:meth:`significance` of each (mode, split poles) (one worker's
+        share); split poles None: the split stopped on its residual ratio
+        (``Split.refit``), fitted again to the end first."""
+        out = []
+        for r, lam in splits:
+            if lam is None:
+                fit = self.split(r)  # the stopped fit, to the end
+                lam = self.split_poles(r, fit) if fit is not None else None
+            out.append(float("nan") if lam is None else self.significance(r, lam))
+        return out
 
 
 @dataclass(frozen=True)
@@ -229,11 +254,15 @@ class Split:
     ``pole`` the partner (None: none), ``split_poles`` all poles with the
     split in the mode's place (kept with fewer than ``min_shape_channels``
     channels), ``significance`` its :func:`.pair_significance` (NaN: not
-    computed or no split fit)."""
+    computed or no split fit), ``refit`` True where those split poles are
+    needed but the split stopped on its residual ratio
+    (:meth:`PartnerSearch.split`): :class:`SplitCalibration` fits it to the
+    end when it asks for its significance."""
 
     pole: complex | None
     split_poles: np.ndarray | None
     significance: float
+    refit: bool = False
 
 
 def pair_is_real(freq_hz: np.ndarray, H: np.ndarray, pole: np.ndarray, quantity: str,
