@@ -251,7 +251,7 @@ def test_process_imap_reports_the_item_that_kills_its_worker(request):
     assert time.perf_counter() - start < 60
 
 
-def _crash_on_name(path, job):
+def _crash_on_name(path, job, frf=None):
     from ema_pipeline.pipeline.single import FileOutcome
 
     if Path(path).name.startswith("crash"):
@@ -291,7 +291,7 @@ def test_a_share_of_a_file_whose_worker_dies_is_an_error_not_a_hang(request):
 
 
 # ------------------------------------------------------------------ identify FILE...
-def _fake_identify_one(path, job):
+def _fake_identify_one(path, job, frf=None):
     from ema_pipeline.pipeline.single import FileOutcome
 
     return FileOutcome(path=path, reason=f"{os.getpid()} {job.workers}"), None

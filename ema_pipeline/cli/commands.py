@@ -278,21 +278,32 @@ def cmd_identify(args: argparse.Namespace) -> int:
             print(f"ema-pipeline identify: error: {exc}", file=sys.stderr)
     if not readable:
         return EXIT_INPUT
-    from ema_pipeline.pipeline.many import FileJob, identify_files
-    from ema_pipeline.report.wording import plural
+    from ema_pipeline.pipeline.ahead import read_ahead
+    from ema_pipeline.runner import WorkerCrashed, started_ahead
 
-    options = _identify_options(args)
-    check_output_dir(args.out, "--out")
-    geometry = _geometry(args)
-    picks = None
-    if args.picks is not None:
-        from ema_pipeline import io
+    workers = command_workers(args.workers)
+    # the files are read in a process of their own while this one imports
+    # the identification chain (a worker reads a file that was not)
+    with started_ahead(read_ahead, tuple(readable), workers) as read:
+        from ema_pipeline.pipeline.many import FileJob, identify_files
+        from ema_pipeline.report.wording import plural
 
-        picks = io.read_picks(args.picks)
-    job = FileJob(args.out, options, report=args.report, figures=not args.no_figures,
-                  uff=args.uff, picks=picks, geometry=geometry, checked=True)
+        options = _identify_options(args)
+        check_output_dir(args.out, "--out")
+        geometry = _geometry(args)
+        picks = None
+        if args.picks is not None:
+            from ema_pipeline import io
+
+            picks = io.read_picks(args.picks)
+        job = FileJob(args.out, options, report=args.report, figures=not args.no_figures,
+                      uff=args.uff, picks=picks, geometry=geometry, checked=True)
+        try:
+            frfs = read()
+        except WorkerCrashed:  # the reader died: each worker reads its file
+            frfs = None
     failed, runtime = len(args.files) - len(readable), 0
-    for outcome, page in identify_files(readable, job, command_workers(args.workers)):
+    for outcome, page in identify_files(readable, job, workers, frfs=frfs):
         if outcome.status == "failed":
             failed += 1
             runtime += outcome.runtime

@@ -118,6 +118,7 @@ def identify_file(
     picks: Picks | None = None,
     workers: int = 1,
     checked: bool = False,
+    frf: FRFSet | None = None,
 ) -> FileOutcome:
     """Identify the modes of one FRF file and write its outputs.
 
@@ -136,6 +137,8 @@ def identify_file(
     ``checked``: the caller has checked that ``path`` is a readable file
     (:func:`ema_pipeline.paths.check_readable`, as the command line does before
     it imports the readers), so :func:`ema_pipeline.io.read_frf` does not again.
+    ``frf``: the file's FRFs as that read gives them, read ahead
+    (:func:`ema_pipeline.pipeline.ahead.read_ahead`); None: read here.
     """
     options = IdentificationOptions() if options is None else options
     path, out_dir = Path(path), Path(out_dir)
@@ -151,7 +154,8 @@ def identify_file(
                 outcome.modes_csv, outcome.result_h5 = modes_csv, result_h5
                 return outcome
         # checks the file (unless the caller did), hashes it once
-        frf = io.read_frf(path, min_lines=MIN_FRF_LINES, checked=checked)
+        if frf is None:
+            frf = io.read_frf(path, min_lines=MIN_FRF_LINES, checked=checked)
         outcome.sha256 = outcome.sha256 or sha256 or frf.source.sha256
         outcome.configuration = frf.configuration
         ready = check_input(frf, options, picks=picks)  # every other check, once
