@@ -78,7 +78,9 @@ def test_identify_file_runs_each_check_once(name: str, example_dir: Path, tmp_pa
     reader's provenance), and the file's readability (a stat) is checked
     once, by the command line before anything is imported (the readers take
     its word, ``read_frf(checked=True)``; the HDF5 check looks at the open
-    file's descriptor)."""
+    file's descriptor). One worker, so that every call is this process's
+    (with more, the process that reads the file ahead hashes it:
+    ``tests/test_read_ahead.py``)."""
     from ema_pipeline import paths
     from ema_pipeline.identification import common
     from ema_pipeline.identification.diagram import resources
@@ -91,7 +93,7 @@ def test_identify_file_runs_each_check_once(name: str, example_dir: Path, tmp_pa
         (IdentificationOptions, "apply_window"))}
     path = example_dir / name
     code, err = _cli(["identify", path, "--out", tmp_path, "--quiet", "--band", "5", "400",
-                      "--exp-window-tau", "2.0"], capsys)
+                      "--exp-window-tau", "2.0", "--workers", "1"], capsys)
     assert code == 0, err
     assert {name: len(c) for name, c in calls.items()} == {
         "apply_window": 1, "single_reference": 1, "check_identification": 1,
