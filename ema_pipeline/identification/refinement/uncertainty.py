@@ -93,6 +93,9 @@ from functools import lru_cache
 
 import numpy as np
 
+#: The smallest normal float, the floor of a variance or a maximum.
+_TINY = float(np.finfo(float).tiny)
+
 
 def noise_model(
     R: np.ndarray,
@@ -127,10 +130,12 @@ def noise_model(
         h = 0.5 * (lev[:n] + lev[n:])
         e2 = e2 / np.clip(1.0 - h, 0.05, 1.0)
         dof = 1.0
-    x = h2 / np.maximum(np.max(h2, axis=0), np.finfo(float).tiny)
+    # (methods, not numpy's functions: the same reductions without their
+    # wrappers, in a helper called some 50 times per identification)
+    x = h2 / np.maximum(h2.max(axis=0), _TINY)
     a, b = nonnegative_line_fit(x, e2)
     var = (a + b * x) * dof
-    floor = np.maximum(np.mean(e2, axis=0) * dof * 1e-3, np.finfo(float).tiny)
+    floor = np.maximum(e2.sum(axis=0) / n * dof * 1e-3, _TINY)
     std = np.sqrt(np.maximum(var, floor))
     # each of the real and imaginary parts carries half the complex variance
     half = std / np.sqrt(2)
@@ -159,30 +164,32 @@ def nonnegative_line_fit(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.n
     >>> a.round(6).tolist(), b.round(6).tolist()
     ([1.0, 1.0], [2.0, 0.0])
     """
-    x_mean, y_mean = np.mean(x, axis=0), np.mean(y, axis=0)
+    # the means and sums as array methods (numpy's functions add a wrapper
+    # each; the same reductions): this runs on every local fit's residual
+    n = x.shape[0]
+    x_mean, y_mean = x.sum(axis=0) / n, y.sum(axis=0) / n
     xc = x - x_mean
-    sxx = np.sum(xc * xc, axis=0)
+    sxx = (xc * xc).sum(axis=0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        b_line = np.sum(xc * (y - y_mean), axis=0) / sxx
-        b_only = np.sum(x * y, axis=0) / np.sum(x * x, axis=0)
+        b_line = (xc * (y - y_mean)).sum(axis=0) / sxx
+        b_only = (x * y).sum(axis=0) / (x * x).sum(axis=0)
     a_line = y_mean - b_line * x_mean
     line_ok = (sxx > 0) & np.isfinite(b_line) & (b_line >= 0) & (a_line >= 0)
+    # the three faces: a alone, b alone, the line (where it is allowed)
     a_only = np.maximum(y_mean, 0.0)
     b_only = np.where(np.isfinite(b_only), np.maximum(b_only, 0.0), 0.0)
-    zero = np.zeros_like(y_mean)
-    a = np.stack([a_only, zero, np.where(line_ok, a_line, 0.0)])  # the three faces
-    b = np.stack([zero, b_only, np.where(line_ok, b_line, 0.0)])
+    a_line = np.where(line_ok, a_line, 0.0)
+    b_line = np.where(line_ok, b_line, 0.0)
     # the squared error of each face, (a + b x - y)^2 summed over the lines:
     # a face with a zero coefficient drops its term (a + 0 x = a, 0 + b x =
     # b x: the same numbers with fewer passes over the lines)
     cost = np.empty((3, y.shape[1]))
-    cost[0] = ((a[0] - y) ** 2).sum(axis=0)
-    cost[1] = ((b[1] * x - y) ** 2).sum(axis=0)
-    cost[2] = ((a[2] + b[2] * x - y) ** 2).sum(axis=0)
-    cost[2] = np.where(line_ok, cost[2], np.inf)
-    pick = np.argmin(cost, axis=0)
-    cols = np.arange(y.shape[1])
-    return a[pick, cols], b[pick, cols]
+    cost[0] = ((a_only - y) ** 2).sum(axis=0)
+    cost[1] = ((b_only * x - y) ** 2).sum(axis=0)
+    cost[2] = np.where(line_ok, ((a_line + b_line * x - y) ** 2).sum(axis=0), np.inf)
+    pick = cost.argmin(axis=0)
+    return (np.where(pick == 0, a_only, np.where(pick == 2, a_line, 0.0)),
+            np.where(pick == 1, b_only, np.where(pick == 2, b_line, 0.0)))
 
 
 def residual_correlation(e: np.ndarray, max_lag: int = 128) -> np.ndarray:
