@@ -10,7 +10,9 @@ numpy and scipy load their BLAS libraries (:func:`ema_pipeline.cli.run`).
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ema_pipeline.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from ema_pipeline.data import (
@@ -36,15 +38,6 @@ __all__ = [
     "__version__",
 ]
 
-
-def __getattr__(name: str) -> Any:
-    """The names of :mod:`ema_pipeline.data` in ``__all__``, imported on first use."""
-    if name in __all__:
-        from ema_pipeline import data
-
-        return getattr(data, name)
-    raise AttributeError(f"module 'ema_pipeline' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+# the names of ema_pipeline.data in __all__, imported on first use
+__getattr__, __dir__ = lazy_exports(__name__, {name: "data" for name in __all__
+                                               if name != "__version__"})

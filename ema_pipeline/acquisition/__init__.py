@@ -26,8 +26,9 @@ about 8 ms.
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ema_pipeline.lazy import lazy_exports
 
 if TYPE_CHECKING:
     from ema_pipeline.acquisition.beam_theory import cantilever_beta_l, cantilever_modes
@@ -91,12 +92,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    """The names of ``__all__``, imported from their module on first use."""
-    if name in _HOME:
-        return getattr(importlib.import_module(f"ema_pipeline.acquisition.{_HOME[name]}"), name)
-    raise AttributeError(f"module 'ema_pipeline.acquisition' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _HOME)

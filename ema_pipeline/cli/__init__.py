@@ -22,8 +22,9 @@ from __future__ import annotations
 
 import gc
 import os
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from ema_pipeline.lazy import lazy_exports
 from ema_pipeline.threads import entry_thread_environment
 
 if TYPE_CHECKING:
@@ -69,14 +70,5 @@ def run() -> int:
     return status
 
 
-def __getattr__(name: str) -> Any:
-    """:func:`main` and :func:`build_parser`, imported on first use."""
-    if name == "main":
-        from ema_pipeline.cli.entry import main
-
-        return main
-    if name == "build_parser":
-        from ema_pipeline.cli.parser import build_parser
-
-        return build_parser
-    raise AttributeError(f"module 'ema_pipeline.cli' has no attribute {name!r}")
+# main and build_parser, imported on first use
+__getattr__, __dir__ = lazy_exports(__name__, {"main": "entry", "build_parser": "parser"})

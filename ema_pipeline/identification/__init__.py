@@ -58,8 +58,9 @@ exported here (the names are their modules'): use
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ema_pipeline.lazy import lazy_exports
 
 if TYPE_CHECKING:  # pragma: no cover  (what the lazy names are, for type checkers)
     from ema_pipeline.identification.common import default_max_order, single_reference
@@ -162,15 +163,4 @@ EXPORTS: dict[str, str] = {
 }
 
 
-def __getattr__(name: str) -> Any:
-    """A name of :data:`__all__`, imported from its module on first use."""
-    module = EXPORTS.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value  # later look-ups skip this function
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, EXPORTS)

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ema_pipeline.data import (
     MAX_AXIS_HZ,
@@ -94,6 +94,7 @@ from ema_pipeline.io.uff import (
 )
 from ema_pipeline.io.uff_modes import read_modes_uff
 from ema_pipeline.io.uff_units import parse_unit_label
+from ema_pipeline.lazy import lazy_exports
 from ema_pipeline.paths import FRF_FILE_KIND
 
 if TYPE_CHECKING:
@@ -106,7 +107,7 @@ if TYPE_CHECKING:
     )
 
 #: Names of the experiment file's and the geometry's readers, imported on
-#: first use (:func:`__getattr__`): they load the channel sheet and the
+#: first use (:func:`ema_pipeline.lazy.lazy_exports`): they load the channel sheet and the
 #: acquisition stage, which identifying FRF files never needs (about 18 ms of
 #: every ``identify`` command's start).
 _LAZY = {"experiment_file_path": "experiment", "read_experiment": "experiment",
@@ -324,14 +325,4 @@ __all__ = [
 ]
 
 
-def __getattr__(name: str) -> Any:
-    """The names of :data:`_LAZY`, imported from their module on first use."""
-    if name in _LAZY:
-        import importlib
-
-        return getattr(importlib.import_module(f"ema_pipeline.io.{_LAZY[name]}"), name)
-    raise AttributeError(f"module 'ema_pipeline.io' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_exports(__name__, _LAZY)

@@ -22,8 +22,9 @@ blocks) and :mod:`.renderers` (the pages).
 
 from __future__ import annotations
 
-import importlib
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ema_pipeline.lazy import lazy_exports
 
 #: Where each public name lives: (submodule, its name there). The submodules
 #: load on first use (PEP 562), so a command that needs one small helper
@@ -73,15 +74,7 @@ if TYPE_CHECKING:
     )
 
 
-def __getattr__(name: str) -> Any:
-    if name in _HOMES:
-        module, attribute = _HOMES[name]
-        return getattr(importlib.import_module(f"ema_pipeline.report.{module}"), attribute)
-    raise AttributeError(f"module 'ema_pipeline.report' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(__all__)
+__getattr__, __dir__ = lazy_exports(__name__, _HOMES)
 
 
 __all__ = [
