@@ -28,7 +28,7 @@ from ema_pipeline.pipeline.reports import write_identify_report
 from ema_pipeline.pipeline.single import FileOutcome, identify_file, output_paths
 from ema_pipeline.runner import process_imap
 
-__all__ = ["FileItem", "FileJob", "crashed_file", "crashed_read", "identify_files",
+__all__ = ["FileItem", "FileJob", "crashed_file", "identify_files",
            "identify_one", "identify_read"]
 
 
@@ -96,7 +96,7 @@ def identify_files(
                          f"{len(paths)} files")
     items = [FileItem(Path(path), frf) for path, frf in zip(paths, read, strict=True)]
     yield from process_imap(partial(identify_read, job=replace(job, workers=workers)),
-                            items, workers, crashed=crashed_read)
+                            items, workers, crashed=crashed_file)
 
 
 @dataclass(frozen=True)
@@ -117,11 +117,7 @@ def identify_read(item: FileItem, job: FileJob) -> tuple[FileOutcome, Path | Non
     return identify_one(item.path, job, item.frf)
 
 
-def crashed_file(path: Path, reason: str) -> tuple[FileOutcome, Path | None]:
-    """The outcome of a file whose worker process died (``reason`` names the file)."""
-    return FileOutcome(path=Path(path), status="failed", runtime=True, reason=reason), None
-
-
-def crashed_read(item: FileItem, reason: str) -> tuple[FileOutcome, Path | None]:
-    """:func:`crashed_file` of an item of :func:`identify_files`."""
-    return crashed_file(item.path, reason)
+def crashed_file(item: FileItem, reason: str) -> tuple[FileOutcome, Path | None]:
+    """The outcome of a file of :func:`identify_files` whose worker process
+    died (``reason`` names the file)."""
+    return FileOutcome(path=item.path, status="failed", runtime=True, reason=reason), None

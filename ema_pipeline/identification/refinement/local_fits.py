@@ -263,7 +263,7 @@ def split_fit(
     fits = []
     try:
         one = vp_fit(f, Y, poles[members], background, 10)
-        s_a = one.noise_std
+        var_a = np.mean(one.noise_std**2)  # the residual variance without the extra pole
         sides: tuple[float, ...] = (1.0, -1.0)
         if one.solved is not None:  # the side where the fit leaves more residual
             Rw, n = one.solved[1], f.size
@@ -271,7 +271,7 @@ def split_fit(
             above = f > abs(poles[r].imag) / (2 * np.pi)
             sides = (1.0,) if e[above].sum() >= e[~above].sum() else (-1.0,)
         def ratio_of(fit: VPFit) -> float:
-            return float(np.mean(fit.noise_std**2) / np.mean(s_a**2))
+            return float(np.mean(fit.noise_std**2) / var_a)
 
         go_on = None if max_ratio is None else (lambda fit: ratio_of(fit) <= max_ratio)
         for side in sides:
