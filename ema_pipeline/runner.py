@@ -316,10 +316,23 @@ class ProcessPool:
         feeders): a shutdown without waiting, as an abort makes, forgets its
         manager thread, and a second shutdown no longer joins it, so for a
         moment after an abort the threads run on (measured: 28 of 30 pools
-        aborted with work running; the next fork was then refused)."""
-        for thread in set(threading.enumerate()) - self._threads_before:
-            if type(thread).__module__ == cf.process.__name__ or thread.name == "QueueFeederThread":
-                thread.join(timeout=5.0)
+        aborted with work running; the next fork was then refused). A thread
+        is listed from the moment another thread starts it, before it can be
+        joined (the manager thread starts a queue's feeder as this one closes:
+        1 in 200 pools closed at once): it is waited for, and the threads are
+        listed again until none is left (5 s in all)."""
+        deadline = time.monotonic() + 5.0
+        while time.monotonic() < deadline:
+            running = [thread for thread in set(threading.enumerate()) - self._threads_before
+                       if type(thread).__module__ == cf.process.__name__
+                       or thread.name == "QueueFeederThread"]
+            if not running:
+                return
+            for thread in running:
+                try:
+                    thread.join(timeout=max(0.0, deadline - time.monotonic()))
+                except RuntimeError:  # not started yet: listed again in a moment
+                    time.sleep(0.001)
 
 
 def process_imap(func: Callable[[T], R], items: Sequence[T], workers: int = 1, *,
