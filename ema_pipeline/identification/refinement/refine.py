@@ -429,7 +429,10 @@ def refine_poles(
     covariance propagation. A pole that moves by more than ``max_shift`` times
     its decay rate plus one line keeps its start value (refinement failed) and
     gets the covariance evaluated there (``max_shift`` is
-    ``thresholds.refine_max_shift``).
+    ``thresholds.refine_max_shift``). A fit whose pole lies further than
+    ``thresholds.refine_stop_shift`` times that reach after the first of its
+    two weighting rounds stops there, as wandered off (the residual peaks of
+    the noise that the final tests screen).
 
     The modes outside a local problem reach into its band with tails that a
     quadratic does not follow (a heavily damped neighbour, dense modes): with
@@ -557,9 +560,17 @@ class LocalFits:
         if local is None:
             return None
         f, Y, members, background, k, band = local
-        fit = vp_fit(f, Y, poles[members], background, self.max_iter)
+        reach = th.refine_max_shift * abs(poles[r].real) + 2 * np.pi * df
+        stop = th.refine_stop_shift * reach
+
+        def near_start(so_far: VPFit) -> bool:
+            # far off after the first round: wandered off, no second round
+            # (written as "not beyond" so that a NaN reach never stops a fit)
+            return not abs(so_far.lam[k] - poles[r]) > stop
+
+        fit = vp_fit(f, Y, poles[members], background, self.max_iter, go_on=near_start)
         lam_r = fit.lam[k]
-        if abs(lam_r - poles[r]) > th.refine_max_shift * abs(poles[r].real) + 2 * np.pi * df:
+        if abs(lam_r - poles[r]) > reach:
             # refinement wandered off: keep the start pole, covariance there
             fit = vp_fit(f, Y, poles[members], background, 0)
             lam_r = poles[r]
