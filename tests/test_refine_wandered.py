@@ -1,4 +1,4 @@
-"""A local fit that wanders far from its start stops after its first weighting
+"""A local fit that wanders far from its start stops in its first weighting
 round (``SelectionThresholds.refine_stop_shift``), with the outcome of the fit
 run to the end: its start pole and the covariance there."""
 
@@ -43,13 +43,13 @@ def _refined(monkeypatch: pytest.MonkeyPatch, start: complex, stop_shift: float)
     return ref, fits
 
 
-def test_a_fit_that_wanders_far_stops_after_its_first_round(monkeypatch) -> None:
+def test_a_fit_that_wanders_far_stops_in_its_first_round(monkeypatch) -> None:
     """Started 3 Hz above the mode with a decay rate of 1/s, the fit runs to the
     mode, 15 times its reach (0.5 decay rates plus a line, 1.3 rad/s) away:
-    by default it stops after the first round; with ``refine_stop_shift=inf``
-    it runs both. Either way the refinement wandered off: the start pole is
-    kept with the covariance and noise of the fit there (a fit of no
-    iterations), to the last bit."""
+    by default it stops in the first round, once 3 times the reach away;
+    with ``refine_stop_shift=inf`` it runs both rounds. Either way the
+    refinement wandered off: the start pole is kept with the covariance and
+    noise of the fit there (a fit of no iterations), to the last bit."""
     start = -1.0 + 2j * np.pi * 103.0
     stopped, fits = _refined(monkeypatch, start, SelectionThresholds().refine_stop_shift)
     full, full_fits = _refined(monkeypatch, start, np.inf)
@@ -57,7 +57,7 @@ def test_a_fit_that_wanders_far_stops_after_its_first_round(monkeypatch) -> None
     np.testing.assert_array_equal(stopped.cov, full.cov)
     np.testing.assert_array_equal(stopped.noise_std, full.noise_std)
     assert np.all(np.isfinite(stopped.cov))
-    # the first fit: stopped after its first round, fewer iterations than in full
+    # the first fit: stopped in its first round, fewer iterations than in full
     assert fits[0][1] is False and full_fits[0][1] is True
     assert 0 < fits[0][0] < full_fits[0][0]
     # the second: the start pole's fit of no iterations, in both

@@ -248,15 +248,15 @@ class SelectionThresholds:
     #: A refined pole that moves by more than this many decay rates (plus one
     #: line) keeps its start value (the refinement wandered off).
     refine_max_shift: float = 0.5
-    #: A local fit whose pole, after the first of its two weighting rounds,
-    #: lies further from its start than this many times that reach
+    #: A local fit whose pole, at a step of the first of its two weighting
+    #: rounds, lies further from its start than this many times that reach
     #: (``refine_max_shift`` decay rates plus one line) stops there: it has
-    #: wandered off, and the second round only weights the same lines anew
-    #: (inf: every fit runs both rounds). Of the fits beyond the reach after
-    #: the first round (42 of 848 on the paper files and 24 family cases, 5
-    #: of 147 on the pyFRF recording), those that came back within it had
-    #: been within 1.09 of it; those beyond 3 (the residual peaks of the
-    #: noise, 4 to 222 times) stayed away.
+    #: wandered off, and it keeps its start pole as it would at the end
+    #: (inf: every fit runs to its end). Of 763 local fits (the 12 paper
+    #: files, the pyFRF recording, 16 family cases), the 13 that went beyond
+    #: 3 times the reach in their first round (the residual peaks of the
+    #: noise, mostly at their first or second step) all ended beyond the
+    #: reach; those that came back within it had been within 1.09 of it.
     refine_stop_shift: float = 3.0
 
     # ------------------------------------------------ final tests (acceptance)

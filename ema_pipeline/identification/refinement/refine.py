@@ -88,7 +88,9 @@ class VPFit:
     finished : False where :func:`vp_fit`'s ``go_on`` stopped it before its
     second round's iterations: ``lam`` is then the first round's, ``F`` NaN,
     ``u`` and ``inv_s2`` the second round's weights (so :attr:`noise_std` is
-    what the finished fit reports), and :func:`vp_covariance` refuses it.
+    what the finished fit reports), and :func:`vp_covariance` refuses it;
+    also where its ``away`` stopped it in the first round (``lam`` where it
+    stopped, the first round's weights).
     """
 
     freq_hz: np.ndarray
@@ -116,6 +118,7 @@ def vp_fit(
     max_iter: int,
     *,
     go_on: Callable[[VPFit], bool] | None = None,
+    away: Callable[[np.ndarray], bool] | None = None,
 ) -> VPFit:
     """The iterations of :func:`vp_solve` without its covariance.
 
@@ -132,6 +135,9 @@ def vp_fit(
     fit without the second round's iterations. A split fit whose residual
     ratio fails its test needs no more
     (:func:`~ema_pipeline.identification.refinement.local_fits.split_fit`).
+    ``away``, when given, is asked with the poles after each accepted step of
+    the first round; True returns the fit there (``VPFit.finished`` False):
+    a refinement that has wandered off needs no more (:func:`refine_poles`).
     """
     n = freq_hz.size
     m = poles.size
@@ -218,6 +224,10 @@ def vp_fit(
                 done = (cost - cost_new) < 1e-8 * cost or bool((np.abs(step) < 1e-3 * sd).all())
                 cost = cost_new
                 damping.accepted()
+                if _round == 0 and away is not None and away(lam):
+                    return VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam,
+                                 F=np.full((2 * m, 2 * m), np.nan), u=u, inv_s2=inv_s2,
+                                 n_iter=it_total + it_round, finished=False)
                 if done:
                     break
             elif not damping.rejected():
@@ -429,10 +439,11 @@ def refine_poles(
     covariance propagation. A pole that moves by more than ``max_shift`` times
     its decay rate plus one line keeps its start value (refinement failed) and
     gets the covariance evaluated there (``max_shift`` is
-    ``thresholds.refine_max_shift``). A fit whose pole lies further than
-    ``thresholds.refine_stop_shift`` times that reach after the first of its
-    two weighting rounds stops there, as wandered off (the residual peaks of
-    the noise that the final tests screen).
+    ``thresholds.refine_max_shift``). A fit whose pole, at a step of the
+    first of its two weighting rounds, lies further than
+    ``thresholds.refine_stop_shift`` times that reach stops there, as
+    wandered off (the residual peaks of the noise that the final tests
+    screen).
 
     The modes outside a local problem reach into its band with tails that a
     quadratic does not follow (a heavily damped neighbour, dense modes): with
@@ -563,12 +574,12 @@ class LocalFits:
         reach = th.refine_max_shift * abs(poles[r].real) + 2 * np.pi * df
         stop = th.refine_stop_shift * reach
 
-        def near_start(so_far: VPFit) -> bool:
-            # far off after the first round: wandered off, no second round
-            # (written as "not beyond" so that a NaN reach never stops a fit)
-            return not abs(so_far.lam[k] - poles[r]) > stop
+        def far_off(lam: np.ndarray) -> bool:
+            # wandered off in the first round: no more steps (a NaN reach,
+            # refine_max_shift inf, never stops a fit)
+            return bool(abs(lam[k] - poles[r]) > stop)
 
-        fit = vp_fit(f, Y, poles[members], background, self.max_iter, go_on=near_start)
+        fit = vp_fit(f, Y, poles[members], background, self.max_iter, away=far_off)
         lam_r = fit.lam[k]
         if abs(lam_r - poles[r]) > reach:
             # refinement wandered off: keep the start pole, covariance there
