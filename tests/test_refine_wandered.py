@@ -78,6 +78,10 @@ def test_a_fit_near_its_start_runs_both_rounds(monkeypatch) -> None:
     assert abs(ref.pole[0] - LAM) < 0.01 * abs(LAM.real) + 0.01
 
 
-def test_refine_stop_shift_must_be_above_zero() -> None:
-    with pytest.raises(OptionError, match="refine_stop_shift"):
-        SelectionThresholds(refine_stop_shift=0.0)
+def test_refine_stop_shift_is_at_least_one() -> None:
+    """A fit stopped closer than ``refine_max_shift`` would not count as
+    wandered off and would leave an unfinished fit: refused by name."""
+    for bad in (0.0, 0.5, float("nan")):
+        with pytest.raises(OptionError, match="refine_stop_shift"):
+            SelectionThresholds(refine_stop_shift=bad)
+    assert SelectionThresholds(refine_stop_shift=1.0).refine_stop_shift == 1.0

@@ -17,8 +17,8 @@ its own), never imported as module constants: a study of one threshold is
 The result keeps the record it was made with
 (``result.settings.thresholds``). Every field is checked when the record is
 made (:meth:`SelectionThresholds.__post_init__`: numbers, not NaN, not
-negative; tolerances and widths above zero; MAC and MPC levels and shares at
-most 1): an impossible value is an :class:`~ema_pipeline.data.OptionError`
+negative; tolerances and widths above zero; the refinement's stop shift at
+least 1; MAC and MPC levels and shares at most 1): an impossible value is an :class:`~ema_pipeline.data.OptionError`
 naming the field (the rules of :mod:`ema_pipeline.validation`, the only
 module of the package this one imports).
 """
@@ -40,7 +40,7 @@ _ABOVE_ZERO = frozenset({
     "window_modes", "window_step", "window_min_lines", "local_min_lines", "min_frfs",
     "alternate_min_frfs", "alternate_peak_lines", "pair_significance_level", "pair_max_gap",
     "max_poles", "local_max_fraction", "local_cap_min_lines", "local_band_min_lines",
-    "residual_contrast_widths", "refine_stop_shift",
+    "residual_contrast_widths",
 })
 #: Fields that are fractions, levels of the MAC or the MPC, or damping ratios: at most 1.
 _AT_MOST_ONE = frozenset({
@@ -48,6 +48,9 @@ _AT_MOST_ONE = frozenset({
     "duplicate_min_mac", "split_max_mpc", "split_mpc_gap", "split_max_gap", "min_mpc",
     "pair_significance_level", "pair_min_dip",
 })
+#: Fields that are multiples of a limit they extend: at least 1 (a local fit
+#: stopped by ``refine_stop_shift`` must lie beyond ``refine_max_shift``).
+_AT_LEAST_ONE = frozenset({"refine_stop_shift"})
 #: The rule of each of the two fractions of ``band_edge``.
 _BAND_EDGE = partial(number, at_least=0.0, below=0.5)
 
@@ -72,14 +75,16 @@ class SelectionThresholds:
         """Refuse an impossible value (:class:`~ema_pipeline.data.OptionError`
         naming the field): every number real and not NaN, not negative (inf is
         allowed: no limit); integer fields integers; the fields of
-        ``_ABOVE_ZERO`` above zero, of ``_AT_MOST_ONE`` at most 1;
+        ``_ABOVE_ZERO`` above zero, of ``_AT_LEAST_ONE`` at least 1, of
+        ``_AT_MOST_ONE`` at most 1;
         ``band_edge`` two fractions in [0, 0.5)."""
         for f in fields(self):
             value = getattr(self, f.name)
             if f.name == "band_edge":
                 value = sequence(f.name, value, item=_BAND_EDGE, min_len=2, max_len=2)
             else:
-                above, at_least = (0, None) if f.name in _ABOVE_ZERO else (None, 0)
+                above, at_least = ((0, None) if f.name in _ABOVE_ZERO
+                                   else (None, 1) if f.name in _AT_LEAST_ONE else (None, 0))
                 value = (integer(f.name, value, above=above, at_least=at_least)
                          if f.type == "int" else
                          number(f.name, value, above=above, at_least=at_least,
