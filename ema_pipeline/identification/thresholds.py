@@ -18,9 +18,10 @@ The result keeps the record it was made with
 (``result.settings.thresholds``). Every field is checked when the record is
 made (:meth:`SelectionThresholds.__post_init__`: numbers, not NaN, not
 negative; tolerances and widths above zero; the refinement's stop shift at
-least 1; MAC and MPC levels and shares at most 1): an impossible value is an :class:`~ema_pipeline.data.OptionError`
-naming the field (the rules of :mod:`ema_pipeline.validation`, the only
-module of the package this one imports).
+least 1; MAC and MPC levels and shares at most 1): an impossible value is an
+:class:`~ema_pipeline.data.OptionError` naming the field (the rules of
+:mod:`ema_pipeline.validation`, the only module of the package this one
+imports).
 """
 
 from __future__ import annotations
