@@ -22,6 +22,7 @@ from ema_pipeline.identification.diagram.plscf import plscf_denominators, plscf_
 from ema_pipeline.identification.diagram.roots import (
     ABERTH_MIN_ORDER,
     BlockedPolynomial,
+    companion_eigenvalues,
     companion_roots,
     conjugate_start,
     diagram_roots,
@@ -67,6 +68,27 @@ def test_random_polynomials_match_the_companion_eigenvalues():
     for c, z in zip(polys, got, strict=True):
         assert z.size == c.size - 1
         assert matched(z, np.roots(c[::-1])) < 1e-8
+
+
+def test_the_transposed_companion_has_the_block_companion_eigenvalues():
+    """``companion_eigenvalues`` forms the block companion of alpha^T
+    transposed (upper Hessenberg with one reference): its eigenvalues are
+    those of the untransposed form, to rounding, for 1-3 references, and with
+    one reference the roots of the scalar polynomial (``numpy.roots``)."""
+    rng = np.random.default_rng(11)
+    for n_in in (1, 2, 3):
+        for n in (1, 2, 7, 30):
+            alpha = rng.standard_normal((n + 1, n_in, n_in))
+            alpha[n] = np.eye(n_in)
+            N = n * n_in
+            C = np.zeros((N, N))
+            C[: N - n_in, n_in:] = np.eye(N - n_in)
+            C[N - n_in :, :] = -np.concatenate([alpha[j].T for j in range(n)], axis=1)
+            got = companion_eigenvalues(alpha)
+            assert got.size == N
+            assert matched(got, np.linalg.eigvals(C)) < 1e-9
+            if n_in == 1:
+                assert matched(got, np.roots(alpha[::-1, 0, 0])) < 1e-9
 
 
 def test_diagram_of_a_simulated_impact_test(paper_frf):
