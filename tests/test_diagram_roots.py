@@ -73,8 +73,9 @@ def test_random_polynomials_match_the_companion_eigenvalues():
 def test_the_transposed_companion_has_the_block_companion_eigenvalues():
     """``companion_eigenvalues`` forms the block companion of alpha^T
     transposed (upper Hessenberg with one reference): its eigenvalues are
-    those of the untransposed form, to rounding, for 1-3 references, and with
-    one reference the roots of the scalar polynomial (``numpy.roots``)."""
+    those of the untransposed form, to rounding, for 1-3 references (the
+    roots of det A(z)), and with one reference the roots of the scalar
+    polynomial (``numpy.roots``)."""
     rng = np.random.default_rng(11)
     for n_in in (1, 2, 3):
         for n in (1, 2, 7, 30):
