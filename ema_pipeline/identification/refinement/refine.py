@@ -173,6 +173,13 @@ def vp_fit(
     def lam_of(th: np.ndarray) -> np.ndarray:
         return -th[0::2] + 1j * th[1::2]
 
+    def stopped(n_iter: int) -> VPFit:
+        """The fit so far, not finished (``go_on`` or ``away`` stopped it):
+        the poles and weights as they are now, no Fisher matrix."""
+        return VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam,
+                     F=np.full((2 * m, 2 * m), np.nan), u=u, inv_s2=inv_s2,
+                     n_iter=n_iter, finished=False)
+
     theta = np.empty(2 * m)
     theta[0::2] = -poles.real
     theta[1::2] = poles.imag
@@ -192,9 +199,7 @@ def vp_fit(
         inv_s2 = 1.0 / np.maximum(s2, tiny)
         u = 1.0 / np.sqrt(np.mean(std2 * inv_s2[None, :], axis=1))
         if _round == 1 and go_on is not None:
-            so_far = VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam,
-                           F=np.full((2 * m, 2 * m), np.nan), u=u, inv_s2=inv_s2,
-                           n_iter=it_total, finished=False)
+            so_far = stopped(it_total)
             if not go_on(so_far):
                 return so_far
         Yw = Y * u[:, None]
@@ -225,9 +230,7 @@ def vp_fit(
                 cost = cost_new
                 damping.accepted()
                 if _round == 0 and away is not None and away(lam):
-                    return VPFit(freq_hz=freq_hz, Y=Y, bg_r=bg_r, lam=lam,
-                                 F=np.full((2 * m, 2 * m), np.nan), u=u, inv_s2=inv_s2,
-                                 n_iter=it_total + it_round, finished=False)
+                    return stopped(it_total + it_round)
                 if done:
                     break
             elif not damping.rejected():
