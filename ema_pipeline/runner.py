@@ -26,6 +26,10 @@ The rules it keeps:
 * **Ctrl-C stops at once.** Workers ignore SIGINT (the parent decides); a
   Ctrl-C in the parent terminates the running workers instead of waiting
   for their files.
+* **Forked with the objects frozen.** This process's objects are frozen
+  (``gc.freeze``) for the fork and unfrozen after it here
+  (:func:`frozen_for_fork`), as the :mod:`gc` module's documentation advises:
+  a child's garbage collections then never walk what it inherited.
 * **A crashed worker is reported.** A worker killed (out of memory, a signal,
   a crash in a C library) breaks its pool; :func:`process_imap` runs the items
   that were in flight again one at a time, and an item that kills its worker
@@ -37,6 +41,7 @@ from __future__ import annotations
 
 import concurrent.futures as cf
 import contextlib
+import gc
 import multiprocessing
 import os
 import select
@@ -59,6 +64,7 @@ __all__ = [
     "checked_fork",
     "deal_by_cost",
     "fork_is_safe",
+    "frozen_for_fork",
     "in_worker",
     "map_costliest_first",
     "map_each",
@@ -170,10 +176,46 @@ def fork_is_safe() -> bool:
 def checked_fork() -> int | None:
     """``os.fork()`` when :func:`fork_is_safe` says so at this moment: the
     child's id in the parent, 0 in the child; ``None`` (no fork) otherwise.
-    The child must end with ``os._exit``."""
+    The child must end with ``os._exit``. Forked in :func:`frozen_for_fork`."""
     if not fork_is_safe():
         return None
-    return os.fork()
+    with frozen_for_fork():
+        return os.fork()
+
+
+@contextlib.contextmanager
+def frozen_for_fork() -> Iterator[None]:
+    """Run the block (a fork) with every object of this process frozen
+    (``gc.freeze``), unfrozen after it in this process, as before: the
+    children keep them frozen, so their garbage collections never walk them.
+
+    What it saves: a worker's first full collection walked the objects it
+    inherited (numpy's, scipy's, h5py's and the package's), 27-28 ms in each
+    worker of ``identify`` on the 12 paper files, and every page it touched
+    was copied from the parent. The :mod:`gc` module's documentation advises
+    this for processes that fork without exec. Objects frozen before the
+    block (by the caller, or the parent of a worker) are left as they are:
+    nothing is frozen or unfrozen then. A forked child leaves the block with
+    its objects still frozen.
+
+    Examples
+    --------
+    >>> import gc
+    >>> with frozen_for_fork():
+    ...     during = gc.get_freeze_count() > 0
+    >>> during, gc.get_freeze_count() == 0
+    (True, True)
+    """
+    if gc.get_freeze_count():
+        yield
+        return
+    froze_in = os.getpid()
+    gc.freeze()
+    try:
+        yield
+    finally:
+        if os.getpid() == froze_in:
+            gc.unfreeze()
 
 
 def _start_worker(blas: int | None) -> None:
@@ -248,6 +290,7 @@ class ProcessPool:
         self._before = set(multiprocessing.active_children())
         self._threads_before = set(threading.enumerate())
         self._seen: set[multiprocessing.process.BaseProcess] = set()
+        self._submitted = False  # a fork executor forks its workers at its first submit
         if self.start == "fork":
             return cf.ProcessPoolExecutor(
                 max_workers=self.workers, mp_context=multiprocessing.get_context("fork"),
@@ -264,8 +307,12 @@ class ProcessPool:
             initargs=(os.getpid(), dict(os.environ), self.setup, blas_threads()))
 
     def submit(self, func: Callable[[T], R], item: T) -> cf.Future[R]:
-        """``func(item)`` in a worker."""
-        future = self._executor.submit(func, item)
+        """``func(item)`` in a worker; the first submit of a ``"fork"`` pool
+        forks its workers (in :func:`frozen_for_fork`)."""
+        forks = self.start == "fork" and not self._submitted
+        self._submitted = True
+        with frozen_for_fork() if forks else contextlib.nullcontext():
+            future = self._executor.submit(func, item)
         self.processes()  # the workers it started
         return future
 
