@@ -52,7 +52,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from concurrent.futures.process import BrokenProcessPool
 from typing import Literal, Protocol, TypeVar
 
-from ema_pipeline.threads import blas_threads
+from ema_pipeline.threads import blas_threads, own_process_blas_threads
 
 __all__ = [
     "FORK_SAFE_THREAD_NAME",
@@ -225,10 +225,7 @@ def _start_worker(blas: int | None) -> None:
     global _in_worker
     _in_worker = True
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    if blas is not None:
-        from threadpoolctl import threadpool_limits
-
-        threadpool_limits(limits=blas)
+    own_process_blas_threads(blas)
 
 
 def _start_server_worker(parent_pid: int, environ: Mapping[str, str],

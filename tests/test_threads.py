@@ -56,6 +56,82 @@ def test_owned_blas_threads_sets_one_thread_and_the_override(monkeypatch):
             assert _blas_counts() == {2}
 
 
+def _counting_limits(monkeypatch) -> list[int]:
+    """threadpoolctl's ``threadpool_limits`` replaced by itself that records
+    each count it is asked for (forked workers inherit the replacement)."""
+    import threadpoolctl
+
+    asked: list[int] = []
+    real = threadpoolctl.threadpool_limits
+
+    def counting(limits=None, **kwargs):
+        asked.append(limits)
+        return real(limits=limits, **kwargs)
+
+    monkeypatch.setattr(threadpoolctl, "threadpool_limits", counting)
+    return asked
+
+
+def test_a_block_inside_a_block_of_the_same_count_asks_nothing(monkeypatch):
+    """``identify`` inside the command line's block, or in a worker, set the
+    threads again for each file: now a nested block of the same count asks
+    threadpoolctl nothing, one of another count still sets its own."""
+    if not _blas_counts():
+        pytest.skip("threadpoolctl finds no BLAS library in this process")
+    monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
+    asked = _counting_limits(monkeypatch)
+    with threadpool_limits(limits=2):
+        with owned_blas_threads():
+            with owned_blas_threads():
+                assert _blas_counts() == {1}
+            assert _blas_counts() == {1}  # the inner block restored nothing
+            monkeypatch.setenv(BLAS_THREADS_ENV, "3")
+            with owned_blas_threads():
+                assert _blas_counts() == {3}
+            monkeypatch.delenv(BLAS_THREADS_ENV)
+        assert _blas_counts() == {2}
+        with owned_blas_threads():  # after the block: set again
+            assert _blas_counts() == {1}
+    assert asked == [1, 3, 1]
+
+
+def _worker_threads(_: object) -> tuple[set[int], int]:
+    """A worker's BLAS counts and how often it asked threadpoolctl for them
+    (the list that :func:`_counting_limits` left in this module)."""
+    with owned_blas_threads():  # as identify() in a worker
+        counts = _blas_counts()
+    return counts, len(_ASKED)
+
+
+_ASKED: list[int] = []
+
+
+def test_a_worker_forked_inside_the_block_keeps_its_count_without_asking(monkeypatch):
+    """A worker forked inside :func:`owned_blas_threads` has the block's count
+    (the fork carries it) and asks threadpoolctl nothing, at its start or in
+    its files; one forked outside a block sets it at its start."""
+    from ema_pipeline import runner
+
+    if not _blas_counts():
+        pytest.skip("threadpoolctl finds no BLAS library in this process")
+    if not runner.fork_is_safe():
+        pytest.skip("another thread runs in this process: no fork")
+    monkeypatch.delenv(BLAS_THREADS_ENV, raising=False)
+    asked = _counting_limits(monkeypatch)
+    monkeypatch.setattr(f"{__name__}._ASKED", asked)
+    with threadpool_limits(limits=2):
+        for inside in (True, False):
+            with owned_blas_threads() if inside else threadpool_limits(limits=2):
+                before = len(asked)
+                pool = runner.ProcessPool(1)
+                try:
+                    counts, n_asked = pool.submit(_worker_threads, None).result(timeout=60)
+                finally:
+                    pool.close()
+            assert counts == {1}, inside
+            assert n_asked - before == (0 if inside else 1), inside
+
+
 def test_identify_runs_on_one_blas_thread(monkeypatch):
     """The library's entry point owns the threads too, not only the CLI."""
     if not _blas_counts():
