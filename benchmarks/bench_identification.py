@@ -4,7 +4,8 @@ Run as ``python benchmarks/bench_identification.py``. Every command runs as a
 user runs it: a fresh process, the default environment (no BLAS thread
 variables: they are removed from the children's environment; ema-pipeline
 owns its threads, sdypy-EMA gets BLAS's defaults), start-up, reading the files
-and writing the results included; best of ``--repeat``. It prints the ratios
+and writing the results included; best of ``--repeat``, the runs of the
+two tools of a row alternated. It prints the ratios
 of issue 37 and the peak traced memory at ``max_order=400``:
 
 1. 12 simulated paper files (3 configurations x seeds 0-3, UFF), each tool at
@@ -198,24 +199,31 @@ def user_env(**extra: str) -> dict[str, str]:
     return {**env, **extra}
 
 
-def best_wall(cmd: list[str], repeat: int, expect_rc: int = 0,
-              env: dict[str, str] | None = None) -> tuple[float, float]:
+def best_walls(cmds: list[list[str]], repeat: int, expect_rc: list[int] | None = None,
+               env: dict[str, str] | None = None) -> list[tuple[float, float]]:
     """Best wall time and best CPU time (user + system, the children's) of
-    ``repeat`` runs of a command, each a fresh process in the user's
-    environment (:func:`user_env`)."""
+    ``repeat`` runs of each of ``cmds``, each a fresh process in the user's
+    environment (:func:`user_env`) that exits with its ``expect_rc`` (0),
+    the runs alternated (A, B, A, B, ...): both tools of a row meet the same
+    phases of the machine. With one tool's runs all before the other's, a
+    phase that slowed one and not the other moved the paper files' ratio
+    between 9.8 and 11.2 at the same code (benchmarks/issue52_speed.md,
+    tenth look)."""
     env = user_env() if env is None else env
-    wall = cpu = np.inf
+    expect_rc = [0] * len(cmds) if expect_rc is None else expect_rc
+    best = [(np.inf, np.inf)] * len(cmds)
     for _ in range(repeat):
-        r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        t0 = time.perf_counter()
-        done = subprocess.run(cmd, capture_output=True, text=True, env=env)
-        dt = time.perf_counter() - t0
-        r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-        if done.returncode != expect_rc:
-            raise SystemExit(f"{' '.join(cmd[:4])} ...: exit {done.returncode}\n{done.stderr}")
-        wall = min(wall, dt)
-        cpu = min(cpu, (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime))
-    return wall, cpu
+        for k, (cmd, rc) in enumerate(zip(cmds, expect_rc, strict=True)):
+            r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            t0 = time.perf_counter()
+            done = subprocess.run(cmd, capture_output=True, text=True, env=env)
+            dt = time.perf_counter() - t0
+            r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+            if done.returncode != rc:
+                raise SystemExit(f"{' '.join(cmd[:4])} ...: exit {done.returncode}\n{done.stderr}")
+            cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
+            best[k] = (min(best[k][0], dt), min(best[k][1], cpu))
+    return best
 
 
 @contextlib.contextmanager
@@ -304,26 +312,26 @@ def ratios(repeat: int) -> None:
         out = str(tmpd / "out")
         guesses = ["--guesses", *map(str, EXPECT), "--"]
         rows = []
-        t_o = best_wall(ours + ["--out", out] + files, repeat)
-        t_s = best_wall(theirs + ["--order", "100"] + guesses + files, repeat)
+        t_o, t_s = best_walls([ours + ["--out", out] + files,
+                               theirs + ["--order", "100"] + guesses + files], repeat)
         rows.append(("12 paper files, defaults", t_s, t_o, "sdypy/ours >= 10"))
-        t_o = best_wall(ours + ["--out", out, "--max-order", "200"] + three, repeat)
-        t_s = best_wall(theirs + ["--order", "100"] + guesses + three, repeat)
+        t_o, t_s = best_walls([ours + ["--out", out, "--max-order", "200"] + three,
+                               theirs + ["--order", "100"] + guesses + three], repeat)
         rows.append(("3 files, highest order 200", t_s, t_o, "sdypy/ours >= 1.5"))
         checks: list[tuple[str, str]] = []
         if REAL_UFF.exists():
             beam_theirs = theirs + ["--order", "100", "--guesses", *map(str, BEAM_GUESSES_HZ),
                                     "--", str(REAL_UFF)]
-            t_o = best_wall(ours + ["--out", out, str(REAL_UFF)], repeat)
-            t_s = best_wall(beam_theirs, repeat)
+            # an option, not the default: the dense band's window searches skipped
+            t_o, t_s, t_w = best_walls([
+                ours + ["--out", out, str(REAL_UFF)], beam_theirs,
+                ours + ["--out", out, "--no-window-search", str(REAL_UFF)]], repeat)
             rows.append(("measured beam (30 FRFs)", t_s, t_o, "sdypy/ours >= 1"))
             quiet = t_s[0] / t_o[0]
-            # an option, not the default: the dense band's window searches skipped
-            t_w = best_wall(ours + ["--out", out, "--no-window-search", str(REAL_UFF)], repeat)
             rows.append(("  beam, --no-window-search", t_s, t_w, "(option, not a goal)"))
             with busy_processes(2):
-                b_o = best_wall(ours + ["--out", out, str(REAL_UFF)], repeat)
-                b_s = best_wall(beam_theirs, repeat)
+                b_o, b_s = best_walls([ours + ["--out", out, str(REAL_UFF)], beam_theirs],
+                                      repeat)
             rows.append(("beam, two busy processes", b_s, b_o, "sdypy/ours (see below)"))
             busy = b_s[0] / b_o[0]
             checks.append(("beam busy ratio / quiet ratio (>= 0.6)", f"{busy / quiet:.2f}"))
@@ -338,16 +346,18 @@ def ratios(repeat: int) -> None:
                            env=user_env())
             found = modes_table(Path(out), "rec")["fn_hz"].to_numpy(float)
             top = frf_io.read_frf(rec).acquisition.force_band_hz[1]
-            t_o = best_wall(ours + ["--out", out, str(rec)], repeat)
-            t_s = best_wall(theirs + ["--order", "100", "--upper-hz", str(top), "--guesses",
-                                      *map(str, found), "--", str(rec)], repeat)
+            t_o, t_s = best_walls([
+                ours + ["--out", out, str(rec)],
+                theirs + ["--order", "100", "--upper-hz", str(top), "--guesses",
+                          *map(str, found), "--", str(rec)]], repeat)
             rows.append((f"real recording ({found.size} modes)", t_s, t_o, "sdypy/ours >= 1"))
         else:
             print(f"real recording: skipped, {PYFRF_UFF} is absent")
-        t_o = best_wall(ours + ["--out", out, str(tmpd / "missing.uff")], 3 * repeat, 2)
-        t_n = best_wall([py, "-c", "import numpy"], 3 * repeat)
+        t_o, t_n = best_walls([ours + ["--out", out, str(tmpd / "missing.uff")],
+                               [py, "-c", "import numpy"]], 3 * repeat, [2, 0])
         rows.append(("start-up: identify missing.uff", t_n, t_o, "ours/numpy <= 3"))
-    print(f"best of {repeat} (start-up: {3 * repeat}), one process per command and side, "
+    print(f"best of {repeat} (start-up: {3 * repeat}), runs of a row alternated, one "
+          "process per command and side, "
           f"the default environment, {os.cpu_count()} cores; wall (CPU) seconds")
     print(f"{'measure':32s} {'sdypy-EMA or numpy':>20s} {'ema-pipeline':>18s} "
           f"{'ratio wall (CPU)':>17s}  goal")
