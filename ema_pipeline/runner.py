@@ -411,7 +411,7 @@ def process_imap(func: Callable[[T], R], items: Sequence[T], workers: int = 1, *
         pool = ProcessPool(1 if suspects else n)
         finished = False
         try:
-            futures = [(k, pool.submit(func, items[k])) for k in batch]
+            futures = submitted(pool, func, [(k, items[k]) for k in batch])
             for k, future in futures:
                 try:
                     done[k] = future.result()
@@ -433,6 +433,22 @@ def process_imap(func: Callable[[T], R], items: Sequence[T], workers: int = 1, *
             pool.close(abort=not finished)
 
 
+def submitted(pool: ProcessPool, func: Callable[[T], R],
+              items: list[tuple[int, T]]) -> list[tuple[int, cf.Future[R]]]:
+    """``pool.submit(func, item)`` of each ``(key, item)``, with its key, up to
+    the first the pool refuses because a worker has died (an item that kills
+    its worker at once can break the pool before the next one goes out): the
+    futures submitted, one of which reports the death (``BrokenProcessPool``);
+    the caller runs the rest again."""
+    futures = []
+    for key, item in items:
+        try:
+            futures.append((key, pool.submit(func, item)))
+        except BrokenProcessPool:
+            break
+    return futures
+
+
 class _LazyPool:
     """The :class:`Mapper` of :func:`process_map`: forks its workers at the
     first map of two or more items (a file with little work forks none) that
@@ -448,12 +464,16 @@ class _LazyPool:
             return [func(item) for item in items]
         if self.pool is None:
             self.pool = ProcessPool(self.workers)
-        futures = [self.pool.submit(func, item) for item in items]
+        futures = submitted(self.pool, func, list(enumerate(items)))
+        died = WorkerCrashed("a worker process died (killed, out of memory or a crash) "
+                             "while it computed a share of the identification")
         try:
-            return [future.result() for future in futures]
+            results = [future.result() for _, future in futures]
         except BrokenProcessPool:
-            raise WorkerCrashed("a worker process died (killed, out of memory or a crash) "
-                                "while it computed a share of the identification") from None
+            raise died from None
+        if len(results) < len(items):  # the pool broke before every item went out
+            raise died
+        return results
 
     def close(self, *, abort: bool) -> None:
         if self.pool is not None:

@@ -310,6 +310,33 @@ def test_process_imap_reports_the_item_that_kills_its_worker(request):
     assert time.perf_counter() - start < 60
 
 
+def test_an_item_that_kills_its_worker_before_the_next_goes_out(request, monkeypatch):
+    """The pool breaks while the items are still being submitted (an item
+    that kills its worker at once; the CI met it once): a map of a file's
+    shares reports the death, and ``process_imap`` runs the items that had
+    not gone out in a fresh pool and reports the one that killed its
+    worker. Forced here: each submit of the killing item waits until its
+    future reports the death."""
+    if not _here_or_fresh(request):
+        return
+    real = runner.ProcessPool.submit
+
+    def waits_for_the_death(self, func, item):
+        future = real(self, func, item)
+        if item in (3, [3]):
+            future.exception(timeout=60)  # the pool is broken once this returns
+        return future
+
+    monkeypatch.setattr(runner.ProcessPool, "submit", waits_for_the_death)
+    with runner.process_map(2, workers=2) as map_:
+        with pytest.raises(runner.WorkerCrashed, match="worker process died"):
+            map_(_killed_share, [[3], [2]])
+    got = list(runner.process_imap(_die_on_three, [3, 1, 2, 4], 2,
+                                   crashed=lambda item, reason: reason))
+    assert got[0].startswith("3: its worker process died"), got[0]
+    assert got[1:] == [1, 4, 16]
+
+
 def _crash_on_name(path, job, frf=None):
     from ema_pipeline.pipeline.single import FileOutcome
 
