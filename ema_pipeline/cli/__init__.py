@@ -24,6 +24,7 @@ import gc
 import os
 from typing import TYPE_CHECKING
 
+from ema_pipeline.cli.startup import mark_own_process, start_up_imports
 from ema_pipeline.lazy import lazy_exports
 from ema_pipeline.threads import entry_thread_environment
 
@@ -63,7 +64,9 @@ def run() -> int:
     (2, 'True 1')
     """
     os.environ.update(entry_thread_environment())
-    from ema_pipeline.cli.entry import main  # numpy and scipy load from here on
+    mark_own_process()
+    with start_up_imports():
+        from ema_pipeline.cli.entry import main  # numpy and scipy load from here on
 
     status = main()
     gc.freeze()

@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from ema_pipeline.cli.startup import start_up_imports
 from ema_pipeline.cli.support import EXIT_INPUT, EXIT_OK, EXIT_RUNTIME, command_workers
 from ema_pipeline.data import ConfigError, DataError
 from ema_pipeline.paths import DEFAULT_RAW_FOLDER
@@ -285,8 +286,9 @@ def cmd_identify(args: argparse.Namespace) -> int:
     # the files are read in a process of their own while this one imports
     # the identification chain (a worker reads a file that was not)
     with started_ahead(read_ahead, tuple(readable), workers) as read:
-        from ema_pipeline.pipeline.many import FileJob, identify_files
-        from ema_pipeline.report.wording import plural
+        with start_up_imports():  # the identification chain (cli.startup)
+            from ema_pipeline.pipeline.many import FileJob, identify_files
+            from ema_pipeline.report.wording import plural
 
         options = _identify_options(args)
         check_output_dir(args.out, "--out")
