@@ -510,6 +510,43 @@ def test_worker_crash_is_isolated(good_folder: Path, tmp_path: Path) -> None:
     assert list(_read_summary(out)["status"]) == ["ok", "ok", "ok", "failed"]
 
 
+class _RefusingBackend(batch.LocalBackend):
+    """A local backend whose submit of crash.uff returns only once that
+    task's worker has died: the next submit meets a broken pool."""
+
+    def submit(self, task: batch.FileTask):
+        future = super().submit(task)
+        if Path(task.file).name.startswith("crash"):
+            future.exception(timeout=120)
+        return future
+
+
+def test_a_pool_broken_while_tasks_are_submitted_is_restarted(good_folder: Path,
+                                                                tmp_path: Path) -> None:
+    """A file that kills its worker before the next file is submitted: the
+    refused submit is a task whose worker died (before, BrokenProcessPool
+    escaped the batch); the pool restarts, the crash is recorded once and the
+    other files succeed."""
+    folder = tmp_path / "raw"
+    folder.mkdir()
+    for name in ("crash.uff", "d2.uff", "d3.uff"):  # crash.uff first in order
+        shutil.copy(good_folder / "a.uff", folder / name)
+    out = tmp_path / "out"
+    out.mkdir()
+    files = batch.find_inputs(folder, out)
+    tasks = (
+        batch.FileTask(path=p, file=name, out_dir=target, options=OPTIONS, force=False)
+        for p, (name, target) in zip(files, batch.output_dirs(files, folder, out), strict=True)
+    )
+    report = BatchReport(
+        folder=folder, out=out, n_files=len(files), summary_csv=out / "summary.csv",
+        failures_csv=out / "failures.csv",
+    )  # fmt: skip
+    batch.run_tasks(tasks, report, lambda: _RefusingBackend(2, _crash_on_name), progress=False)
+    assert (report.n_ok, report.n_errors) == (2, 1)
+    assert list(pd.read_csv(out / "failures.csv")["file"]) == ["crash.uff"]
+
+
 # ------------------------------------------------------------------ report page per file
 def _json_blocks(html: str, cls: str) -> list:
     """The JSON of every ``<script type="application/json" class="cls">`` of a page."""

@@ -18,6 +18,7 @@ from __future__ import annotations
 import concurrent.futures as cf
 import logging
 from collections.abc import Callable
+from concurrent.futures.process import BrokenProcessPool
 from functools import partial
 
 from ema_pipeline.pipeline.batch.tasks import FileRecord, FileTask, process_file
@@ -54,7 +55,16 @@ class LocalBackend:
                                  setup=partial(_worker_log, level))
 
     def submit(self, task: FileTask) -> cf.Future[FileRecord]:
-        return self._pool.submit(self._process, task)
+        """The task in a worker; where the pool is broken already (a worker
+        died since the batch last looked, e.g. a file that kills its worker
+        at once while the next is submitted), a future that reports it, as
+        the running tasks' do: the batch restarts the pool and retries."""
+        try:
+            return self._pool.submit(self._process, task)
+        except BrokenProcessPool as exc:
+            refused: cf.Future[FileRecord] = cf.Future()
+            refused.set_exception(exc)
+            return refused
 
     def restart(self) -> None:
         self._pool.restart()
