@@ -483,13 +483,13 @@ def _crash_on_name(task: batch.FileTask) -> batch.FileRecord:
     return batch.process_file(task)
 
 
-def test_worker_crash_is_isolated(good_folder: Path, tmp_path: Path) -> None:
-    """A file that kills its worker process is recorded as failed; the files
-    that were in the pool with it are retried and succeed. (UFF copies: no
-    fresh-interpreter HDF5 check per file in the workers, see ``many_files``.)"""
+def _local_batch(good_folder: Path, tmp_path: Path, names: tuple[str, ...],
+                 backend: type[batch.LocalBackend]) -> tuple[BatchReport, Path]:
+    """Copies of ``a.uff`` under ``names`` run by ``backend(2, _crash_on_name)``:
+    the batch's report and its output folder."""
     folder = tmp_path / "raw"
     folder.mkdir()
-    for name in ("a1.uff", "crash.uff", "a3.uff", "a4.uff"):
+    for name in names:
         shutil.copy(good_folder / "a.uff", folder / name)
     out = tmp_path / "out"
     out.mkdir()
@@ -502,7 +502,16 @@ def test_worker_crash_is_isolated(good_folder: Path, tmp_path: Path) -> None:
         folder=folder, out=out, n_files=len(files), summary_csv=out / "summary.csv",
         failures_csv=out / "failures.csv",
     )  # fmt: skip
-    batch.run_tasks(tasks, report, lambda: batch.LocalBackend(2, _crash_on_name), progress=False)
+    batch.run_tasks(tasks, report, lambda: backend(2, _crash_on_name), progress=False)
+    return report, out
+
+
+def test_worker_crash_is_isolated(good_folder: Path, tmp_path: Path) -> None:
+    """A file that kills its worker process is recorded as failed; the files
+    that were in the pool with it are retried and succeed. (UFF copies: no
+    fresh-interpreter HDF5 check per file in the workers, see ``many_files``.)"""
+    report, out = _local_batch(good_folder, tmp_path, ("a1.uff", "crash.uff", "a3.uff", "a4.uff"),
+                               batch.LocalBackend)
     assert (report.n_ok, report.n_errors) == (3, 1)
     failures = pd.read_csv(out / "failures.csv")
     assert list(failures["file"]) == ["crash.uff"]
@@ -527,22 +536,9 @@ def test_a_pool_broken_while_tasks_are_submitted_is_restarted(good_folder: Path,
     refused submit is a task whose worker died (before, BrokenProcessPool
     escaped the batch); the pool restarts, the crash is recorded once and the
     other files succeed."""
-    folder = tmp_path / "raw"
-    folder.mkdir()
-    for name in ("crash.uff", "d2.uff", "d3.uff"):  # crash.uff first in order
-        shutil.copy(good_folder / "a.uff", folder / name)
-    out = tmp_path / "out"
-    out.mkdir()
-    files = batch.find_inputs(folder, out)
-    tasks = (
-        batch.FileTask(path=p, file=name, out_dir=target, options=OPTIONS, force=False)
-        for p, (name, target) in zip(files, batch.output_dirs(files, folder, out), strict=True)
-    )
-    report = BatchReport(
-        folder=folder, out=out, n_files=len(files), summary_csv=out / "summary.csv",
-        failures_csv=out / "failures.csv",
-    )  # fmt: skip
-    batch.run_tasks(tasks, report, lambda: _RefusingBackend(2, _crash_on_name), progress=False)
+    # crash.uff first in the batch's order
+    report, out = _local_batch(good_folder, tmp_path, ("crash.uff", "d2.uff", "d3.uff"),
+                               _RefusingBackend)
     assert (report.n_ok, report.n_errors) == (2, 1)
     assert list(pd.read_csv(out / "failures.csv")["file"]) == ["crash.uff"]
 
