@@ -411,7 +411,7 @@ def process_imap(func: Callable[[T], R], items: Sequence[T], workers: int = 1, *
         pool = ProcessPool(1 if suspects else n)
         finished = False
         try:
-            futures = submitted(pool, func, [(k, items[k]) for k in batch])
+            futures = _submitted(pool, func, [(k, items[k]) for k in batch])
             for k, future in futures:
                 try:
                     done[k] = future.result()
@@ -433,7 +433,7 @@ def process_imap(func: Callable[[T], R], items: Sequence[T], workers: int = 1, *
             pool.close(abort=not finished)
 
 
-def submitted(pool: ProcessPool, func: Callable[[T], R],
+def _submitted(pool: ProcessPool, func: Callable[[T], R],
               items: list[tuple[int, T]]) -> list[tuple[int, cf.Future[R]]]:
     """``pool.submit(func, item)`` of each ``(key, item)``, with its key, up to
     the first the pool refuses because a worker has died (an item that kills
@@ -464,7 +464,7 @@ class _LazyPool:
             return [func(item) for item in items]
         if self.pool is None:
             self.pool = ProcessPool(self.workers)
-        futures = submitted(self.pool, func, list(enumerate(items)))
+        futures = _submitted(self.pool, func, list(enumerate(items)))
         died = WorkerCrashed("a worker process died (killed, out of memory or a crash) "
                              "while it computed a share of the identification")
         try:
