@@ -30,7 +30,23 @@ _OWN_PROCESS: ContextVar[bool] = ContextVar("ema_pipeline_cli_own_process", defa
 
 def mark_own_process() -> None:
     """Mark this process as the command's own (:func:`ema_pipeline.cli.run`,
-    the process's entry point): :func:`start_up_imports` then freezes."""
+    the process's entry point): :func:`start_up_imports` then freezes.
+
+    Examples
+    --------
+    In a context of its own (the mark is a context variable), then undone:
+
+    >>> import contextvars, gc
+    >>> def command_process() -> bool:
+    ...     mark_own_process()
+    ...     with start_up_imports():
+    ...         made = [[i] for i in range(1000)]
+    ...     frozen = gc.get_freeze_count() >= 1000
+    ...     gc.unfreeze()
+    ...     return frozen
+    >>> contextvars.copy_context().run(command_process)
+    True
+    """
     _OWN_PROCESS.set(True)
 
 
