@@ -287,7 +287,7 @@ class ProcessPool:
         self._before = set(multiprocessing.active_children())
         self._threads_before = set(threading.enumerate())
         self._seen: set[multiprocessing.process.BaseProcess] = set()
-        self._submitted = False  # a fork executor forks its workers at its first submit
+        self._forked = False  # a fork executor forks its workers at its first submit
         if self.start == "fork":
             return cf.ProcessPoolExecutor(
                 max_workers=self.workers, mp_context=multiprocessing.get_context("fork"),
@@ -306,8 +306,8 @@ class ProcessPool:
     def submit(self, func: Callable[[T], R], item: T) -> cf.Future[R]:
         """``func(item)`` in a worker; the first submit of a ``"fork"`` pool
         forks its workers (in :func:`frozen_for_fork`)."""
-        forks = self.start == "fork" and not self._submitted
-        self._submitted = True
+        forks = self.start == "fork" and not self._forked
+        self._forked = True
         with frozen_for_fork() if forks else contextlib.nullcontext():
             future = self._executor.submit(func, item)
         self.processes()  # the workers it started
@@ -465,14 +465,13 @@ class _LazyPool:
         if self.pool is None:
             self.pool = ProcessPool(self.workers)
         futures = _submitted(self.pool, func, list(enumerate(items)))
-        died = WorkerCrashed("a worker process died (killed, out of memory or a crash) "
-                             "while it computed a share of the identification")
         try:
             results = [future.result() for _, future in futures]
         except BrokenProcessPool:
-            raise died from None
-        if len(results) < len(items):  # the pool broke before every item went out
-            raise died
+            results = []
+        if len(results) < len(items):  # a worker died, before or after every item went out
+            raise WorkerCrashed("a worker process died (killed, out of memory or a crash) "
+                                "while it computed a share of the identification")
         return results
 
     def close(self, *, abort: bool) -> None:
