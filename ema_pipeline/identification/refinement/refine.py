@@ -51,6 +51,23 @@ from ema_pipeline.identification.thresholds import SelectionThresholds
 from ema_pipeline.numerics import MarquardtDamping, marquardt_step
 from ema_pipeline.runner import Mapper, map_each
 
+#: The second (final) Levenberg-Marquardt round of :func:`vp_fit` has
+#: converged once an accepted step moved no pole parameter (decay rate,
+#: damped frequency) by this fraction of its own standard deviation (the
+#: inverse Fisher matrix's, at the new point): the steps after it, smaller
+#: still near the minimum, would move the poles by less than a tenth of
+#: their uncertainty. Measured against 1e-3 over the 117 cases of
+#: ``benchmarks/speed_rules.py``: every f and zeta within 0.022 of its
+#: sigma, no detection change (benchmarks/issue52_speed.md, eleventh look).
+STEP_TOL_SIGMA = 0.1
+#: The same for the first round, whose weights come from the residual of
+#: the start poles: that residual holds the start's misfit, so its sigma is
+#: not the noise's, and the first round runs on to a thousandth of it, for
+#: the second round's noise model to see a residual free of misfit (at 0.1
+#: a fit of FRFs without noise stops with misfit left, which the noise
+#: model takes for noise, and a residual search finds a pole in it).
+FIRST_ROUND_STEP_TOL_SIGMA = 1e-3
+
 
 @dataclass(frozen=True)
 class RefinedPoles:
@@ -119,6 +136,7 @@ def vp_fit(
     *,
     go_on: Callable[[VPFit], bool] | None = None,
     away: Callable[[np.ndarray], bool] | None = None,
+    step_tol_sigma: float = STEP_TOL_SIGMA,
 ) -> VPFit:
     """The iterations of :func:`vp_solve` without its covariance.
 
@@ -138,6 +156,14 @@ def vp_fit(
     ``away``, when given, is asked with the poles after each accepted step of
     the first round; True returns the fit there (``VPFit.finished`` False):
     a refinement that has wandered off needs no more (:func:`refine_poles`).
+
+    Each of the two rounds (weights from the noise model of the start
+    poles' residual, then of the first round's) stops after ``max_iter``
+    trial steps, when the damping cannot grow any more, or once an accepted
+    step lowered the cost by less than 1e-8 of it or moved every pole
+    parameter by less than a fraction of its standard deviation:
+    :data:`FIRST_ROUND_STEP_TOL_SIGMA` in the first round,
+    ``step_tol_sigma`` (:data:`STEP_TOL_SIGMA`) in the second.
     """
     n = freq_hz.size
     m = poles.size
@@ -190,6 +216,7 @@ def vp_fit(
     unweighted = WeightedPoleDesign(freq_hz, bg_r, u)
     tiny = np.finfo(float).tiny
     lam = lam_of(theta)
+    step_tols = (FIRST_ROUND_STEP_TOL_SIGMA, step_tol_sigma)
     for _round in range(2):
         _, R0, _ = unweighted.solve(lam, Y)
         std = np.asarray(noise_model(R0, Y, n_lin))
@@ -226,7 +253,8 @@ def vp_fit(
                 n_accepted += 1
                 F, g, cost_new = normal(lam, u, inv_s2, fitted, cost_t)
                 sd = np.sqrt(1.0 / np.maximum(F.diagonal(), 1e-300))
-                done = (cost - cost_new) < 1e-8 * cost or bool((np.abs(step) < 1e-3 * sd).all())
+                done = ((cost - cost_new) < 1e-8 * cost
+                        or bool((np.abs(step) < step_tols[_round] * sd).all()))
                 cost = cost_new
                 damping.accepted()
                 if _round == 0 and away is not None and away(lam):
