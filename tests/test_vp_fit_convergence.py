@@ -12,6 +12,7 @@ import pytest
 
 from ema_pipeline.identification.refinement import refine
 from ema_pipeline.identification.refinement.local_band import local_problem
+from ema_pipeline.identification.refinement.local_fits import split_fit
 from ema_pipeline.identification.selection.edge_poles import edge_poles
 from ema_pipeline.identification.thresholds import SelectionThresholds
 
@@ -81,3 +82,31 @@ def test_a_noise_free_edge_mode_is_found_alone() -> None:
     got, complete = edge_poles(f, H, (20.0, 100.0), lam[:1], "receptance", thresholds=th)
     assert complete and got.shape == (1,)
     np.testing.assert_allclose(got, lam[1:], rtol=1e-9)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_a_split_fit_that_creeps_stops_on_its_cost(monkeypatch, seed: int) -> None:
+    """A split fit of a single mode with noise: the extra pole has nothing to
+    fit and the first round creeps along a flat valley. Against the first
+    round stopped at 1e-8 of its cost: no more iterations (four fewer at
+    seed 3), the residual ratio within 1e-3 of itself, the mode's pole
+    within 0.05 of its sigma."""
+    th = SelectionThresholds()
+    f = np.linspace(80.0, 120.0, 801)
+    lam = np.array([-3.0 + 2j * np.pi * 100.0])
+    jw = 2j * np.pi * f
+    mode = 1 / (jw - lam[0]) + 1 / (jw - np.conj(lam[0]))
+    rng = np.random.default_rng(seed)
+    H = np.stack([mode, -0.7 * mode])
+    H = H + 2e-4 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
+    default = split_fit(f, H, lam, 0, quantity="receptance", thresholds=th)
+    assert refine.COST_REL_TOL == (1e-4, 1e-8)
+    monkeypatch.setattr(refine, "COST_REL_TOL", (1e-8, 1e-8))
+    tight = split_fit(f, H, lam, 0, quantity="receptance", thresholds=th)
+    assert default.fit.n_iter <= tight.fit.n_iter - (4 if seed == 3 else 0)
+    assert abs(default.residual_ratio / tight.residual_ratio - 1) < 1e-3
+    k = default.at[0]
+    sd = np.sqrt(np.diag(refine.fisher_inverse(tight.fit.F))[2 * k : 2 * k + 2])
+    shift = np.abs([default.pole[0].real - tight.pole[0].real,
+                    default.pole[0].imag - tight.pole[0].imag]) / sd
+    assert np.all(shift < 0.05)
