@@ -78,7 +78,9 @@ def test_pick_by_hand_in_the_browser(browser, automatic, real_uff, tmp_path):
     from selenium.webdriver.common.action_chains import ActionChains
     from selenium.webdriver.common.by import By
 
-    auto = pd.read_csv(automatic / f"{real_uff.stem}_modes.csv")["fn_hz"].to_numpy()
+    auto_table = pd.read_csv(automatic / f"{real_uff.stem}_modes.csv")
+    auto = auto_table["fn_hz"].to_numpy()
+    doubtful = auto_table["doubtful"].to_numpy(dtype=bool)
     page = automatic / f"{real_uff.stem}_report.html"
     browser.get(page.as_uri())
     selected = browser.find_elements(By.CSS_SELECTOR, ".pole.selected")
@@ -145,10 +147,15 @@ def test_pick_by_hand_in_the_browser(browser, automatic, real_uff, tmp_path):
     # a mode within 1.5 Hz of 274.6 Hz, none at the deselected one
     assert np.min(np.abs(got - 274.6)) < 1.5
     assert np.min(np.abs(got - f_drop)) > 0.01 * f_drop
-    # the other kept modes unchanged within 0.1 %
-    others = auto[np.abs(auto - f_drop) > 0.01 * f_drop]
+    # the other kept modes unchanged within 0.1 %; a doubtful one within
+    # 0.5 %: the 603 Hz mode (complex_shape, refinement_failed) has two
+    # optima 0.3 % apart and may take either (docs/validation.md)
+    other = np.abs(auto - f_drop) > 0.01 * f_drop
+    others = auto[other]
     nearest = got[np.argmin(np.abs(got[None, :] - others[:, None]), axis=1)]
-    assert np.max(np.abs(nearest / others - 1)) < 1e-3
+    change = np.abs(nearest / others - 1)
+    assert np.max(change[~doubtful[other]]) < 1e-3
+    assert np.max(change[doubtful[other]]) < 5e-3
     # the report marks the picked modes
     picked_page = (out / f"{real_uff.stem}_report.html").read_text(encoding="utf-8")
     assert picked_page.count(">picked<") == got.size
