@@ -84,13 +84,13 @@ def test_a_noise_free_edge_mode_is_found_alone() -> None:
     np.testing.assert_allclose(got, lam[1:], rtol=1e-9)
 
 
-@pytest.mark.parametrize("seed", [0, 3])
-def test_a_split_fit_that_creeps_stops_on_its_cost(monkeypatch, seed: int) -> None:
+@pytest.mark.parametrize(("seed", "fewer"), [(0, 0), (3, 3), (6, 7)])
+def test_a_split_fit_that_creeps_stops_on_its_cost(monkeypatch, seed: int, fewer: int) -> None:
     """A split fit of a single mode with noise: the extra pole has nothing to
     fit and the first round creeps along a flat valley. Against the first
-    round stopped at 1e-8 of its cost: no more iterations (four fewer at
-    seed 3), the residual ratio within 1e-3 of itself, the mode's pole
-    within 0.05 of its sigma."""
+    round stopped at 1e-8 of its cost: ``fewer`` iterations less (measured:
+    23, 19 and 21 at 1e-8), the residual ratio within 1e-3 of itself, the
+    mode's pole within 0.1 of its sigma (0.079 at seed 6)."""
     th = SelectionThresholds()
     f = np.linspace(80.0, 120.0, 801)
     lam = np.array([-3.0 + 2j * np.pi * 100.0])
@@ -100,13 +100,13 @@ def test_a_split_fit_that_creeps_stops_on_its_cost(monkeypatch, seed: int) -> No
     H = np.stack([mode, -0.7 * mode])
     H = H + 2e-4 * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
     default = split_fit(f, H, lam, 0, quantity="receptance", thresholds=th)
-    assert refine.COST_REL_TOL == (1e-4, 1e-8)
+    assert refine.COST_REL_TOL == (1e-5, 1e-8)
     monkeypatch.setattr(refine, "COST_REL_TOL", (1e-8, 1e-8))
     tight = split_fit(f, H, lam, 0, quantity="receptance", thresholds=th)
-    assert default.fit.n_iter <= tight.fit.n_iter - (4 if seed == 3 else 0)
+    assert default.fit.n_iter <= tight.fit.n_iter - fewer
     assert abs(default.residual_ratio / tight.residual_ratio - 1) < 1e-3
     k = default.at[0]
     sd = np.sqrt(np.diag(refine.fisher_inverse(tight.fit.F))[2 * k : 2 * k + 2])
     shift = np.abs([default.pole[0].real - tight.pole[0].real,
                     default.pole[0].imag - tight.pole[0].imag]) / sd
-    assert np.all(shift < 0.05)
+    assert np.all(shift < 0.1)
