@@ -17,7 +17,7 @@ from ema_pipeline.cli import main
 from ema_pipeline.data import MIN_FRF_LINES
 from ema_pipeline.pipeline import ahead
 from ema_pipeline.pipeline.single import identify_file
-from tests.test_runner import _here_or_fresh
+from tests.forking import here_or_fresh
 
 
 def _files(example_dir: Path, folder: Path) -> list[Path]:
@@ -71,7 +71,7 @@ def test_identify_reads_ahead_with_the_same_outputs_and_errors(request, example_
     read ahead (the bad one left to its worker), each modes table byte for
     byte that of the file identified alone (read by itself), the bad file's
     error the one it gives when read by its worker."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     paths = _files(example_dir, tmp_path / "in")
     given = _given_frfs(monkeypatch)
@@ -100,7 +100,7 @@ def test_a_reader_that_dies_leaves_the_files_to_their_workers(request, example_d
                                                               monkeypatch) -> None:
     """The process reading ahead dies: every file is read by its worker,
     and the outputs are those of the files identified alone."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     paths = _files(example_dir, tmp_path / "in")[:2]
     monkeypatch.setattr(ahead, "read_ahead", _die)

@@ -7,7 +7,6 @@ from __future__ import annotations
 
 import gc
 import os
-import re
 import shutil
 import signal
 import subprocess
@@ -25,6 +24,7 @@ from ema_pipeline.cli.support import WORKERS_ENV, command_workers
 from ema_pipeline.data import ConfigError, FRFSet, ModalParameters
 from ema_pipeline.identification.core import identify
 from ema_pipeline.identification.thresholds import SelectionThresholds
+from tests.forking import here_or_fresh
 
 REPO = Path(__file__).resolve().parents[1]
 BEAM = REPO.parent / "shared" / "data" / "ufsc-beam-hammer.uff"
@@ -42,31 +42,6 @@ def _twelve_mode_frf() -> tuple[FRFSet, ModalParameters]:
     H = modal_frf(f, twelve, phi, phi[:1], quantity="receptance")
     H = H + 0.002 * np.std(H) * (rng.standard_normal(H.shape) + 1j * rng.standard_normal(H.shape))
     return FRFSet(freq_hz=f, H=H, quantity="receptance"), twelve
-
-
-#: Set in the fresh pytest process that :func:`_here_or_fresh` starts.
-FRESH_ENV = "EMA_TEST_RUNNER_FRESH"
-
-
-def _here_or_fresh(request: pytest.FixtureRequest) -> bool:
-    """Whether the test's body runs in this process: where it may fork
-    workers (no other thread runs). Else the same test runs in a fresh pytest
-    process, which has no other thread, and must pass there (the suite's
-    process may hold another test's threads, e.g. a dask client's, that make
-    every fork unsafe); the caller then returns."""
-    if runner.fork_is_safe():
-        return True
-    names = [t.name for t in threading.enumerate()]
-    if os.environ.get(FRESH_ENV):
-        pytest.fail(f"a fresh process cannot fork workers: threads {names}")
-    env = {k: v for k, v in os.environ.items() if not k.startswith("PYTEST_XDIST")}
-    env[FRESH_ENV] = "1"
-    proc = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider",
-                           "-n", "0", request.node.nodeid], cwd=REPO, env=env,
-                          capture_output=True, text=True, timeout=600)
-    assert proc.returncode == 0, (names, proc.stdout[-4000:], proc.stderr[-2000:])
-    assert re.search(r"\b1 passed\b", proc.stdout), proc.stdout[-2000:]
-    return False
 
 
 # ------------------------------------------------------------------ worker counts
@@ -99,7 +74,7 @@ def test_a_pool_aborted_with_work_running_leaves_no_thread(request):
     returns, the executor's threads have ended and a fork is safe at once
     (before, an aborted executor's manager thread ran on for a moment: 28
     of 30 such pools left the next fork refused)."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     for _ in range(5):
         pool = runner.ProcessPool(1)
@@ -118,7 +93,7 @@ def test_a_pool_closed_right_after_its_submit_waits_for_its_starting_threads(req
     but not yet joinable. Before, ``close`` then raised "cannot join thread
     before it is started" (29 and 30 of 1000 such pools; the CI met it
     once); now it waits for it, and a fork is safe after every close."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     for _ in range(300):
         pool = runner.ProcessPool(1)
@@ -138,7 +113,7 @@ def test_workers_are_forked_with_this_process_objects_frozen(request):
     collections do not walk them (before, each worker of ``identify`` on the
     paper files spent 27-28 ms in one such walk); here they are unfrozen
     after the fork, and objects the caller froze stay frozen."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     gc.unfreeze()  # an earlier test's cli.run() froze this process's objects at its end
     before = len(gc.get_objects(generation=2))
@@ -175,7 +150,7 @@ def test_work_begun_ahead_runs_beside_and_is_dropped_when_not_needed(request):
     stopped when the block ends (no waiting for it, no process or thread left: a fork right after is
     safe); with one worker nothing runs until the result is asked for, and
     then once."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     with runner.started_ahead(_pid_and, 7, workers=2) as result:
         pid, x = result()
@@ -204,7 +179,7 @@ def test_identify_in_a_thread_starts_no_process_and_workers_2_gives_the_same_num
     thread) forks nothing by default; ``workers=2`` in the main thread forks
     two workers (the windows' searches and the local fits) and gives exactly
     the numbers of ``workers=1``."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     frf, twelve = _twelve_mode_frf()
     forks: list[int] = []
@@ -241,7 +216,7 @@ def test_identify_in_a_thread_starts_no_process_and_workers_2_gives_the_same_num
 def test_a_thread_started_after_the_block_opened_keeps_the_map_serial(request):
     """The rule is asked at the fork (the first map of two or more items), not
     when the block opens: a thread started in between keeps it in this process."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     stop = threading.Event()
     with runner.process_map(4, workers=2) as map_:
@@ -267,7 +242,7 @@ def _pid(_item: int) -> int:
 def test_a_progress_bar_leaves_the_fork_rule_true(request, monkeypatch):
     """The FE stage's model-update bar starts no tqdm monitor thread (at tqdm's
     default ``monitor_interval``), which would make every later map serial."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     import tqdm
 
@@ -298,7 +273,7 @@ def test_process_imap_reports_the_item_that_kills_its_worker(request):
     """A worker killed (SIGKILL) while it runs item 3: the items in flight
     with it are run again and give their results; item 3 is reported, not
     waited on."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     start = time.perf_counter()
     got = list(runner.process_imap(_die_on_three, [1, 2, 3, 4, 5], 2,
@@ -317,7 +292,7 @@ def test_an_item_that_kills_its_worker_before_the_next_goes_out(request, monkeyp
     not gone out in a fresh pool and reports the one that killed its
     worker. Forced here: each submit of the killing item waits until its
     future reports the death."""
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     real = runner.ProcessPool.submit
 
@@ -349,7 +324,7 @@ def test_identify_files_reports_a_crashed_worker_naming_the_file(request, monkey
     from ema_pipeline.identification import IdentificationOptions
     from ema_pipeline.pipeline import many
 
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     monkeypatch.setattr(many, "identify_one", _crash_on_name)
     paths = [Path(name) for name in ("a.uff", "crash.uff", "c.uff", "d.uff")]
@@ -368,7 +343,7 @@ def _killed_share(items: list[int]) -> list[int]:
 
 
 def test_a_share_of_a_file_whose_worker_dies_is_an_error_not_a_hang(request):
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     with runner.process_map(2, workers=2) as map_:
         with pytest.raises(runner.WorkerCrashed, match="worker process died") as info:
@@ -387,7 +362,7 @@ def test_identify_files_runs_in_worker_processes_in_order(request, monkeypatch, 
     from ema_pipeline.identification import IdentificationOptions
     from ema_pipeline.pipeline import many
 
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     monkeypatch.setattr(many, "identify_one", _fake_identify_one)
     paths = [Path(f"f{i}.uff") for i in range(6)]
@@ -545,7 +520,7 @@ def test_diagram_orders_in_workers_give_the_serial_poles(request):
     from ema_pipeline.acquisition import modal_frf
     from ema_pipeline.identification.diagram import plscf
 
-    if not _here_or_fresh(request):
+    if not here_or_fresh(request):
         return
     modes = ModalParameters(fn_hz=[50.0, 120.0, 260.0, 410.0], zeta=[0.01] * 4)
     f = np.linspace(5.0, 500.0, 991)
