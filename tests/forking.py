@@ -15,13 +15,11 @@ import re
 import subprocess
 import sys
 import threading
-from pathlib import Path
 
 import pytest
 
 from ema_pipeline import runner
-
-REPO = Path(__file__).resolve().parents[1]
+from tests.paths import REPO
 
 #: Set in the fresh pytest process that :func:`here_or_fresh` starts.
 FRESH_ENV = "EMA_TEST_RUNNER_FRESH"

@@ -25,9 +25,8 @@ from ema_pipeline.data import ConfigError, FRFSet, ModalParameters
 from ema_pipeline.identification.core import identify
 from ema_pipeline.identification.thresholds import SelectionThresholds
 from tests.forking import here_or_fresh
-
-REPO = Path(__file__).resolve().parents[1]
-BEAM = REPO.parent / "shared" / "data" / "ufsc-beam-hammer.uff"
+from tests.paths import REAL_UFF as BEAM
+from tests.paths import REPO
 
 
 def _twelve_mode_frf() -> tuple[FRFSet, ModalParameters]:
