@@ -217,6 +217,26 @@ def test_reused_lsfds_give_the_same_fit(paper_frf):
     np.testing.assert_array_equal(first.H_fit, plain.H_fit)
 
 
+def test_a_reused_lsfd_of_frfs_changed_in_place_is_solved_again(paper_frf):
+    """The reuse compares the numbers of the lines, FRFs and poles with the
+    copies kept beside each fit: FRFs changed in place after a fit (the same
+    array object) are fitted again, and a pole set equal in value but -0.0
+    for 0.0 is not taken for the same."""
+    f = paper_frf.freq_hz[5:]
+    H = paper_frf.H[:, 0, 5:].copy()
+    pole = np.array([-0.9 + 2j * np.pi * 18.1, -3.0 + 2j * np.pi * 113.0])
+    with reused_lsfds():
+        first = lsfd(f, H, pole, "accelerance")
+        H[0, 100:140] *= 1.5
+        changed = lsfd(f, H, pole, "accelerance")
+        plus = np.array([complex(0.0, 2 * np.pi * 18.1)])
+        minus = np.array([complex(-0.0, 2 * np.pi * 18.1)])
+        assert lsfd(f, H, plus, "accelerance") is not lsfd(f, H, minus, "accelerance")
+    assert changed is not first
+    np.testing.assert_array_equal(changed.a, lsfd(f, H, pole, "accelerance").a)
+    assert not np.array_equal(changed.a, first.a)
+
+
 def test_pair_significance_with_given_residues_is_the_same():
     th = SelectionThresholds()
     f = np.linspace(80.0, 160.0, 801)
