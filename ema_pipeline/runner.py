@@ -464,15 +464,13 @@ class _LazyPool:
             return [func(item) for item in items]
         if self.pool is None:
             self.pool = ProcessPool(self.workers)
-        futures = _submitted(self.pool, func, list(enumerate(items)))
         try:
-            results = [future.result() for _, future in futures]
+            # a worker that died breaks the pool: a submit refused or a result lost
+            futures = [self.pool.submit(func, item) for item in items]
+            return [future.result() for future in futures]
         except BrokenProcessPool:
-            results = []
-        if len(results) < len(items):  # a worker died, before or after every item went out
             raise WorkerCrashed("a worker process died (killed, out of memory or a crash) "
-                                "while it computed a share of the identification")
-        return results
+                                "while it computed a share of the identification") from None
 
     def close(self, *, abort: bool) -> None:
         if self.pool is not None:
